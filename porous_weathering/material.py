@@ -1,0 +1,161 @@
+"""Materials built on the porous node groups, and the key-light wiring (SPEC 3)."""
+
+import os
+
+import bpy
+import numpy as np
+
+from . import compat, model, nodes
+from .shader_math import Graph
+
+#: Light object types and the light mode each is wired as.
+LIGHT_MODE_OF_TYPE = {"SUN": nodes.SUN, "POINT": nodes.POINT, "SPOT": nodes.POINT, "AREA": nodes.POINT}
+
+
+def make_porous_material(name, *, base_color=(0.8, 0.8, 0.8), ks=0.1, roughness=0.4,
+                         porosity=0.2, pore_depth_ratio=2.0, key_light=None):
+    """A new material that renders the porous BRDF post-process (SPEC 2) in EEVEE and Cycles.
+
+    ``base_color`` is k_d: an RGB(A) colour, a ``bpy.types.Image`` or an image file path.
+    ``ks`` is k_s, ``roughness`` m, ``porosity`` alpha, ``pore_depth_ratio`` s_p.
+    ``key_light`` is a light object (or its name) for the key-light mode; ``None`` gives the
+    ambient mode.  Out-of-range or NaN numbers are clamped with a ``PorousInputWarning``;
+    a key light that is not a light raises ``ValueError`` before anything is created.
+    """
+    base_color, values = porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio)
+    light = resolve_key_light(key_light)
+    light_mode = LIGHT_MODE_OF_TYPE[light.data.type] if light else nodes.AMBIENT
+    material = compat.new_material(name)
+    try:
+        group = nodes.porous_group(light_mode)
+        group_node = _replace_with_group(material, group)
+        graph = Graph(material.node_tree)
+        for socket_name, value in values.items():
+            group_node.inputs[socket_name].default_value = value
+        _connect_base_color(graph, group_node, base_color)
+        if light:
+            wire_key_light(graph, group_node, light)
+    except Exception:
+        bpy.data.materials.remove(material)
+        raise
+    material["pw_light_mode"] = light_mode
+    return material
+
+
+def make_base_material(name, *, base_color=(0.8, 0.8, 0.8), ks=0.1, roughness=0.4):
+    """The same Diffuse + Glossy (GGX) material without porosity: the paper's 'Phong' base."""
+    base_color, values = porous_parameters(base_color, ks, roughness, 0.0, 0.0)
+    material = compat.new_material(name)
+    tree = material.node_tree
+    tree.nodes.clear()
+    graph = Graph(tree)
+    if isinstance(base_color, bpy.types.Image):
+        base_color = _image_node(graph, base_color).outputs["Color"]
+    bsdf = nodes.diffuse_plus_glossy(graph, base_color, values["Specular"], values["Roughness"])
+    graph.node("ShaderNodeOutputMaterial", {"Surface": bsdf})
+    return material
+
+
+def porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio):
+    """Validated (base colour or image, {group input: value}), as model.py clamps them."""
+    if isinstance(base_color, (str, os.PathLike)):
+        base_color = load_image(base_color)
+    if isinstance(base_color, bpy.types.Image):
+        ks = model.sanitize("k_s", ks, 0.0, 1.0)
+    else:
+        rgb = np.asarray(base_color, dtype=np.float64).ravel()
+        if rgb.size not in (3, 4):
+            raise ValueError(f"base_color must be an RGB or RGBA colour or an image, not {base_color!r}")
+        kd, ks = model.valid_albedo(rgb[:3], ks)
+        base_color = (*kd.tolist(), 1.0)
+    values = {
+        "Specular": float(ks),
+        "Roughness": float(model.sanitize("m", roughness, 0.0, 1.5)),
+        "Porosity": float(model.sanitize("alpha", porosity, 0.0, 1.0)),
+        "Pore Depth Ratio": float(model.sanitize("s_p", pore_depth_ratio, 0.0, 10.0)),
+    }
+    return base_color, values
+
+
+def load_image(path):
+    """An image datablock for ``path`` (reused if loaded), or ValueError naming the file."""
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise ValueError(f"base colour image not found: {path}")
+    try:
+        return bpy.data.images.load(path, check_existing=True)
+    except RuntimeError as error:
+        raise ValueError(f"cannot read base colour image {path}: {error}") from None
+
+
+def resolve_key_light(key_light):
+    """The light object named or given, or None; ValueError if it is not a light."""
+    if key_light is None:
+        return None
+    light = bpy.data.objects.get(key_light) if isinstance(key_light, str) else key_light
+    if light is None:
+        raise ValueError(f"key light {key_light!r}: no object of that name")
+    if not isinstance(light, bpy.types.Object) or light.type != "LIGHT":
+        raise ValueError(f"key light {getattr(light, 'name', light)!r} is not a light object")
+    return light
+
+
+def _replace_with_group(material, group):
+    """Clear the material's nodes; a group node of ``group`` feeding the material output."""
+    tree = material.node_tree
+    tree.nodes.clear()
+    group_node = tree.nodes.new("ShaderNodeGroup")
+    group_node.node_tree = group
+    group_node.name = group_node.label = "Porous"
+    group_node["pw_depth"] = 2
+    group_node.location = (2 * 220, 0)
+    output = tree.nodes.new("ShaderNodeOutputMaterial")
+    output.location = (3 * 220 + 60, 0)
+    tree.links.new(group_node.outputs["BSDF"], output.inputs["Surface"])
+    return group_node
+
+
+def _image_node(graph, image):
+    return graph.node("ShaderNodeTexImage", depth=1, image=image)
+
+
+def _connect_base_color(graph, group_node, base_color):
+    if isinstance(base_color, bpy.types.Image):
+        graph.connect(_image_node(graph, base_color).outputs["Color"], group_node.inputs["Base Color"])
+    else:
+        group_node.inputs["Base Color"].default_value = base_color
+
+
+def wire_key_light(graph, group_node, light):
+    """Feed the light's world direction (sun) or position (others) with plain drivers.
+
+    The drivers are TRANSFORMS variables of SUM drivers: Blender evaluates them without
+    Python, so the material renders with script auto-execution off.
+    """
+    if LIGHT_MODE_OF_TYPE[light.data.type] == nodes.SUN:
+        rotation = _driven_vector(graph, light, ("ROT_X", "ROT_Y", "ROT_Z"), "Key Light Rotation")
+        # A sun shines along its local -Z: the direction towards it is its local +Z.
+        direction = graph.node("ShaderNodeVectorRotate", {"Vector": (0.0, 0.0, 1.0), "Rotation": rotation},
+                               rotation_type="EULER_XYZ", depth=1)
+        graph.connect(direction.outputs["Vector"], group_node.inputs["Light Direction"])
+    else:
+        position = _driven_vector(graph, light, ("LOC_X", "LOC_Y", "LOC_Z"), "Key Light Position")
+        graph.connect(position, group_node.inputs["Light Position"])
+    group_node.id_data["pw_key_light"] = light.name
+
+
+def _driven_vector(graph, light, transform_types, label):
+    combine = graph.node("ShaderNodeCombineXYZ", depth=0)
+    combine.label = label
+    for socket, transform_type in zip(combine.inputs, transform_types):
+        driver = socket.driver_add("default_value").driver
+        driver.type = "SUM"
+        variable = driver.variables.new()
+        variable.name = transform_type.lower()
+        variable.type = "TRANSFORMS"
+        target = variable.targets[0]
+        target.id = light
+        target.transform_type = transform_type
+        target.transform_space = "WORLD_SPACE"
+        target.rotation_mode = "XYZ"
+    return combine.outputs["Vector"]

@@ -1,0 +1,77 @@
+"""Deterministic headless renders into numpy arrays (tests, benchmarks, docs pictures, demo)."""
+
+import os
+import tempfile
+
+import bpy
+import numpy as np
+
+from . import compat
+
+
+def use_cycles(scene, *, size=48, samples=4, seed=0, bounces=0, pixel_filter=0.01):
+    """CPU Cycles with a fixed seed, no denoising, no adaptive sampling, linear output.
+
+    ``pixel_filter`` is the pixel filter width in pixels: the default 0.01 samples every
+    pixel at its centre, so a pixel is the shading of one point and can be checked exactly.
+    """
+    scene.render.engine = "CYCLES"
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples = samples
+    cycles.seed = seed
+    cycles.use_denoising = False
+    cycles.use_adaptive_sampling = False
+    cycles.max_bounces = bounces
+    cycles.filter_width = pixel_filter
+    _common(scene, size)
+
+
+def use_eevee(scene, *, size=32, samples=4):
+    scene.render.engine = compat.EEVEE_ENGINE
+    scene.eevee.taa_render_samples = samples
+    _common(scene, size)
+
+
+def _common(scene, size):
+    scene.render.resolution_x = scene.render.resolution_y = size
+    scene.render.resolution_percentage = 100
+    scene.render.film_transparent = True  # alpha marks the pixels an object covers
+    scene.view_settings.view_transform = "Standard"
+    scene.view_settings.look = "None"
+    scene.view_settings.exposure = 0.0
+    scene.view_settings.gamma = 1.0
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+
+
+def render_array(scene=None, path=None):
+    """Render ``scene`` and return its linear RGBA pixels, top row first, as float32 (H, W, 4).
+
+    The image goes through a float EXR file (``path``, or a temporary one), because the
+    Render Result has no pixels in background mode.
+    """
+    scene = scene or bpy.context.scene
+    keep = path is not None
+    if not keep:
+        handle, path = tempfile.mkstemp(suffix=".exr", prefix="pw_render_")
+        os.close(handle)
+    previous = scene.render.filepath
+    scene.render.filepath = path
+    try:
+        bpy.ops.render.render(write_still=True, scene=scene.name)
+        return read_image(path)
+    finally:
+        scene.render.filepath = previous
+        if not keep:
+            os.remove(path)
+
+
+def read_image(path):
+    """A float32 (H, W, C) array of an image file, top row first (OpenImageIO)."""
+    import OpenImageIO as oiio
+
+    buffer = oiio.ImageBuf(os.fspath(path))
+    if buffer.has_error:
+        raise OSError(f"cannot read image {path}: {buffer.geterror()}")
+    return np.asarray(buffer.get_pixels(oiio.FLOAT), dtype=np.float32)

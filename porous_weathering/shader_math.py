@@ -1,0 +1,165 @@
+"""Write shader-node maths as Python expressions, so node builders read like model.py.
+
+``Graph(tree)`` wraps a node tree; ``graph.wrap(socket)`` turns an output socket into an
+``Expr``.  Arithmetic on Exprs adds one Math node (scalars) or Vector Math node (colours and
+vectors) per operation; operations on Python numbers alone are folded at build time, so
+constants cost no nodes.  Nodes are laid out in columns by their depth in the graph.
+"""
+
+import math
+
+SCALAR, VECTOR = "SCALAR", "VECTOR"
+_COLUMN_WIDTH, _ROW_HEIGHT = 220, 180
+
+
+class Graph:
+    """A node tree being built, with a simple column layout."""
+
+    def __init__(self, tree):
+        self.tree = tree
+        self._rows = {}
+
+    def node(self, bl_idname, inputs=(), depth=None, **properties):
+        """A new node with ``properties`` set and ``inputs`` (name or index -> value) connected."""
+        node = self.tree.nodes.new(bl_idname)
+        for key, value in properties.items():
+            setattr(node, key, value)
+        items = inputs.items() if isinstance(inputs, dict) else enumerate(inputs)
+        depths = [0]
+        for key, value in items:
+            depths.append(self.connect(value, node.inputs[key]))
+        column = depth if depth is not None else max(depths) + 1
+        row = self._rows.get(column, 0)
+        self._rows[column] = row + 1
+        node.location = (column * _COLUMN_WIDTH, -row * _ROW_HEIGHT)
+        node["pw_depth"] = column
+        return node
+
+    def connect(self, value, socket):
+        """Link an Expr or socket into ``socket``, or set a constant; returns the source depth."""
+        if isinstance(value, Expr):
+            value = value.socket
+        if hasattr(value, "links"):  # an output socket
+            self.tree.links.new(value, socket)
+            return value.node.get("pw_depth", 0)
+        if socket.type in ("VECTOR", "RGBA") and not isinstance(value, (tuple, list)):
+            value = (value,) * len(socket.default_value)
+        elif socket.type == "RGBA" and len(value) == 3:
+            value = (*value, 1.0)
+        socket.default_value = value
+        return 0
+
+    def wrap(self, socket, kind=None):
+        if kind is None:
+            kind = SCALAR if socket.type in ("VALUE", "INT") else VECTOR
+        return Expr(self, socket, kind)
+
+    def math(self, operation, *operands):
+        """One Math node (all scalar operands) or Vector Math node (any vector operand)."""
+        if not any(isinstance(x, Expr) for x in operands):
+            return _fold(operation, *operands)
+        vector = any(isinstance(x, Expr) and x.kind == VECTOR for x in operands)
+        if vector and operation == "POWER":
+            raise TypeError("use Graph.power_rgb for a colour base")
+        kind = VECTOR if vector else SCALAR
+        bl_idname = "ShaderNodeVectorMath" if vector else "ShaderNodeMath"
+        output = "Vector" if vector and operation not in _VECTOR_TO_SCALAR else "Value"
+        if operation in _VECTOR_TO_SCALAR:
+            kind = SCALAR
+        node = self.node(bl_idname, list(operands), operation=operation)
+        return Expr(self, node.outputs[output], kind)
+
+    def power_rgb(self, base, exponent):
+        """base^exponent per colour channel (Gamma node; 0^x stays 0, as for 0 < x)."""
+        node = self.node("ShaderNodeGamma", {"Color": base, "Gamma": exponent})
+        return Expr(self, node.outputs["Color"], VECTOR)
+
+
+_FOLD = {
+    "ADD": lambda a, b: a + b,
+    "SUBTRACT": lambda a, b: a - b,
+    "MULTIPLY": lambda a, b: a * b,
+    "DIVIDE": lambda a, b: a / b if b else 0.0,
+    "MAXIMUM": max,
+    "MINIMUM": min,
+    "POWER": lambda a, b: a**b,
+    "ARCCOSINE": lambda a: math.acos(min(max(a, -1.0), 1.0)),
+}
+_VECTOR_TO_SCALAR = {"DOT_PRODUCT", "LENGTH", "DISTANCE"}
+
+
+def _fold(operation, *operands):
+    return float(_FOLD[operation](*operands))
+
+
+class Expr:
+    """An output socket in a Graph, with Python operators that add nodes."""
+
+    def __init__(self, graph, socket, kind):
+        self.graph, self.socket, self.kind = graph, socket, kind
+
+    def __add__(self, other):
+        return self.graph.math("ADD", self, other)
+
+    def __radd__(self, other):
+        return self.graph.math("ADD", other, self)
+
+    def __sub__(self, other):
+        return self.graph.math("SUBTRACT", self, other)
+
+    def __rsub__(self, other):
+        return self.graph.math("SUBTRACT", other, self)
+
+    def __mul__(self, other):
+        return self.graph.math("MULTIPLY", self, other)
+
+    def __rmul__(self, other):
+        return self.graph.math("MULTIPLY", other, self)
+
+    def __truediv__(self, other):
+        return self.graph.math("DIVIDE", self, other)
+
+    def __rtruediv__(self, other):
+        return self.graph.math("DIVIDE", other, self)
+
+
+def maximum(a, b):
+    return _graph_of(a, b).math("MAXIMUM", a, b) if _graph_of(a, b) else max(a, b)
+
+
+def minimum(a, b):
+    return _graph_of(a, b).math("MINIMUM", a, b) if _graph_of(a, b) else min(a, b)
+
+
+def clip(x, low, high):
+    """x clamped to [low, high] (two nodes; MIN/MAX also replace NaN by the bound in Cycles)."""
+    return minimum(maximum(x, low), high)
+
+
+def arccos(x):
+    return x.graph.math("ARCCOSINE", x) if isinstance(x, Expr) else math.acos(x)
+
+
+def power(base, exponent):
+    """Scalar power, or per-channel power of a colour base."""
+    graph = _graph_of(base, exponent)
+    if graph is None:
+        return base**exponent
+    if isinstance(base, Expr) and base.kind == VECTOR:
+        return graph.power_rgb(base, exponent)
+    return graph.math("POWER", base, exponent)
+
+
+def dot(a, b):
+    return a.graph.math("DOT_PRODUCT", a, b)
+
+
+def normalize(v):
+    return v.graph.math("NORMALIZE", v)
+
+
+def _graph_of(*values):
+    for value in values:
+        if isinstance(value, Expr):
+            return value.graph
+    return None

@@ -1,0 +1,111 @@
+"""Small analytic scenes for checks, benchmarks and pictures: a sphere or a plane under one
+light, seen by an orthographic camera looking down -Z, and emission probes that read
+shading quantities out as pixels."""
+
+import bpy
+from mathutils import Vector
+
+from . import compat
+from .shader_math import Graph
+
+#: The camera looks down -Z, so the unit vector towards the viewer is +Z everywhere.
+VIEW_DIRECTION = (0.0, 0.0, 1.0)
+
+
+def link(scene, obj):
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def add_sphere(scene, name="Sphere", radius=1.0, segments=96, rings=48):
+    """A smooth-shaded UV sphere at the origin."""
+    import bmesh
+
+    mesh = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=segments, v_segments=rings, radius=radius, calc_uvs=True)
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.shade_smooth()
+    return link(scene, bpy.data.objects.new(name, mesh))
+
+
+def add_plane(scene, name="Plane", size=2.0):
+    """A square facing +Z at the origin."""
+    half = size / 2
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([(-half, -half, 0), (half, -half, 0), (half, half, 0), (-half, half, 0)], [], [(0, 1, 2, 3)])
+    mesh.uv_layers.new(name="UVMap")
+    for loop, uv in zip(mesh.uv_layers[0].data, [(0, 0), (1, 0), (1, 1), (0, 1)]):
+        loop.uv = uv
+    return link(scene, bpy.data.objects.new(name, mesh))
+
+
+def add_sun(scene, towards=(0.0, 0.0, 1.0), strength=3.0, name="Sun"):
+    """A sun of zero angle (sharp, deterministic) shining from direction ``towards``."""
+    light = bpy.data.lights.new(name, "SUN")
+    light.energy = strength
+    light.angle = 0.0
+    sun = link(scene, bpy.data.objects.new(name, light))
+    aim_sun(sun, towards)
+    return sun
+
+
+def aim_sun(sun, towards):
+    """Rotate a sun so that the unit vector towards it is ``towards`` (its local +Z)."""
+    sun.rotation_mode = "XYZ"
+    sun.rotation_euler = Vector(towards).normalized().to_track_quat("Z", "Y").to_euler("XYZ")
+
+
+def add_point_light(scene, location, power=1000.0, name="Lamp", kind="POINT"):
+    light = bpy.data.lights.new(name, kind)
+    light.energy = power
+    if kind in ("POINT", "SPOT"):
+        light.shadow_soft_size = 0.0
+    lamp = link(scene, bpy.data.objects.new(name, light))
+    lamp.location = location
+    return lamp
+
+
+def add_ortho_camera(scene, scale=2.2, height=5.0):
+    data = bpy.data.cameras.new("Camera")
+    data.type = "ORTHO"
+    data.ortho_scale = scale
+    camera = link(scene, bpy.data.objects.new("Camera", data))
+    camera.location = (0.0, 0.0, height)
+    scene.camera = camera
+    return camera
+
+
+def assign(obj, material):
+    obj.data.materials.clear()
+    obj.data.materials.append(material)
+
+
+def emission_probe(name, build):
+    """A material that emits ``build(graph, geometry)`` (a colour Expr or socket) exactly.
+
+    Cycles renders an Emission closure of strength 1 as its colour, so the pixels of a
+    probe render are the shading quantity itself at each pixel's centre.
+    """
+    material = compat.new_material(name)
+    tree = material.node_tree
+    tree.nodes.clear()
+    graph = Graph(tree)
+    geometry = graph.node("ShaderNodeNewGeometry", depth=0)
+    colour = build(graph, geometry)
+    emission = graph.node("ShaderNodeEmission", {"Color": colour, "Strength": 1.0})
+    graph.node("ShaderNodeOutputMaterial", {"Surface": emission.outputs[0]})
+    return material
+
+
+def normal_probe():
+    """Emits the world-space shading normal, encoded as N / 2 + 1/2."""
+    return emission_probe("Normal Probe",
+                           lambda graph, geometry: graph.wrap(geometry.outputs["Normal"]) * 0.5 + 0.5)
+
+
+def position_probe(scale=0.1):
+    """Emits the world-space position times ``scale``, plus 1/2."""
+    return emission_probe("Position Probe",
+                          lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) * scale + 0.5)
