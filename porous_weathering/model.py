@@ -106,14 +106,13 @@ def porous_weights(kd, ks, alpha, gp, ap):
     return kd_poro, ks_poro
 
 
-def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
-    """(G_p, A_p), eqs. (4)-(6), for valid k_d and k_s; ``n_dot_l=None`` is the ambient mode.
+def pore_geometry(m, n_dot_l, n_dot_v):
+    """(G_p, theta_i, theta_r): eq. (4) and the angles of eq. (6); ``n_dot_l=None`` is ambient.
 
     In the ambient mode (SPEC 3) g(N.S) and theta_i are replaced by their cosine-weighted
-    hemisphere means.  A_p is a colour when k_d is one.
+    hemisphere means.
     """
     m = sanitize("m", m)
-    sp = sanitize("s_p", sp)
     n_dot_v = clamp_cosine("n_dot_v", n_dot_v)
     k = shadowing_k(m)
     if n_dot_l is None:
@@ -121,8 +120,17 @@ def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
     else:
         n_dot_l = clamp_cosine("n_dot_l", n_dot_l)
         g_light, theta_i = shadowing_g(n_dot_l, k), np.arccos(n_dot_l)
-    gp = g_light * shadowing_g(n_dot_v, k)
-    nb = bounce_count(sp, theta_i, np.arccos(n_dot_v))
+    return g_light * shadowing_g(n_dot_v, k), theta_i, np.arccos(n_dot_v)
+
+
+def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
+    """(G_p, A_p), eqs. (4)-(6), for valid k_d and k_s; ``n_dot_l=None`` is the ambient mode.
+
+    A_p is a colour when k_d is one.
+    """
+    sp = sanitize("s_p", sp)
+    gp, theta_i, theta_r = pore_geometry(m, n_dot_l, n_dot_v)
+    nb = bounce_count(sp, theta_i, theta_r)
     ap = pore_absorption(1.0 - per_channel(ks, kd) - kd, per_channel(nb, kd))
     return gp, ap
 
@@ -144,3 +152,159 @@ def porous_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v):
 def porous_coefficients_ambient(kd, ks, m, alpha, sp, n_dot_v):
     """The ambient light mode of SPEC 3 (no light direction)."""
     return porous_coefficients(kd, ks, m, alpha, sp, None, n_dot_v)
+
+
+# === Weathering (SPEC 4) ================================================================
+# The paper's three applications on top of the porous post-process above.  Every state is
+# the clean porous weights blended towards a weathered one by a per-point fill fraction, so
+# time = 0 is the clean material exactly.  docs/weathering.md explains each decision.
+
+SOILING, WET, EFFLORESCENCE = "soiling", "wet", "efflorescence"
+MODES = (SOILING, WET, EFFLORESCENCE)
+
+#: Every weathering input: name -> (default, low, high, the modes that use it).
+#: Colours are RGB; the three maps are per-point mask values.
+WEATHERING_INPUTS = {
+    "time": (0.0, 0.0, 1.0, MODES),
+    "front_width": (0.25, 0.01, 1.0, MODES),
+    "rain_map": (0.0, 0.0, 1.0, (SOILING, WET)),
+    "rain_threshold": (0.5, 0.0, 1.0, (SOILING,)),
+    "edge_map": (0.0, 0.0, 1.0, (SOILING,)),
+    "soiling_level": (1.0, 0.0, 1.0, (SOILING,)),
+    "pollution_color": ((0.03, 0.03, 0.03), 0.0, 1.0, (SOILING,)),
+    "deposit_color": ((0.30, 0.29, 0.27), 0.0, 1.0, (SOILING,)),
+    "wet_level": (1.0, 0.0, 1.0, (WET,)),
+    "water_specular": (1.0, 0.0, 1.0, (WET,)),
+    "efflorescence_map": (0.0, 0.0, 1.0, (EFFLORESCENCE,)),
+    "efflorescence_level": (1.0, 0.0, 1.0, (EFFLORESCENCE,)),
+    "salt_color": ((0.8, 0.8, 0.8), 0.0, 1.0, (EFFLORESCENCE,)),
+}
+
+#: Roughness m at which the grey deposit covers half of what it can (grooves trap particles).
+DEPOSIT_HALF_ROUGHNESS = 0.5
+
+
+def weathering_modes(modes):
+    """``modes`` (one name or several) as a tuple in MODES order; ValueError for unknown names."""
+    modes = (modes,) if isinstance(modes, str) else tuple(modes)
+    unknown = set(modes) - set(MODES)
+    if unknown:
+        raise ValueError(f"unknown weathering modes {sorted(unknown)}; known: {MODES}")
+    return tuple(mode for mode in MODES if mode in modes)
+
+
+def inputs_of(modes):
+    """The names of the weathering inputs that ``modes`` use, in WEATHERING_INPUTS order."""
+    modes = weathering_modes(modes)
+    return [name for name, (*_, users) in WEATHERING_INPUTS.items() if set(users) & set(modes)]
+
+
+def weathering_state(modes, state):
+    """{input: value} for ``modes``: defaults filled in, values clamped (PorousInputWarning).
+
+    An unknown name is a TypeError; a known one that ``modes`` do not use warns and is ignored.
+    """
+    unknown = set(state) - set(WEATHERING_INPUTS)
+    if unknown:
+        raise TypeError(f"unknown weathering inputs {sorted(unknown)}; known: {list(WEATHERING_INPUTS)}")
+    used = inputs_of(modes)
+    unused = sorted(set(state) - set(used))
+    if unused:
+        _warn(f"weathering inputs {unused} are not used by modes {weathering_modes(modes)}; ignored")
+    return {name: sanitize(name, state.get(name, WEATHERING_INPUTS[name][0]), *WEATHERING_INPUTS[name][1:3])
+            for name in used}
+
+
+def fill_curve(progress):
+    """The three-phase pore fill of Fig. 3 (smoothstep): slow, fast, then saturated at 1."""
+    x = np.clip(progress, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def pore_fill(mask, time, level, width):
+    """Fill fraction of the pores: a front sweeps the mask down from 1 as time grows
+    (threshold 1 - level * time); behind it a point fills over ``width`` of mask."""
+    return fill_curve((mask - (1.0 - level * time)) / width)
+
+
+def blend(clean, weathered, fill):
+    """``clean`` at fill 0 (exactly), ``weathered`` at fill 1."""
+    return clean + fill * (weathered - clean)
+
+
+def filled_absorption(kd, ka, sp, fill, theta_i, theta_r):
+    """A_p of pores a fraction ``fill`` full: s_p,eff = s_p (1 - fill) (SPEC 4)."""
+    nb = bounce_count(sp * (1.0 - fill), theta_i, theta_r)
+    return pore_absorption(ka, per_channel(nb, kd))
+
+
+def polluted_diffuse(kd, pollution_color, pore, ap):
+    """k_d,polluted, eq. (7): carbon in the pores replaces the light they return."""
+    return kd * (1.0 - pore) + pollution_color * pore * (1.0 - ap)
+
+
+def wet_weights(kd, water_specular, pore, ap):
+    """(k_d,wet, water-lobe weight): eq. (9), and eq. (8) less its k_s (1 - alpha G_p) part,
+    which is k_s,poro and stays on the stone's own glossy lobe."""
+    return kd * (1.0 - pore), water_specular * pore * (1.0 - ap)
+
+
+def efflorescence_diffuse(kd, salt_color, pore, ap, ks_poro):
+    """k_d,efflo, eq. (11), capped at 1 - k_s,poro: eq. (11) alone reflects more light than
+    arrives on bright stone (k_d + k_s near 1), which must not happen."""
+    return np.minimum(kd * (1.0 - pore * ap) + salt_color * pore * (1.0 - ap), 1.0 - ks_poro)
+
+
+def sheltered_fraction(rain_map, rain_threshold, width):
+    """0 in the white (rain-washed) area E >= threshold, rising to 1 over ``width`` below it."""
+    return np.clip((rain_threshold - rain_map) / width, 0.0, 1.0)
+
+
+def deposit_coverage(sheltered, m, time, level):
+    """Grey-area deposit (this project's model): grows with time, more on rougher stone."""
+    return sheltered * m / (m + DEPOSIT_HALF_ROUGHNESS) * (level * time)
+
+
+def weathered_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes=MODES, **state):
+    """(k_d, k_s, k_water): the weights of the diffuse lobe, the glossy lobe (roughness m)
+    and the near-mirror water lobe of a weathered point.
+
+    ``kd`` is an RGB colour (a scalar is taken as grey); ``modes`` picks among SOILING, WET
+    and EFFLORESCENCE; ``state`` holds WEATHERING_INPUTS (defaults for those left out).  At
+    time 0 the result is porous_coefficients() exactly, with k_water = 0.  Pore-filling modes
+    apply first (carbon, salt, water), then the grey deposit over them.
+    """
+    modes = weathering_modes(modes)
+    s = weathering_state(modes, state)
+    kd = np.asarray(kd, dtype=np.float64)
+    kd, ks = valid_albedo(kd * np.ones(3) if kd.ndim == 0 else kd, ks)
+    m = sanitize("m", m)
+    alpha = sanitize("alpha", alpha, 0.0, 1.0)
+    sp = sanitize("s_p", sp)
+    gp, theta_i, theta_r = pore_geometry(m, n_dot_l, n_dot_v)
+    ka = 1.0 - per_channel(ks, kd) - kd
+    kd_w, ks_w = porous_weights(kd, ks, alpha, gp, filled_absorption(kd, ka, sp, 0.0, theta_i, theta_r))
+    pore = per_channel(alpha * gp, kd)
+    water_w = np.zeros_like(kd_w)
+    if SOILING in modes:
+        sheltered = sheltered_fraction(s["rain_map"], s["rain_threshold"], s["front_width"])
+        carbon = sheltered * pore_fill(s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
+        ap = filled_absorption(kd, ka, sp, carbon, theta_i, theta_r)
+        kd_w = blend(kd_w, polluted_diffuse(kd, s["pollution_color"], pore, ap), per_channel(carbon, kd))
+    if EFFLORESCENCE in modes:
+        salt = pore_fill(s["efflorescence_map"], s["time"], s["efflorescence_level"], s["front_width"])
+        ap = filled_absorption(kd, ka, sp, salt, theta_i, theta_r)
+        salty = efflorescence_diffuse(kd, s["salt_color"], pore, ap, per_channel(ks_w, kd))
+        kd_w = blend(kd_w, salty, per_channel(salt, kd))
+    if WET in modes:
+        water = pore_fill(s["rain_map"], s["time"], s["wet_level"], s["front_width"])
+        ap = filled_absorption(kd, ka, sp, water, theta_i, theta_r)
+        kd_wet, water_lobe = wet_weights(kd, s["water_specular"], pore, ap)
+        kd_w = blend(kd_w, kd_wet, per_channel(water, kd))
+        water_w = per_channel(water, kd) * water_lobe
+    if SOILING in modes:  # the deposit lies on top of whatever fills the pores
+        coverage = deposit_coverage(sheltered, m, s["time"], s["soiling_level"])
+        kd_w = blend(kd_w, s["deposit_color"], per_channel(coverage, kd))
+        ks_w = ks_w * (1.0 - coverage)
+        water_w = water_w * per_channel(1.0 - coverage, kd)
+    return kd_w, ks_w, water_w

@@ -67,6 +67,23 @@ def render_array(scene=None, path=None):
             os.remove(path)
 
 
+def render_picture(scene, path, view_transform="AgX"):
+    """Render ``scene`` to a PNG picture at ``path`` through a display view transform."""
+    settings = scene.render.image_settings
+    previous = (settings.file_format, settings.color_depth, scene.view_settings.view_transform,
+                scene.render.film_transparent, scene.render.filepath)
+    settings.file_format, settings.color_depth = "PNG", "8"
+    scene.view_settings.view_transform = view_transform
+    scene.render.film_transparent = False
+    scene.render.filepath = os.fspath(path)
+    try:
+        bpy.ops.render.render(write_still=True, scene=scene.name)
+    finally:
+        (settings.file_format, settings.color_depth, scene.view_settings.view_transform,
+         scene.render.film_transparent, scene.render.filepath) = previous
+    return path
+
+
 def read_image(path):
     """A float32 (H, W, C) array of an image file, top row first (OpenImageIO)."""
     import OpenImageIO as oiio

@@ -1,0 +1,5 @@
+import sys
+
+from porous_weathering.cli import main
+
+sys.exit(main())

@@ -1,0 +1,33 @@
+"""The command line: ``python -m porous_weathering COMMAND ...`` (bpy module) and
+``blender -b -c porous_weathering COMMAND ...`` (Blender's extension command), one parser.
+
+Each command lives in its own module, which defines ``configure_parser(parser)`` and
+``run(args) -> exit code``; it is imported only when that command runs.
+"""
+
+import argparse
+import importlib
+import sys
+
+#: command -> (module, relative to this package, so it works installed as bl_ext.*; help)
+COMMANDS = {
+    "bake": (".bake", "bake rain-exposure and edge/cavity maps of .blend files"),
+    "demo": (".demo", "render the bundled sample scene and write pictures"),
+}
+
+
+def build_parser():
+    parser = argparse.ArgumentParser(prog="python -m porous_weathering",
+                                     description="Porous Weathering: porous materials and their weathering in Blender.")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, (module_name, help_text) in COMMANDS.items():
+        sub = commands.add_parser(name, help=help_text, description=help_text)
+        sub.set_defaults(module_name=module_name)
+        importlib.import_module(module_name, __package__).configure_parser(sub)
+    return parser
+
+
+def main(argv=None):
+    """Parse ``argv`` (default: sys.argv[1:]) and run the command; returns its exit code."""
+    args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
+    return importlib.import_module(args.module_name, __package__).run(args)
