@@ -31,3 +31,23 @@ def main(argv=None):
     """Parse ``argv`` (default: sys.argv[1:]) and run the command; returns its exit code."""
     args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
     return importlib.import_module(args.module_name, __package__).run(args)
+
+
+_command_handle = None
+
+
+def register():
+    """Make the same commands available as ``blender -c porous_weathering COMMAND ...``."""
+    import bpy
+
+    global _command_handle
+    _command_handle = bpy.utils.register_cli_command("porous_weathering", main)
+
+
+def unregister():
+    import bpy
+
+    global _command_handle
+    if _command_handle is not None:
+        bpy.utils.unregister_cli_command(_command_handle)
+        _command_handle = None

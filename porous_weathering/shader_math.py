@@ -18,6 +18,7 @@ class Graph:
     def __init__(self, tree):
         self.tree = tree
         self._rows = {}
+        self._made = {}  # (operation, operands) -> Expr: a shared sub-expression is built once
 
     def node(self, bl_idname, inputs=(), depth=None, **properties):
         """A new node with ``properties`` set and ``inputs`` (name or index -> value) connected."""
@@ -61,13 +62,14 @@ class Graph:
         vector = any(isinstance(x, Expr) and x.kind == VECTOR for x in operands)
         if vector and operation == "POWER":
             raise TypeError("use Graph.power_rgb for a colour base")
-        kind = VECTOR if vector else SCALAR
-        bl_idname = "ShaderNodeVectorMath" if vector else "ShaderNodeMath"
-        output = "Vector" if vector and operation not in _VECTOR_TO_SCALAR else "Value"
-        if operation in _VECTOR_TO_SCALAR:
-            kind = SCALAR
-        node = self.node(bl_idname, list(operands), operation=operation)
-        return Expr(self, node.outputs[output], kind)
+        key = (operation, *(x.socket.as_pointer() if isinstance(x, Expr) else x for x in operands))
+        if key not in self._made:
+            kind = SCALAR if operation in _VECTOR_TO_SCALAR or not vector else VECTOR
+            bl_idname = "ShaderNodeVectorMath" if vector else "ShaderNodeMath"
+            output = "Vector" if vector and operation not in _VECTOR_TO_SCALAR else "Value"
+            node = self.node(bl_idname, list(operands), operation=operation)
+            self._made[key] = Expr(self, node.outputs[output], kind)
+        return self._made[key]
 
     def power_rgb(self, base, exponent):
         """base^exponent per colour channel (Gamma node; 0^x stays 0, as for 0 < x)."""
@@ -93,10 +95,14 @@ def _fold(operation, *operands):
 
 
 class Expr:
-    """An output socket in a Graph, with Python operators that add nodes."""
+    """An output socket in a Graph, with Python operators that add nodes.
 
-    def __init__(self, graph, socket, kind):
-        self.graph, self.socket, self.kind = graph, socket, kind
+    ``bounds`` is the (low, high) range the value is known to lie in, or None: clip() of an
+    Expr already inside the range adds no nodes.
+    """
+
+    def __init__(self, graph, socket, kind, bounds=None):
+        self.graph, self.socket, self.kind, self.bounds = graph, socket, kind, bounds
 
     def __add__(self, other):
         return self.graph.math("ADD", self, other)
@@ -133,7 +139,12 @@ def minimum(a, b):
 
 def clip(x, low, high):
     """x clamped to [low, high] (two nodes; MIN/MAX also replace NaN by the bound in Cycles)."""
-    return minimum(maximum(x, low), high)
+    if not isinstance(x, Expr):
+        return min(max(x, low), high)
+    if x.bounds is not None and low <= x.bounds[0] and x.bounds[1] <= high:
+        return x
+    clipped = minimum(maximum(x, low), high)
+    return Expr(x.graph, clipped.socket, clipped.kind, bounds=(low, high))
 
 
 def arccos(x):
