@@ -4,6 +4,7 @@ The public API (docs/api.md):
     porous_weathering.model                 the SPEC model in plain numpy (no bpy)
     porous_weathering.make_porous_material  a porous material for EEVEE and Cycles
     porous_weathering.make_base_material    the same Diffuse + Glossy without porosity
+    porous_weathering.make_preset_material  a porous material from a preset (docs/presets.md)
 
 Importing this package does not import bpy; the names that need it load on first use,
 so ``porous_weathering.model`` works in plain Python too.
@@ -12,6 +13,7 @@ so ``porous_weathering.model`` works in plain Python too.
 _LAZY = {
     "make_porous_material": "material",
     "make_base_material": "material",
+    "make_preset_material": "presets",
 }
 
 
@@ -24,12 +26,16 @@ def __getattr__(name):
 
 
 def register():
-    from . import ui
+    from . import assets, cli, ui
 
     ui.register()
+    assets.register()
+    cli.register()
 
 
 def unregister():
-    from . import ui
+    from . import assets, cli, ui
 
+    cli.unregister()
+    assets.unregister()
     ui.unregister()

@@ -21,3 +21,9 @@ def compositor_tree(scene):
     if BLENDER_5:
         return scene.compositing_node_group
     return scene.node_tree if scene.use_nodes else None
+
+
+def use_world_nodes(world):
+    """Give ``world`` a node tree (use_nodes is implied, and deprecated, from 5.0)."""
+    if not BLENDER_5:
+        world.use_nodes = True

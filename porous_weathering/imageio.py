@@ -1,0 +1,99 @@
+"""Map images on disk, through OpenImageIO: float/half EXR and 16-bit PNG, written atomically.
+
+Arrays are float32 (H, W) or (H, W, C), top row first, linear values. A write goes to a
+temporary file in the destination folder and is renamed over the target, so a failed or
+interrupted bake never leaves a truncated map behind. String metadata (e.g. the input hash
+a bake stores) travels in the file's header.
+"""
+
+import os
+import tempfile
+
+import numpy as np
+
+#: file extension -> (OpenImageIO pixel type name, header attributes)
+FORMATS = {
+    ".exr": {"float": ("float", {"compression": "zip"}), "half": ("half", {"compression": "zip"})},
+    ".png": {"uint16": ("uint16", {})},
+}
+DEFAULT_PIXEL_TYPE = {".exr": "float", ".png": "uint16"}
+
+
+def write_image(path, pixels, *, pixel_type=None, metadata=None):
+    """Write ``pixels`` to ``path`` (.exr: "float" or "half"; .png: "uint16"), atomically.
+
+    PNG values are clipped to [0, 1] and quantised to 1/65535; EXR keeps them as they are.
+    Raises OSError naming the file when the folder is missing or not writable.
+    """
+    import OpenImageIO as oiio
+
+    path = os.fspath(path)
+    extension = os.path.splitext(path)[1].lower()
+    if extension not in FORMATS:
+        raise ValueError(f"{path}: unsupported map format {extension!r} (use .exr or .png)")
+    pixel_type = pixel_type or DEFAULT_PIXEL_TYPE[extension]
+    if pixel_type not in FORMATS[extension]:
+        raise ValueError(f"{path}: {extension} maps take pixel types {sorted(FORMATS[extension])}, not {pixel_type!r}")
+    type_name, attributes = FORMATS[extension][pixel_type]
+
+    pixels = np.asarray(pixels, dtype=np.float32)
+    if pixels.ndim == 2:
+        pixels = pixels[..., np.newaxis]
+    if extension == ".png":
+        pixels = np.clip(pixels, 0.0, 1.0)
+    height, width, channels = pixels.shape
+    spec = oiio.ImageSpec(width, height, channels, type_name)
+    for name, value in {**attributes, **(metadata or {})}.items():
+        spec.attribute(name, value)
+
+    folder = os.path.dirname(os.path.abspath(path))
+    try:
+        handle, temporary = tempfile.mkstemp(prefix=".pw_", suffix=extension, dir=folder)
+    except OSError as error:
+        raise OSError(f"cannot write image {path}: folder {folder}: {error.strerror}") from error
+    os.close(handle)
+    try:
+        output = oiio.ImageOutput.create(temporary)
+        if output is None or not output.open(temporary, spec):
+            raise OSError(f"cannot write image {path}: {oiio.geterror() or (output and output.geterror())}")
+        written = output.write_image(np.ascontiguousarray(pixels))
+        error = output.geterror()
+        output.close()
+        if not written:
+            raise OSError(f"cannot write image {path}: {error}")
+        os.replace(temporary, path)
+    except BaseException:
+        os.remove(temporary)
+        raise
+
+
+def read_image(path):
+    """(pixels float32 (H, W, C), metadata dict of the header's string attributes)."""
+    import OpenImageIO as oiio
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"no image file {path}")
+    buffer = oiio.ImageBuf(path)
+    pixels = buffer.get_pixels(oiio.FLOAT)
+    if buffer.has_error or pixels is None:
+        raise OSError(f"cannot read image {path}: {buffer.geterror()}")
+    return np.asarray(pixels, dtype=np.float32), _string_attributes(buffer.spec())
+
+
+def read_metadata(path):
+    """The header's string attributes of an image file, or {} when there is no readable file."""
+    import OpenImageIO as oiio
+
+    image = oiio.ImageInput.open(os.fspath(path))
+    if image is None:
+        oiio.geterror()  # clear OpenImageIO's pending error message
+        return {}
+    try:
+        return _string_attributes(image.spec())
+    finally:
+        image.close()
+
+
+def _string_attributes(spec):
+    return {attribute.name: attribute.value for attribute in spec.extra_attribs if isinstance(attribute.value, str)}

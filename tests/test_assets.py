@@ -1,0 +1,81 @@
+"""The committed node-group asset library: assets in catalogs, and what build_assets.py builds."""
+
+import importlib.util
+import pathlib
+
+import bpy
+import pytest
+
+from porous_weathering import assets
+
+NODE_GROUPS = pathlib.Path(__file__).resolve().parent.parent / "node_groups"
+
+
+def load_build_script():
+    spec = importlib.util.spec_from_file_location("build_assets", NODE_GROUPS / "build_assets.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+build_assets = load_build_script()
+
+
+def catalogs(path):
+    """{catalog UUID: catalog path} of a blender_assets.cats.txt."""
+    rows = [line.split(":") for line in path.read_text().splitlines()
+            if line and not line.startswith(("#", "VERSION"))]
+    return {row[0]: row[1] for row in rows}
+
+
+def asset_groups(blend):
+    """{name: summary} of the node-group assets in ``blend``, appended and then removed again."""
+    with bpy.data.libraries.load(str(blend), assets_only=True) as (source, target):
+        target.node_groups = list(source.node_groups)
+    summary = {}
+    for group in target.node_groups:
+        summary[group.name] = dict(
+            nodes=len(group.nodes), links=len(group.links),
+            sockets=[(item.in_out, item.name) for item in group.interface.items_tree if item.item_type == "SOCKET"],
+            catalog=group.asset_data.catalog_id, description=group.asset_data.description,
+            preview=tuple(group.preview.image_size) if group.preview else (0, 0))
+        bpy.data.node_groups.remove(group)
+    return summary
+
+
+def test_committed_groups_are_assets_in_catalogs_with_previews():
+    groups = asset_groups(NODE_GROUPS / build_assets.FILENAME)
+    known = catalogs(NODE_GROUPS / build_assets.CATALOGS_FILENAME)
+    assert len(groups) == len(build_assets.ASSETS) >= 3
+    for name, group in groups.items():
+        assert known.get(group["catalog"], "").startswith("Porous Weathering/"), name
+        assert group["description"], name
+        assert group["preview"] == (build_assets.PREVIEW_SIZE,) * 2, name
+
+
+def test_committed_file_is_what_the_script_builds(tmp_path):
+    rebuilt = build_assets.build(tmp_path)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    assert asset_groups(NODE_GROUPS / build_assets.FILENAME) == asset_groups(rebuilt), \
+        "node_groups/ is stale: run python node_groups/build_assets.py"
+    assert (tmp_path / build_assets.CATALOGS_FILENAME).read_text() == \
+        (NODE_GROUPS / build_assets.CATALOGS_FILENAME).read_text()
+
+
+@pytest.fixture
+def no_library():
+    assets.unregister()
+    yield
+    assets.unregister()
+
+
+def test_asset_library_registers_once_and_unregisters(no_library):
+    libraries = bpy.context.preferences.filepaths.asset_libraries
+    before = len(libraries)
+    assets.register()
+    assets.register()  # enabling twice (e.g. a reload) must not add a second entry
+    ours = [library for library in libraries if library.name == assets.LIBRARY_NAME]
+    assert len(ours) == 1 and len(libraries) == before + 1
+    assert pathlib.Path(ours[0].path) == NODE_GROUPS
+    assets.unregister()
+    assert len(libraries) == before

@@ -1,0 +1,112 @@
+"""``python -m porous_weathering bake``, run as users run it: a subprocess on a tiny .blend."""
+
+import os
+import pathlib
+import subprocess
+import sys
+
+import bpy
+import numpy as np
+import pytest
+
+from porous_weathering import bake, imageio, studio
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+FAST = ["--resolution", "16", "--samples", "4"]
+
+
+def run_cli(*args):
+    return subprocess.run([sys.executable, "-m", "porous_weathering", "bake", *map(str, args)],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+
+
+def statuses(result):
+    return [line.split()[0] for line in result.stdout.splitlines() if line.startswith(("written", "unchanged"))]
+
+
+@pytest.fixture
+def blend(fresh_scene, tmp_path):
+    """A 4 x 4 plane with a unit cube standing on it, and an empty."""
+    studio.add_plane(fresh_scene, size=4.0)
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=(0, 0, 0.5))
+    studio.link(fresh_scene, bpy.data.objects.new("Marker", None))
+    path = tmp_path / "scene.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    return path
+
+
+def test_maps_are_written_and_a_rerun_skips_them(blend, tmp_path):
+    out = tmp_path / "maps"
+    first = run_cli(blend, "--out", out, *FAST)
+    assert first.returncode == 0, first.stderr
+    assert sorted(os.listdir(out)) == ["Cube.rain.exr", "Plane.rain.exr"]
+    assert "100%" in first.stderr  # the progress bar
+    plane, metadata = imageio.read_image(out / "Plane.rain.exr")
+    assert plane.shape == (16, 16, 1) and metadata["pw:uv_map"] == "UVMap"
+    assert plane[0, 0, 0] == pytest.approx(1.0, abs=0.02)  # open corner
+    assert plane[8, 8, 0] < 0.05  # under the cube
+    stamp = os.stat(out / "Plane.rain.exr").st_mtime_ns
+    again = run_cli(blend, "--out", out, *FAST)
+    assert again.returncode == 0, again.stderr
+    assert statuses(again) == ["unchanged", "unchanged"] and os.stat(out / "Plane.rain.exr").st_mtime_ns == stamp
+    changed = run_cli(blend, "--out", out, *FAST, "--rain-cone", "20")
+    assert statuses(changed) == ["written", "written"]
+
+
+def test_dry_run_writes_nothing(blend, tmp_path):
+    out = tmp_path / "maps"
+    result = run_cli(blend, "--out", out, "--objects", "Cube", "--dry-run", *FAST)
+    assert result.returncode == 0, result.stderr
+    assert "planned" in result.stdout and "Cube.rain.exr" in result.stdout
+    assert not out.exists()
+    assert sorted(os.listdir(tmp_path)) == ["scene.blend"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["missing.blend"], "no such .blend file"),
+    (["{blend}", "--objects", "Marker"], "'Marker' has no mesh"),
+    (["{blend}", "--objects", "Nobody"], "no object named Nobody"),
+    (["{blend}", "--out", "/proc/forbidden"], "/proc/forbidden"),
+    (["{blend}", "--target", "attribute"], "--save"),
+])
+def test_bad_input_fails_with_a_clear_message(blend, args, message):
+    result = run_cli(*[a.format(blend=blend) for a in args])
+    assert result.returncode != 0
+    assert message in result.stderr
+
+
+def test_bad_maps_option_is_refused(blend):
+    result = run_cli(blend, "--maps", "rain,snow")
+    assert result.returncode == 2 and "rain, edges" in result.stderr
+
+
+def test_help_documents_every_option():
+    result = run_cli("--help")
+    for option in ("--objects", "--collection", "--maps", "--target", "--resolution", "--samples",
+                   "--rain-cone", "--wind-azimuth", "--wind-tilt", "--out", "--save", "--dry-run"):
+        assert option in result.stdout
+
+
+def test_save_links_images_and_attributes_into_the_blend(blend, tmp_path):
+    out = tmp_path / "maps"
+    result = run_cli(blend, "--out", out, "--objects", "Plane", "--save", *FAST)
+    assert result.returncode == 0, result.stderr
+    result = run_cli(blend, "--objects", "Cube", "--target", "attribute", "--save", "--samples", "4")
+    assert result.returncode == 0, result.stderr
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    image = bpy.data.images[bpy.data.objects["Plane"]["pw_rain_image"]]
+    assert image.filepath == "//maps/Plane.rain.exr"
+    cube = bpy.data.objects["Cube"].data
+    colours = np.empty(len(cube.loops) * 4, dtype=np.float32)
+    cube.color_attributes["pw_rain"].data.foreach_get("color", colours)
+    top = [i for p in cube.polygons if p.normal.z > 0.9 for i in p.loop_indices]
+    assert np.allclose(colours[0::4][top], 1.0, atol=0.05)
+
+
+def test_run_does_not_depend_on_how_it_was_invoked(blend, tmp_path, capsys):
+    """The in-process entry point (what ``blender -c porous_weathering bake`` calls)."""
+    from porous_weathering import cli
+
+    assert cli.main(["bake", str(blend), "--out", str(tmp_path / "maps"), "--objects", "Cube", *FAST]) == 0
+    assert (tmp_path / "maps" / "Cube.rain.exr").is_file()
+    assert bake.image_path(str(tmp_path), "Cube", "edges").endswith("Cube.edges.exr")

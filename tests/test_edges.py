@@ -1,0 +1,251 @@
+"""Edge/cavity mask C (porous_weathering/edges.py) against shapes whose answer is known."""
+
+import bmesh
+import bpy
+import numpy as np
+import pytest
+
+from porous_weathering import edges
+
+
+def link(scene, mesh, name):
+    obj = bpy.data.objects.new(name, mesh)
+    scene.collection.objects.link(obj)
+    return obj
+
+
+def cube(scene, cuts=0, size=2.0, name="Cube"):
+    """An axis-aligned cube, its faces cut into (cuts + 1)^2 quads, with the default cross UVs."""
+    mesh = bpy.data.meshes.new(name)
+    bm = bmesh.new()
+    bm.loops.layers.uv.new("UVMap")
+    bmesh.ops.create_cube(bm, size=size, calc_uvs=True)
+    if cuts:
+        bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=cuts, use_grid_fill=True)
+    bm.to_mesh(mesh)
+    bm.free()
+    return link(scene, mesh, name)
+
+
+def sphere(scene, kind, level, radius):
+    mesh = bpy.data.meshes.new("Sphere")
+    bm = bmesh.new()
+    if kind == "uv":
+        bmesh.ops.create_uvsphere(bm, u_segments=level, v_segments=level // 2, radius=radius)
+    else:
+        bmesh.ops.create_icosphere(bm, subdivisions=level, radius=radius)
+    bm.to_mesh(mesh)
+    bm.free()
+    return link(scene, mesh, "Sphere")
+
+
+def world_points(obj):
+    """The evaluated mesh's vertices in world space, as curvature() numbers them."""
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    mesh = evaluated.to_mesh()
+    points = np.array([evaluated.matrix_world @ v.co for v in mesh.vertices])
+    evaluated.to_mesh_clear()
+    return points
+
+
+# --- (a) Sobel filter in texture space ---------------------------------------------------------
+
+
+def island_plane(scene):
+    """A tilted flat 3 x 3 grid of quads, every quad its own UV island, turned and mirrored."""
+    size = 3
+    vertices = [(x, y, 0.0) for y in range(size + 1) for x in range(size + 1)]
+    faces = [(y * (size + 1) + x, y * (size + 1) + x + 1, (y + 1) * (size + 1) + x + 1, (y + 1) * (size + 1) + x)
+             for y in range(size) for x in range(size)]
+    mesh = bpy.data.meshes.new("Islands")
+    mesh.from_pydata(vertices, [], faces)
+    uv = mesh.uv_layers.new(name="UVMap")
+    square = np.array([(0, 0), (1, 0), (1, 1), (0, 1)], dtype=float)
+    for face in mesh.polygons:
+        corners = np.roll(square, face.index, axis=0)  # each island turned by another quarter
+        if face.index % 2:
+            corners[:, 0] = 1 - corners[:, 0]  # and every other one mirrored
+        origin = np.array([face.index % 3, face.index // 3]) * 0.33 + 0.03
+        for loop, corner in zip(face.loop_indices, corners):
+            uv.data[loop].uv = origin + 0.27 * corner
+    obj = link(scene, mesh, "Islands")
+    obj.rotation_euler = (0.4, -0.3, 0.2)
+    return obj
+
+
+def test_sobel_of_a_flat_plane_is_zero_across_seams(fresh_scene):
+    mask = edges.edge_mask_image(island_plane(fresh_scene), "UVMap", 64)
+    assert mask.shape == (64, 64) and mask.dtype == np.float32
+    assert np.abs(mask).max() < 1e-4
+
+
+def test_sobel_of_a_cube_is_high_on_every_edge_and_zero_mid_face(fresh_scene):
+    """Every border of every face is a cube edge, inside a UV island or on a seam."""
+    resolution = 64
+    obj = cube(fresh_scene)
+    obj.rotation_euler = (0.3, 0.2, 0.1)
+    uv = obj.data.uv_layers["UVMap"].data
+    for corner in uv:  # keep the islands off the image border, as a lightmap layout does
+        corner.uv = 0.1 + 0.8 * np.array(corner.uv)
+    mask = edges.edge_mask_image(obj, "UVMap", resolution)
+    # Texel centres in texels from the left and from the bottom (v = 0).
+    column, row = np.meshgrid(np.arange(resolution) + 0.5, np.arange(resolution)[::-1] + 0.5)
+    for face in obj.data.polygons:
+        corners = np.array([uv[loop].uv for loop in face.loop_indices]) * resolution
+        low, high = corners.min(axis=0), corners.max(axis=0)
+        inset = np.minimum.reduce([column - low[0], high[0] - column, row - low[1], high[1] - row])
+        assert np.all(mask[inset > 1.5] == 0), f"face {face.index} is not flat mid-face"
+        border = mask[(inset > 0) & (inset < 1)]
+        assert border.size > 4 * (high - low).min() - 8 and border.min() > 0.5, f"face {face.index} border"
+
+
+def test_sobel_leaves_the_scene_as_it_was(fresh_scene):
+    obj = cube(fresh_scene)
+    material = bpy.data.materials.new("Stone")
+    obj.data.materials.append(material)
+    before = {kind: len(getattr(bpy.data, kind)) for kind in ("objects", "meshes", "materials", "images", "scenes")}
+    edges.edge_mask_image(obj, "UVMap", 16)
+    assert {kind: len(getattr(bpy.data, kind)) for kind in before} == before
+    assert list(obj.data.materials) == [material]
+
+
+def test_sobel_refuses_a_missing_uv_map_or_no_faces(fresh_scene):
+    with pytest.raises(ValueError, match="'Cube'.*'Lightmap'"):
+        edges.edge_mask_image(cube(fresh_scene), "Lightmap", 16)
+    mesh = bpy.data.meshes.new("Points")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)], [])
+    with pytest.raises(ValueError, match="'Points'"):
+        edges.edge_mask_image(link(fresh_scene, mesh, "Points"), "UVMap", 16)
+
+
+def test_sobel_kernels_and_filter_on_a_step():
+    """A vertical step of 1/2 in one channel: S_v = 4 * 1/2, S_h = 0, so C = 1 on both sides."""
+    normals = np.full((6, 6, 3), 0.5, dtype=np.float32)
+    normals[:, 3:, 0] = 1.0
+    mask = edges.sobel_edge_mask(normals, np.ones((6, 6), dtype=bool))
+    assert np.allclose(mask[:, 2:4], 1.0) and np.allclose(mask[:, [0, 5]], 0.0)
+    assert np.allclose(mask[:, 1], 0.0) and np.allclose(mask[:, 4], 0.0)
+
+
+# --- (b) mesh curvature --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("kind, level", [("uv", 24), ("uv", 48), ("uv", 96), ("ico", 3), ("ico", 4), ("ico", 5)])
+def test_sphere_curvature_is_one_over_its_radius(fresh_scene, kind, level):
+    radius = 0.7
+    curvature = edges.curvature(sphere(fresh_scene, kind, level, radius), 0.35 * radius) * radius
+    assert curvature.dtype == np.float32
+    assert abs(np.median(curvature) - 1) < 0.02
+    assert np.abs(curvature - 1).max() < 0.1
+
+
+def test_curvature_is_in_world_space_with_mirroring_scale_and_modifiers(fresh_scene):
+    obj = sphere(fresh_scene, "ico", 3, 1.0)
+    obj.scale = (-2.0, 2.0, 2.0)  # a mirror must not turn the convex sphere concave
+    obj.modifiers.new("Subdivision", "SUBSURF").levels = 1
+    curvature = edges.curvature(obj, 0.7)
+    assert len(curvature) > len(obj.data.vertices)  # the evaluated mesh
+    assert np.abs(curvature * 2.0 - 1).max() < 0.1
+
+
+def edge_and_face_centre_vertices(points, half_size, radius):
+    """Vertices on a cube's edges (away from its corners), and near the middle of its faces."""
+    sorted_abs = np.sort(np.abs(points), axis=1)
+    on_edge = np.all(np.abs(sorted_abs[:, 1:] - half_size) < 1e-4, axis=1) & (sorted_abs[:, 0] < half_size - 2 * radius)
+    mid_face = sorted_abs[:, 1] < half_size - 2 * radius
+    return on_edge, mid_face
+
+
+@pytest.mark.parametrize("cuts", [4, 9, 19])
+def test_cube_edges_are_convex_whatever_the_tessellation(fresh_scene, cuts):
+    radius = 0.3
+    obj = cube(fresh_scene, cuts)
+    curvature = edges.curvature(obj, radius)
+    on_edge, mid_face = edge_and_face_centre_vertices(world_points(obj), 1.0, radius)
+    assert on_edge.sum() >= 12 and mid_face.sum() >= 6
+    assert np.all(np.abs(curvature[on_edge] * radius - 0.52) < 0.05)  # ~independent of cuts
+    assert np.all(curvature[mid_face] == 0) and curvature.min() >= 0
+    assert np.all(edges.curvature_mask(curvature[on_edge], radius, "convex") == 1)
+    assert np.all(edges.curvature_mask(curvature, radius, "concave") == 0)
+
+
+def test_inside_corners_of_a_hollow_box_are_concave(fresh_scene):
+    """A box with walls: an outer cube and an inner one facing into the hollow.  The inner
+    edges are concave, the outer ones convex, though the wall is no thicker than the
+    smoothing radius (the two sides of a wall are kept apart)."""
+    radius = thickness = 0.2
+    bm = bmesh.new()
+    for size in (2.0, 2.0 - 2 * thickness):
+        shell = bmesh.ops.create_cube(bm, size=size)["verts"]
+        faces = list({face for vertex in shell for face in vertex.link_faces})
+        bmesh.ops.subdivide_edges(bm, edges=list({e for f in faces for e in f.edges}), cuts=9, use_grid_fill=True)
+    inner = [face for face in bm.faces if max(abs(c) for c in face.calc_center_median()) < 1 - thickness / 2]
+    bmesh.ops.reverse_faces(bm, faces=inner)
+    mesh = bpy.data.meshes.new("Hollow")
+    bm.to_mesh(mesh)
+    bm.free()
+    obj = link(fresh_scene, mesh, "Hollow")
+    curvature = edges.curvature(obj, radius)
+    points = world_points(obj)
+    outer_edge, _ = edge_and_face_centre_vertices(points, 1.0, radius)
+    inner_edge, _ = edge_and_face_centre_vertices(points, 1.0 - thickness, radius)
+    assert outer_edge.sum() >= 12 and inner_edge.sum() >= 12
+    assert curvature[outer_edge].min() * radius > 0.4
+    assert curvature[inner_edge].max() * radius < -0.4
+    assert np.all(edges.curvature_mask(curvature[inner_edge], radius, "concave") > 0.8)
+    assert np.all(edges.curvature_mask(curvature[inner_edge], radius, "convex") == 0)
+
+
+def test_degenerate_meshes_give_finite_curvature(fresh_scene):
+    """Zero-area faces, a loose vertex, an edge shared by three faces and an n-gon."""
+    vertices = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 0.5, 1), (0.5, 0.5, -1),
+                (2, 0, 0), (3, 0, 0), (5, 5, 5), (-1, 0.5, 0), (-0.5, 0.5, 0)]
+    faces = [(0, 1, 4), (0, 1, 5), (0, 1, 2),  # edge 0-1 is shared by three faces
+             (1, 6, 7),                        # zero area (a straight line)
+             (0, 3, 9, 10)]                    # a concave n-gon
+    mesh = bpy.data.meshes.new("Broken")
+    mesh.from_pydata(vertices, [], faces)
+    curvature = edges.curvature(link(fresh_scene, mesh, "Broken"), 0.5)
+    assert curvature.shape == (len(vertices),) and np.isfinite(curvature).all()
+    assert curvature[8] == 0  # the loose vertex
+
+
+def test_curvature_refuses_what_it_cannot_measure(fresh_scene):
+    mesh = bpy.data.meshes.new("Wire")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)], [])
+    with pytest.raises(ValueError, match="'Wire'"):
+        edges.curvature(link(fresh_scene, mesh, "Wire"), 0.1)
+    empty = bpy.data.objects.new("Empty", None)
+    fresh_scene.collection.objects.link(empty)
+    with pytest.raises(ValueError, match="'Empty'"):
+        edges.curvature(empty, 0.1)
+    with pytest.raises(ValueError, match="radius"):
+        edges.curvature(cube(fresh_scene), 0.0)
+
+
+def test_curvature_mask_parts_and_scale():
+    curvature = np.array([-4.0, -1.0, 0.0, 1.0, 4.0])  # radius 0.25, saturation 0.5: H = 2 saturates
+    assert np.allclose(edges.curvature_mask(curvature, 0.25, "convex", 0.5), [0, 0, 0, 0.5, 1])
+    assert np.allclose(edges.curvature_mask(curvature, 0.25, "concave", 0.5), [1, 0.5, 0, 0, 0])
+    assert np.allclose(edges.curvature_mask(curvature, 0.25, "both", 0.5), [1, 0.5, 0, 0.5, 1])
+    with pytest.raises(ValueError, match="part"):
+        edges.curvature_mask(curvature, 0.25, "edges")
+
+
+def test_edge_attribute_is_written_whole_or_not_at_all(fresh_scene):
+    obj = cube(fresh_scene, 4)
+    mask = edges.write_curvature_attribute(obj, 0.3)
+    attribute = obj.data.color_attributes[edges.EDGE_ATTRIBUTE]
+    assert (attribute.domain, attribute.data_type) == ("POINT", "FLOAT_COLOR")
+    colours = np.empty(len(mask) * 4, dtype=np.float32)
+    attribute.data.foreach_get("color", colours)
+    colours = colours.reshape(-1, 4)
+    assert np.allclose(colours[:, :3], mask[:, None]) and np.all(colours[:, 3] == 1) and mask.max() == 1
+
+    with pytest.raises(ValueError, match="'Cube'"):
+        edges.write_edge_attribute(obj, mask[:-1])  # one value short: the old attribute stays
+    assert [a.name for a in obj.data.color_attributes] == [edges.EDGE_ATTRIBUTE]
+    edges.write_edge_attribute(obj, np.zeros_like(mask))  # a new one replaces it
+    attribute = obj.data.color_attributes[edges.EDGE_ATTRIBUTE]
+    attribute.data.foreach_get("color", colours.ravel())
+    assert [a.name for a in obj.data.color_attributes] == [edges.EDGE_ATTRIBUTE] and colours[:, :3].max() == 0
