@@ -82,10 +82,26 @@ def load_image(path):
     path = os.fspath(path)
     if not os.path.isfile(path):
         raise ValueError(f"base colour image not found: {path}")
+    _check_readable_image(path)
     try:
-        return bpy.data.images.load(path, check_existing=True)
+        image = bpy.data.images.load(path, check_existing=True)
     except RuntimeError as error:
         raise ValueError(f"cannot read base colour image {path}: {error}") from None
+    if not image.size[0]:  # Blender loads lazily and keeps an empty (pink) image it cannot decode
+        if not image.users:
+            bpy.data.images.remove(image)
+        raise ValueError(f"cannot read base colour image {path}: Blender cannot decode it")
+    return image
+
+
+def _check_readable_image(path):
+    """ValueError with OpenImageIO's message when ``path`` is not a readable image file."""
+    import OpenImageIO as oiio
+
+    image = oiio.ImageInput.open(path)
+    if image is None:
+        raise ValueError(f"cannot read base colour image {path}: {oiio.geterror() or 'unknown format'}")
+    image.close()
 
 
 def resolve_key_light(key_light):
@@ -159,3 +175,43 @@ def _driven_vector(graph, light, transform_types, label):
         target.transform_space = "WORLD_SPACE"
         target.rotation_mode = "XYZ"
     return combine.outputs["Vector"]
+
+
+def principled_textures(material):
+    """{'Base Color': image, 'Roughness': image} of the images feeding an existing material's
+    Principled BSDF directly (what an artist's scan or texture set usually is)."""
+    found = {}
+    if material is None or material.node_tree is None:
+        return found
+    for node in material.node_tree.nodes:
+        if node.type != "BSDF_PRINCIPLED":
+            continue
+        for socket_name in ("Base Color", "Roughness"):
+            links = node.inputs[socket_name].links
+            source = links[0].from_node if links else None
+            if source is not None and source.type == "TEX_IMAGE" and source.image is not None:
+                found.setdefault(socket_name, source.image)
+    return found
+
+
+def make_porous_from_material(source, name=None, **params):
+    """A porous material that keeps ``source``'s base colour and roughness images.
+
+    ``params`` are make_porous_material's (base_color, ks, roughness, porosity,
+    pore_depth_ratio, key_light); the images found on ``source``'s Principled BSDF replace
+    base_color and roughness.  ``source`` itself is left untouched.
+    """
+    textures = principled_textures(source)
+    if "Base Color" in textures:
+        params["base_color"] = textures["Base Color"]
+    material = make_porous_material(name or f"{source.name} Porous", **params)
+    if "Roughness" in textures:
+        connect_roughness_image(material, textures["Roughness"])
+    return material
+
+
+def connect_roughness_image(material, image):
+    """Drive the porous group's roughness m of ``material`` by ``image``."""
+    graph = Graph(material.node_tree)
+    roughness = graph.node("ShaderNodeTexImage", depth=1, image=image)
+    graph.connect(roughness.outputs["Color"], material.node_tree.nodes["Porous"].inputs["Roughness"])

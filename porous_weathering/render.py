@@ -6,7 +6,7 @@ import tempfile
 import bpy
 import numpy as np
 
-from . import compat
+from . import compat, imageio
 
 
 def use_cycles(scene, *, size=48, samples=4, seed=0, bounces=0, pixel_filter=0.01):
@@ -60,7 +60,7 @@ def render_array(scene=None, path=None):
     scene.render.filepath = path
     try:
         bpy.ops.render.render(write_still=True, scene=scene.name)
-        return read_image(path)
+        return imageio.read_image(path)[0]
     finally:
         scene.render.filepath = previous
         if not keep:
@@ -82,13 +82,3 @@ def render_picture(scene, path, view_transform="AgX"):
         (settings.file_format, settings.color_depth, scene.view_settings.view_transform,
          scene.render.film_transparent, scene.render.filepath) = previous
     return path
-
-
-def read_image(path):
-    """A float32 (H, W, C) array of an image file, top row first (OpenImageIO)."""
-    import OpenImageIO as oiio
-
-    buffer = oiio.ImageBuf(os.fspath(path))
-    if buffer.has_error:
-        raise OSError(f"cannot read image {path}: {buffer.geterror()}")
-    return np.asarray(buffer.get_pixels(oiio.FLOAT), dtype=np.float32)

@@ -1,8 +1,10 @@
 """Operators and panels: thin wrappers over the package's plain functions."""
 
+import warnings
+
 import bpy
 
-from . import material, nodes
+from . import bake, material, model, ops_bake, presets, weathering
 
 
 class PW_OT_add_porous_material(bpy.types.Operator):
@@ -27,18 +29,212 @@ class PW_OT_add_porous_material(bpy.types.Operator):
 
     def execute(self, context):
         obj = context.active_object
+        linked = next((block for block in (obj, obj.data) if block.library is not None), None)
+        if linked is not None:  # a material slot added to linked data is gone once the file is saved
+            what = f"object '{obj.name}'" + ("" if linked is obj else f": its data '{linked.name}'")
+            self.report({"ERROR"}, f"{what} is linked from the library {linked.library.filepath}, where a new "
+                                   "material would not be saved; make it local first")
+            return {"CANCELLED"}
         try:
             mat = material.make_porous_material(f"{obj.name} Porous", key_light=self.key_light or None)
         except ValueError as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        obj.data.materials.append(mat)
+        try:
+            obj.data.materials.append(mat)
+        except RuntimeError as error:  # data that cannot take a material: leave no orphan behind
+            bpy.data.materials.remove(mat)
+            self.report({"ERROR"}, f"object '{obj.name}': {error}")
+            return {"CANCELLED"}
         obj.active_material_index = len(obj.material_slots) - 1
         return {"FINISHED"}
 
 
+# --- the artist's panel --------------------------------------------------------------------
+
+MODE_LABELS = {
+    model.SOILING: ("Soiling", "Atmospheric soiling: rain-washed white, sheltered grey and carbon-black areas"),
+    model.WET: ("Wet", "Rain fills the pores with water where the rain map is highest first"),
+    model.EFFLORESCENCE: ("Efflorescence", "Salt fills the pores where the location map is highest first"),
+}
+#: The maps each weathering mode reads (SPEC 4).
+MODE_MAPS = {model.SOILING: ("rain", "edges"), model.WET: ("rain",), model.EFFLORESCENCE: ()}
+FROM_MATERIAL = "FROM_MATERIAL"
+
+
+def _is_light(_settings, obj):
+    return obj.type == "LIGHT"
+
+
+class PW_Settings(bpy.types.PropertyGroup):
+    """Porous Weathering choices of a scene: what the panel's Make button builds"""
+
+    source: bpy.props.EnumProperty(
+        name="Stone",
+        description="Porous stone to start from",
+        items=[(key, preset.label, preset.description) for key, preset in presets.PRESETS.items()]
+        + [(FROM_MATERIAL, "Object's Own Material",
+            "Keep the base colour and roughness images of the object's current material")],
+        default="LIMESTONE")
+    key_light: bpy.props.PointerProperty(
+        name="Key Light", type=bpy.types.Object, poll=_is_light,
+        description="Light whose direction the pores follow exactly; empty: ambient mode, for scenes lit by a sky")
+    soiling: bpy.props.BoolProperty(name=MODE_LABELS[model.SOILING][0], description=MODE_LABELS[model.SOILING][1])
+    wet: bpy.props.BoolProperty(name=MODE_LABELS[model.WET][0], description=MODE_LABELS[model.WET][1])
+    efflorescence: bpy.props.BoolProperty(name=MODE_LABELS[model.EFFLORESCENCE][0],
+                                          description=MODE_LABELS[model.EFFLORESCENCE][1])
+
+    def modes(self):
+        return tuple(mode for mode in model.MODES if getattr(self, mode))
+
+
+def baked_maps(obj):
+    """{'rain': source, 'edges': source} of the maps baked for ``obj``: an Image or an attribute name."""
+    found = {}
+    for map_name, attribute in bake.ATTRIBUTES.items():
+        image = bpy.data.images.get(obj.get(f"pw_{map_name}_image", ""))
+        if image is not None:
+            found[map_name] = image
+        elif obj.type == "MESH" and attribute in obj.data.attributes:
+            found[map_name] = attribute
+    return found
+
+
+def missing_maps(obj, modes):
+    have = baked_maps(obj)
+    return sorted({name for mode in modes for name in MODE_MAPS[mode] if name not in have})
+
+
+class PW_OT_make_material(bpy.types.Operator):
+    """Give the active object a porous material from the chosen stone, light and weathering modes, wired to its baked maps"""
+
+    bl_idname = "porous_weathering.make_material"
+    bl_label = "Make Porous Material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
+            cls.poll_message_set("Select an object that can have materials")
+            return False
+        return True
+
+    def execute(self, context):
+        settings = context.scene.porous_weathering
+        obj = context.active_object
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", model.PorousInputWarning)
+                new = build_material(obj, settings)
+        except ValueError as error:
+            self.report({"ERROR"}, f"object '{obj.name}': {error}")
+            return {"CANCELLED"}
+        for warning in caught:
+            self.report({"WARNING"}, str(warning.message))
+        if obj.material_slots:
+            obj.material_slots[obj.active_material_index].material = new
+        else:
+            obj.data.materials.append(new)
+        return {"FINISHED"}
+
+
+def build_material(obj, settings):
+    """The material the panel's Make button gives ``obj`` (see PW_OT_make_material)."""
+    if settings.source == FROM_MATERIAL:
+        textures = material.principled_textures(obj.active_material)
+        params = {"base_color": textures.get("Base Color", (0.8, 0.8, 0.8))}
+        name = f"{obj.active_material.name if obj.active_material else obj.name} Porous"
+    else:
+        preset = presets.PRESETS[settings.source]
+        textures = {}
+        params = dict(base_color=preset.linear_base_color(), ks=preset.ks, roughness=preset.roughness,
+                      porosity=preset.porosity, pore_depth_ratio=preset.pore_depth_ratio)
+        name = f"{obj.name} {preset.label}"
+    modes = settings.modes()
+    if modes:
+        masks = {f"{map_name}_map": source for map_name, source in baked_maps(obj).items()
+                 if f"{map_name}_map" in model.inputs_of(modes)}
+        new = weathering.make_weathered_material(name, modes=modes, key_light=settings.key_light, **params, **masks)
+    else:
+        new = material.make_porous_material(name, key_light=settings.key_light, **params)
+    if "Roughness" in textures:
+        material.connect_roughness_image(new, textures["Roughness"])
+    return new
+
+
+def _active_material(context):
+    """The material the panel shows: the Properties editor's, else the active object's."""
+    obj = context.active_object
+    return getattr(context, "material", None) or (obj.active_material if obj is not None else None)
+
+
+def _time_socket(mat):
+    group = mat.node_tree.nodes.get("Porous") if mat and mat.node_tree else None
+    return group.inputs.get("Time") if group is not None else None
+
+
+class PW_OT_keyframe_aging(bpy.types.Operator):
+    """Animate the active material from new (time 0, first frame) to fully weathered (time 1, last frame)"""
+
+    bl_idname = "porous_weathering.keyframe_aging"
+    bl_label = "Keyframe Aging"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if _time_socket(_active_material(context)) is None:
+            cls.poll_message_set("Make a weathered material first: a porous-only material does not age")
+            return False
+        return True
+
+    def execute(self, context):
+        scene = context.scene
+        weathering.animate_weathering(_active_material(context), scene.frame_start, scene.frame_end)
+        return {"FINISHED"}
+
+
+def draw_panel(layout, context):
+    settings = context.scene.porous_weathering
+    obj = context.active_object
+    layout.use_property_split = True
+    layout.use_property_decorate = False
+
+    col = layout.column(heading="Material")
+    col.prop(settings, "source")
+    col.prop(settings, "key_light")
+    if settings.key_light is None:
+        col.label(text="No key light: ambient mode (sky lighting)", icon="INFO")
+    modes = col.column(heading="Weathering", align=True)
+    for mode in model.MODES:
+        modes.prop(settings, mode)
+    if obj is not None:
+        for map_name in missing_maps(obj, settings.modes()):
+            col.label(text=f"Needs a {map_name} map: bake it below first", icon="ERROR")
+    col.operator(PW_OT_make_material.bl_idname, icon="MATERIAL")
+
+    col = layout.column(heading="Maps")
+    have = baked_maps(obj) if obj is not None else {}
+    for map_name in bake.MAPS:
+        where = have.get(map_name)
+        text = "not baked" if where is None else ("image " + where.name if hasattr(where, "name") else "attribute " + where)
+        col.label(text=f"{map_name.title()}: {text}")
+    bake_button = col.operator(ops_bake.PW_OT_bake_maps.bl_idname, icon="RENDER_STILL")
+    bake_button.maps = set(bake.MAPS)
+
+    col = layout.column(heading="Age")
+    socket = _time_socket(_active_material(context))
+    if socket is None:
+        col.label(text="Make a weathered material to age it", icon="INFO")
+    else:
+        row = col.row()
+        row.use_property_decorate = True
+        row.prop(socket, "default_value", text="Time", slider=True)
+    col.operator(PW_OT_keyframe_aging.bl_idname, icon="KEY_HLT")
+
+
 class PW_PT_material(bpy.types.Panel):
-    """Porous Weathering controls for the active material"""
+    """Porous Weathering: make, bake and age porous materials"""
 
     bl_label = "Porous Weathering"
     bl_space_type = "PROPERTIES"
@@ -46,29 +242,32 @@ class PW_PT_material(bpy.types.Panel):
     bl_context = "material"
 
     def draw(self, context):
-        layout = self.layout
-        layout.operator(PW_OT_add_porous_material.bl_idname, icon="MATERIAL")
-        mat = context.material
-        if mat is None or "pw_light_mode" not in mat:
-            layout.label(text="Not a porous material")
-            return
-        layout.label(text=f"Light mode: {mat['pw_light_mode'].title()}")
-        group = mat.node_tree.nodes.get("Porous")
-        if group is not None:
-            for name in nodes.PORE_INPUTS:
-                socket = group.inputs[name]
-                if not socket.is_linked:
-                    layout.prop(socket, "default_value", text=name)
+        draw_panel(self.layout, context)
 
 
-CLASSES = (PW_OT_add_porous_material, PW_PT_material)
+class PW_PT_sidebar(bpy.types.Panel):
+    """Porous Weathering in the 3D viewport's sidebar: make, bake and age porous materials"""
+
+    bl_label = "Porous Weathering"
+    bl_space_type = "VIEW_3D"
+    bl_region_type = "UI"
+    bl_category = "Weathering"
+
+    def draw(self, context):
+        draw_panel(self.layout, context)
+
+
+CLASSES = (PW_Settings, PW_OT_add_porous_material, PW_OT_make_material, PW_OT_keyframe_aging,
+           *ops_bake.CLASSES, PW_PT_material, PW_PT_sidebar)
 
 
 def register():
     for cls in CLASSES:
         bpy.utils.register_class(cls)
+    bpy.types.Scene.porous_weathering = bpy.props.PointerProperty(type=PW_Settings)
 
 
 def unregister():
+    del bpy.types.Scene.porous_weathering
     for cls in reversed(CLASSES):
         bpy.utils.unregister_class(cls)

@@ -1,0 +1,59 @@
+"""The panel's operators with the panel's default settings, on each sample scene."""
+
+import pathlib
+
+import bpy
+import pytest
+
+import porous_weathering
+from porous_weathering import ui
+
+SAMPLES = sorted((pathlib.Path(__file__).resolve().parents[1] / "sample_blends").glob("*.blend"))
+
+
+@pytest.fixture
+def registered():
+    porous_weathering.register()
+    yield
+    porous_weathering.unregister()
+
+
+def first_mesh():
+    return next(obj for obj in bpy.context.scene.objects if obj.type == "MESH" and obj.data.polygons)
+
+
+@pytest.mark.parametrize("sample", SAMPLES, ids=[path.stem for path in SAMPLES])
+def test_panel_operators_run_on_sample(sample, registered, tmp_path):
+    bpy.ops.wm.open_mainfile(filepath=str(sample), load_ui=False)
+    obj = first_mesh()
+    for other in bpy.context.scene.objects:
+        other.select_set(other is obj)
+    bpy.context.view_layer.objects.active = obj
+    settings = bpy.context.scene.porous_weathering
+
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    assert obj.active_material["pw_light_mode"] in ("SUN", "POINT", "AMBIENT")
+
+    assert ui.missing_maps(obj, ("soiling",)) == ["edges", "rain"]
+    result = bpy.ops.porous_weathering.bake_maps(maps={"rain", "edges"}, target="attribute", samples=4)
+    assert result == {"FINISHED"} and ui.missing_maps(obj, ("soiling", "wet")) == []
+
+    settings.soiling = settings.wet = True
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    weathered = obj.active_material
+    assert weathered["pw_modes"] == "soiling,wet"
+    assert bpy.ops.porous_weathering.keyframe_aging.poll()
+    bpy.context.scene.frame_start, bpy.context.scene.frame_end = 1, 24
+    assert bpy.ops.porous_weathering.keyframe_aging() == {"FINISHED"}
+    time = weathered.node_tree.nodes["Porous"].inputs["Time"]
+    for frame, age in ((24, 1.0), (1, 0.0), (12, None)):
+        bpy.context.scene.frame_set(frame)
+        if age is None:
+            assert 0.0 < time.default_value < 1.0
+        else:
+            assert time.default_value == pytest.approx(age)
+
+
+def test_every_panel_class_has_a_description():
+    for cls in ui.CLASSES:
+        assert (cls.__doc__ or "").strip(), cls.__name__
