@@ -77,7 +77,7 @@ def compared(image, expected):
 
 
 def percent(value):
-    return f"{100 * value:.2f}%"
+    return f"{100 * value:.3g}%"
 
 
 def sun_sweep(images):
@@ -100,8 +100,10 @@ def sun_sweep(images):
                                   rows)
     notes = [f"- {name}: ambient RMSE first exceeds {percent(BREAKDOWN)} at a sun {z}° from the zenith "
              f"({percent(e)})" for name, (z, e) in breakdown.items()]
-    return "### One sun, Cycles (deterministic: a zero-angle sun needs one sample)\n\n" + table + "\n\n" + \
-        ("\n".join(notes) or f"- the ambient RMSE stays under {percent(BREAKDOWN)} at every angle")
+    notes = notes or [f"- the ambient RMSE stays under {percent(BREAKDOWN)} at every angle"]
+    return ("### One sun, Cycles (deterministic: a zero-angle sun needs one sample)\n\n" + table + "\n\n"
+            + "\n".join(notes) + "\n\nA large key-light max with a small RMSE comes from terminator pixels, "
+            "where the smooth-shaded mesh shadows itself and the analytic sphere does not (geometry, not BRDF).")
 
 
 def eevee_rows():

@@ -118,6 +118,7 @@ def build(out_dir=HERE):
     out_dir = pathlib.Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backup beside the library
     scene = bpy.context.scene
     preview_scene(scene)
     for asset in ASSETS:

@@ -4,6 +4,7 @@ The public API (docs/api.md):
     porous_weathering.model                 the SPEC model in plain numpy (no bpy)
     porous_weathering.make_porous_material  a porous material for EEVEE and Cycles
     porous_weathering.make_base_material    the same Diffuse + Glossy without porosity
+    porous_weathering.make_weathered_material  soiling / wet / efflorescence over time
     porous_weathering.make_preset_material  a porous material from a preset (docs/presets.md)
 
 Importing this package does not import bpy; the names that need it load on first use,
@@ -13,6 +14,7 @@ so ``porous_weathering.model`` works in plain Python too.
 _LAZY = {
     "make_porous_material": "material",
     "make_base_material": "material",
+    "make_weathered_material": "weathering",
     "make_preset_material": "presets",
 }
 

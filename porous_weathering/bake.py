@@ -23,7 +23,7 @@ from dataclasses import asdict, dataclass, field
 import bpy
 import numpy as np
 
-from . import imageio, rain, uv
+from . import distributed, imageio, rain, uv
 
 MAPS = ("rain", "edges")
 TARGETS = ("image", "attribute")
@@ -301,6 +301,7 @@ def configure_parser(parser):
                              "and the lightmap UV map) and save it")
     parser.add_argument("--dry-run", action="store_true", help="check the inputs and list what would be baked; "
                                                                "write nothing")
+    distributed.add_arguments(parser)
 
 
 def _map_list(text):
@@ -329,6 +330,8 @@ def run(args):
     except (ValueError, OSError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    if args.workers or args.scheduler:
+        return distributed.run(args, options)
 
     failures = 0
     written_paths = set()
@@ -346,7 +349,7 @@ def run(args):
 
 def _bake_file(path, args, options, written_paths):
     """Bake one file; returns the number of failures."""
-    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False)
+    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
     objects = _chosen_objects(args)
     if options.target == "image":
         clashes = {image_path(options.out_dir, o.name, m) for o in objects for m in options.maps} & written_paths

@@ -21,6 +21,7 @@ from which the CLI reports retries.
 Workers import this module to run its tasks without bpy: it must not import bake.py at the top.
 """
 
+import argparse
 import contextlib
 import ctypes
 import logging
@@ -29,7 +30,8 @@ import signal
 import subprocess
 import sys
 import time
-from dataclasses import dataclass
+from collections import Counter, defaultdict
+from dataclasses import dataclass, replace
 
 #: Where ``python -m porous_weathering`` is found by the bake processes of a worker.
 PACKAGE_PARENT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -55,8 +57,6 @@ def add_arguments(parser):
 
 
 def _positive_int(text):
-    import argparse
-
     if not text.isdigit() or int(text) < 1:
         raise argparse.ArgumentTypeError(f"expected a number of workers of 1 or more, got {text!r}")
     return int(text)
@@ -76,6 +76,7 @@ class Result:
     where: str = ""
     error: str = ""
     seconds: float = 0.0
+    workers: tuple = ()  # of each attempt, in order: set by the client from the attempt events
 
 
 def plan_file(path, selection, options):
@@ -164,9 +165,13 @@ def run(args, options):
     try:
         with _connect(args) as client:
             return _run_on(client, args, options)
-    except OSError as error:  # includes the connection timeout
-        print(f"error: cannot reach the Dask scheduler {args.scheduler or ''}: {error}", file=sys.stderr)
+    except SchedulerUnreachable as error:
+        print(f"error: {error}", file=sys.stderr)
         return 2
+
+
+class SchedulerUnreachable(Exception):
+    pass
 
 
 @contextlib.contextmanager
@@ -174,7 +179,11 @@ def _connect(args):
     from distributed import Client, LocalCluster
 
     if args.scheduler:
-        with Client(args.scheduler, timeout=CONNECT_TIMEOUT) as client:
+        try:
+            client = Client(args.scheduler, timeout=CONNECT_TIMEOUT)
+        except OSError as error:  # includes the connection timeout
+            raise SchedulerUnreachable(f"cannot reach the Dask scheduler {args.scheduler}: {error}") from error
+        with client:
             yield client
         return
     # One thread per worker: a bake process already uses every core of the machine.
@@ -199,7 +208,8 @@ def _run_on(client, args, options):
                  ["--objects", *args.objects] if args.objects else [])
 
     plans = _gather(client, ProgressBar("plan"),
-                    [_Task(plan_file, (path, selection, shared), [Result(path, "", "", "failed")]) for path in files])
+                    [_Task(plan_file, (path, [*selection, "--maps", ",".join(options.maps)], shared),
+                           [Result(path, "", "", "failed")]) for path in files])
     planned = _refuse_clashes([result for plan in plans for result in plan])
     if args.dry_run:
         return _report(planned)
@@ -217,8 +227,8 @@ def _run_on(client, args, options):
 
 
 def _shared_options(args, options):
-    """The options every bake process of this run gets (files and objects come per task)."""
-    return ["--maps", ",".join(options.maps), "--target", options.target, "--out", options.out_dir,
+    """The options every bake process of this run gets (files, objects and maps come per task)."""
+    return ["--target", options.target, "--out", options.out_dir,
             "--resolution", str(options.resolution), "--samples", str(args.samples),
             "--rain-cone", repr(args.rain_cone), "--wind-azimuth", repr(args.wind_azimuth),
             "--wind-tilt", repr(args.wind_tilt)]
@@ -226,23 +236,27 @@ def _shared_options(args, options):
 
 def _gather(client, bar, tasks):
     """Run the tasks on the cluster, with a progress bar; their results in order, each Result
-    carrying how many attempts its task took (from the attempt events)."""
+    carrying the workers its task ran on (from the attempt events)."""
     from distributed import as_completed
 
     futures = {client.submit(t.function, *t.arguments, pure=False, retries=RETRIES): t for t in tasks}
+    keys = [future.key for future in futures]
     results = {}
-    for done, future in enumerate(as_completed(futures), 1):
-        task = futures[future]
+    for done, future in enumerate(as_completed(list(futures)), 1):
+        task = futures.pop(future)
         if future.status == "finished":
-            results[future] = future.result()
+            results[future.key] = future.result()
         else:
             error = future.exception()
-            results[future] = _with(task.lost, error=f"{type(error).__name__}: {error}")
-        bar(done / len(futures), f"{done}/{len(futures)} {os.path.basename(task.arguments[0])}")
-    if futures:
+            results[future.key] = _with(task.lost, error=f"{type(error).__name__}: {error}")
+        future.release()  # else the scheduler recomputes a fetched result whose worker dies later
+        bar(done / len(keys), f"{done}/{len(keys)} {os.path.basename(task.arguments[0])}")
+    if keys:
         bar.finish()
-    attempts = Counter(event["key"] for _, event in client.get_events(ATTEMPTS_TOPIC))
-    return [_with(results[f], attempts=attempts[f.key] or 1) for f in futures]
+    workers = defaultdict(tuple)
+    for _, event in client.get_events(ATTEMPTS_TOPIC):
+        workers[event["key"]] += (event["worker"],)
+    return [_with(results[key], workers=workers[key]) for key in keys]
 
 
 def _with(result, **changes):
@@ -269,10 +283,10 @@ def _report(results):
     print(f"{'status':9} {'tries':>5} {'seconds':>7}  file / map")
     for r in results:
         name = f"{os.path.basename(r.file)}" + (f": {r.object}.{r.map}" if r.object else "")
-        print(f"{r.status:9} {r.attempts:>5} {r.seconds:>7.1f}  {name}" + (f" -> {r.where}" if r.where else ""))
+        print(f"{r.status:9} {len(r.workers):>5} {r.seconds:>7.1f}  {name}" + (f" -> {r.where}" if r.where else ""))
     for r in results:
-        if r.attempts > 1:
-            print(f"retried   {os.path.basename(r.file)}: {r.object}.{r.map} took {r.attempts} attempts "
+        if len(r.workers) > 1:
+            print(f"retried   {os.path.basename(r.file)}: {r.object}.{r.map} ran on {', '.join(r.workers)} "
                   f"(a worker was lost or its bake process was killed)")
     failed = [r for r in results if r.status == "failed"]
     for r in failed:

@@ -42,32 +42,28 @@ def edge_mask_image(obj, uv_map_name, resolution, *, margin=4):
 
     C is the Sobel response of the world-space normal map encoded as (n + 1) / 2, per
     channel ``(|S_h| + |S_v|) / 2``; the three channels are combined by their Euclidean
-    norm (so C does not change as the object turns in the world) and clipped at 1, as the
+    norm (so a crease gives the same C however the object is turned) and clipped at 1, as the
     paper's grey-level map saturates.  C is per texel, so it scales with the texel size.
     Around every UV island C is extended ``margin`` texels outwards (each texel taking the
     mean of its neighbours already set), so texture filtering never pulls in empty texels;
-    further out it is 0.  UV islands must lie at least 2 texels apart.
+    further out it is 0.  UV islands must lie at least 2 texels apart and off the image
+    border (as a lightmap layout with padding does), or the filter sees past their edge.
     """
     if obj.type != "MESH" or not obj.data.polygons:
         raise ValueError(f"object '{obj.name}' has no faces to bake an edge mask on")
     if uv_map_name not in obj.data.uv_layers:
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map_name}'")
     normals, islands = bake_world_normals(obj, uv_map_name, resolution)
-    mask = sobel_edge_mask(normals[..., :3], normals[..., 3] > 0)
+    mask = sobel_edge_mask(normals)  # right on the islands, whose neighbours the bake filled
     known = islands
     for _ in range(margin):
         mask, known = grow(mask, known)
     return np.where(known, mask, 0.0).astype(np.float32)
 
 
-def sobel_edge_mask(encoded_normals, known):
-    """The Sobel mask of an (H, W, 3) normal map, trusted where ``known`` (H, W) is true.
-
-    The texels next to known ones take the mean of their known neighbours before filtering,
-    so no known texel sees an empty one.
-    """
-    filled, _ = grow(encoded_normals, known)
-    per_channel = (np.abs(correlate3x3(filled, SOBEL_H)) + np.abs(correlate3x3(filled, SOBEL_V))) / 2
+def sobel_edge_mask(encoded_normals):
+    """C of an (H, W, 3) normal map: per channel (|S_h| + |S_v|) / 2, combined by the norm."""
+    per_channel = (np.abs(correlate3x3(encoded_normals, SOBEL_H)) + np.abs(correlate3x3(encoded_normals, SOBEL_V))) / 2
     return np.minimum(np.linalg.norm(per_channel, axis=-1), 1.0)
 
 
@@ -97,9 +93,9 @@ def correlate3x3(image, kernel):
 
 def bake_world_normals(obj, uv_map_name, resolution):
     """(normals, islands): ``obj``'s world-space shading normals on ``uv_map_name``, encoded
-    (n + 1) / 2, as float32 (H, W, 4) with alpha > 0 on the UV islands and one texel around
-    them (filled from the faces across each seam), and the (H, W) bool map of the islands
-    alone.  Both top row first.
+    (n + 1) / 2, as float32 (H, W, 3), right on the UV islands and one texel around them
+    (filled from the faces across each seam), and the (H, W) bool map of the islands.
+    Both top row first.
 
     Exact Cycles EMIT bakes of a probe material that emits the normal, on a copy of the
     object in a temporary scene: the user's scene, materials and selection are untouched.
@@ -126,7 +122,7 @@ def bake_world_normals(obj, uv_map_name, resolution):
                                     margin_type="ADJACENT_FACES", use_clear=False, use_selected_to_active=False)
             image.pixels.foreach_get(pixels[margin].ravel())
         pixels = pixels[:, ::-1]  # Blender stores the bottom row first
-        return pixels[1].copy(), pixels[0, ..., 3] > 0
+        return pixels[1, ..., :3].copy(), pixels[0, ..., 3] > 0
     finally:
         if copy is not None:
             mesh = copy.data

@@ -306,5 +306,6 @@ def weathered_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes=MODES, 
         coverage = deposit_coverage(sheltered, m, s["time"], s["soiling_level"])
         kd_w = blend(kd_w, s["deposit_color"], per_channel(coverage, kd))
         ks_w = ks_w * (1.0 - coverage)
-        water_w = water_w * per_channel(1.0 - coverage, kd)
+        if WET in modes:
+            water_w = water_w * per_channel(1.0 - coverage, kd)
     return kd_w, ks_w, water_w

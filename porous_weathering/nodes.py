@@ -136,9 +136,8 @@ def porous_weights(kd, ks, alpha, gp, ap):
     return kd_poro, ks_poro
 
 
-def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
+def pore_geometry(m, n_dot_l, n_dot_v):
     m = maximum(m, 0.0)
-    sp = maximum(sp, 0.0)
     n_dot_v = clip(n_dot_v, 0.0, 1.0)
     k = shadowing_k(m)
     if n_dot_l is None:
@@ -146,8 +145,13 @@ def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
     else:
         n_dot_l = clip(n_dot_l, 0.0, 1.0)
         g_light, theta_i = shadowing_g(n_dot_l, k), arccos(n_dot_l)
-    gp = g_light * shadowing_g(n_dot_v, k)
-    nb = bounce_count(sp, theta_i, arccos(n_dot_v))
+    return g_light * shadowing_g(n_dot_v, k), theta_i, arccos(n_dot_v)
+
+
+def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
+    sp = maximum(sp, 0.0)
+    gp, theta_i, theta_r = pore_geometry(m, n_dot_l, n_dot_v)
+    nb = bounce_count(sp, theta_i, theta_r)
     ap = pore_absorption(1.0 - ks - kd, nb)
     return gp, ap
 
@@ -193,3 +197,158 @@ def porous_bsdf(graph, inputs, light_mode):
                                            n_dot_l, n_dot_v)
     bsdf = diffuse_plus_glossy(graph, kd_poro, ks_poro, roughness)
     return {"BSDF": bsdf, "Diffuse Weight": kd_poro, "Specular Weight": ks_poro}
+
+
+# --- weathering (SPEC 4): model.py's weathering section, mirrored ------------------------
+
+#: Near-mirror roughness of the water lobe (a GGX of its own, SPEC 4 "wet surfaces").
+WATER_ROUGHNESS = 0.05
+
+WEATHERING_TOOLTIPS = {
+    "time": "Age t: 0 is the clean material exactly, 1 fully weathered. Keyframe it to animate",
+    "front_width": "Width, in mask units, over which a point goes from clean to fully filled",
+    "rain_map": "Rain exposure E: 1 where rain falls freely, 0 where sheltered",
+    "rain_threshold": "E at and above which rain washes the surface (white area)",
+    "edge_map": "Edge/cavity mask C: carbon fills the pores from the highest C down",
+    "soiling_level": "How far down the edge mask the black area reaches at t = 1",
+    "pollution_color": "k_d,pollution: the carbon in the pores (the paper suggests 0.8; soot is dark)",
+    "deposit_color": "Colour of the grey-area deposit on sheltered, rough surfaces",
+    "wet_level": "How far down the rain map the wet area reaches at t = 1 (lower it to dry)",
+    "water_specular": "k_s,water: the water lobe's weight (about 1)",
+    "efflorescence_map": "Efflorescence location: salt fills the pores from the highest value down",
+    "efflorescence_level": "How far down the location map the salt reaches at t = 1",
+    "salt_color": "k_d,efflo_salt: the salt's diffuse colour (about 0.8)",
+}
+WATER_OUTPUT = {"Water Weight": ("NodeSocketColor", "Weight of the near-mirror water lobe (eq. 8)")}
+
+
+def socket_name(name):
+    """The group input of a model.WEATHERING_INPUTS name: 'rain_map' -> 'Rain Map'."""
+    return name.replace("_", " ").title()
+
+
+def weathering_inputs(modes):
+    """Group inputs (as PORE_INPUTS) of the weathering state that ``modes`` use."""
+    inputs = {}
+    for name in model.inputs_of(modes):
+        default, low, high, _ = model.WEATHERING_INPUTS[name]
+        if isinstance(default, tuple):
+            inputs[socket_name(name)] = ("NodeSocketColor", (*default, 1.0), None, None, WEATHERING_TOOLTIPS[name])
+        else:
+            inputs[socket_name(name)] = ("NodeSocketFloat", default, low, high, WEATHERING_TOOLTIPS[name])
+    if model.WET in modes:
+        inputs["Water Roughness"] = ("NodeSocketFloat", WATER_ROUGHNESS, 0.0, 1.0,
+                                     "Roughness of the water lobe: near 0 is a mirror")
+    return inputs
+
+
+def weathered_group_name(modes, light_mode):
+    return f"PW Weathered {'+'.join(mode.title() for mode in modes)} ({light_mode.title()})"
+
+
+def weathered_group(modes, light_mode):
+    """The group for ``modes`` (only their nodes) in ``light_mode``; no modes: the porous group."""
+    modes = model.weathering_modes(modes)
+    if not modes:
+        return porous_group(light_mode)
+    name = weathered_group_name(modes, light_mode)
+    outputs = {**OUTPUTS, **(WATER_OUTPUT if model.WET in modes else {})}
+    return _reuse(name) or _build(name, lambda graph, inputs: weathered_bsdf(graph, inputs, light_mode, modes),
+                                  {**PORE_INPUTS, **_light_input(light_mode), **weathering_inputs(modes)}, outputs)
+
+
+def weathering_state(state):
+    return {name: clip(value, *model.WEATHERING_INPUTS[name][1:3]) for name, value in state.items()}
+
+
+def fill_curve(progress):
+    x = clip(progress, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def pore_fill(mask, time, level, width):
+    return fill_curve((mask - (1.0 - level * time)) / width)
+
+
+def blend(clean, weathered, fill):
+    return clean + fill * (weathered - clean)
+
+
+def filled_absorption(ka, sp, fill, theta_i, theta_r):
+    nb = bounce_count(sp * (1.0 - fill), theta_i, theta_r)
+    return pore_absorption(ka, nb)
+
+
+def polluted_diffuse(kd, pollution_color, pore, ap):
+    return kd * (1.0 - pore) + pollution_color * pore * (1.0 - ap)
+
+
+def wet_weights(kd, water_specular, pore, ap):
+    return kd * (1.0 - pore), water_specular * pore * (1.0 - ap)
+
+
+def efflorescence_diffuse(kd, salt_color, pore, ap, ks_poro):
+    return minimum(kd * (1.0 - pore * ap) + salt_color * pore * (1.0 - ap), 1.0 - ks_poro)
+
+
+def sheltered_fraction(rain_map, rain_threshold, width):
+    return clip((rain_threshold - rain_map) / width, 0.0, 1.0)
+
+
+def deposit_coverage(sheltered, m, time, level):
+    return sheltered * m / (m + model.DEPOSIT_HALF_ROUGHNESS) * (level * time)
+
+
+def weathered_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, **state):
+    """model.weathered_coefficients; ``modes`` already checked, ``state`` holds every input they use."""
+    s = weathering_state(state)
+    kd, ks = valid_albedo(kd, ks)
+    m = maximum(m, 0.0)
+    alpha = clip(alpha, 0.0, 1.0)
+    sp = maximum(sp, 0.0)
+    gp, theta_i, theta_r = pore_geometry(m, n_dot_l, n_dot_v)
+    ka = 1.0 - ks - kd
+    kd_w, ks_w = porous_weights(kd, ks, alpha, gp, filled_absorption(ka, sp, 0.0, theta_i, theta_r))
+    pore = alpha * gp
+    water_w = 0.0
+    if model.SOILING in modes:
+        sheltered = sheltered_fraction(s["rain_map"], s["rain_threshold"], s["front_width"])
+        carbon = sheltered * pore_fill(s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
+        ap = filled_absorption(ka, sp, carbon, theta_i, theta_r)
+        kd_w = blend(kd_w, polluted_diffuse(kd, s["pollution_color"], pore, ap), carbon)
+    if model.EFFLORESCENCE in modes:
+        salt = pore_fill(s["efflorescence_map"], s["time"], s["efflorescence_level"], s["front_width"])
+        ap = filled_absorption(ka, sp, salt, theta_i, theta_r)
+        salty = efflorescence_diffuse(kd, s["salt_color"], pore, ap, ks_w)
+        kd_w = blend(kd_w, salty, salt)
+    if model.WET in modes:
+        water = pore_fill(s["rain_map"], s["time"], s["wet_level"], s["front_width"])
+        ap = filled_absorption(ka, sp, water, theta_i, theta_r)
+        kd_wet, water_lobe = wet_weights(kd, s["water_specular"], pore, ap)
+        kd_w = blend(kd_w, kd_wet, water)
+        water_w = water * water_lobe
+    if model.SOILING in modes:  # the deposit lies on top of whatever fills the pores
+        coverage = deposit_coverage(sheltered, m, s["time"], s["soiling_level"])
+        kd_w = blend(kd_w, s["deposit_color"], coverage)
+        ks_w = ks_w * (1.0 - coverage)
+        if model.WET in modes:
+            water_w = water_w * (1.0 - coverage)
+    return kd_w, ks_w, water_w
+
+
+def weathered_bsdf(graph, inputs, light_mode, modes):
+    """The weathered group's body: the porous lobes with weathered weights, plus the water lobe."""
+    n_dot_l, n_dot_v = shading_cosines(graph, inputs, light_mode)
+    roughness = inputs["Roughness"]
+    state = {name: inputs[socket_name(name)] for name in model.inputs_of(modes)}
+    kd_w, ks_w, water_w = weathered_coefficients(inputs["Base Color"], inputs["Specular"], roughness,
+                                                 inputs["Porosity"], inputs["Pore Depth Ratio"],
+                                                 n_dot_l, n_dot_v, modes, **state)
+    bsdf = diffuse_plus_glossy(graph, kd_w, ks_w, roughness)
+    results = {"BSDF": bsdf, "Diffuse Weight": kd_w, "Specular Weight": ks_w}
+    if model.WET in modes:
+        water = graph.node("ShaderNodeBsdfGlossy", {"Color": water_w, "Roughness": inputs["Water Roughness"]},
+                           distribution="GGX")
+        results["BSDF"] = graph.node("ShaderNodeAddShader", [bsdf, water.outputs[0]]).outputs[0]
+        results["Water Weight"] = water_w
+    return results

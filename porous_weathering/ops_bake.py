@@ -11,7 +11,7 @@ class PW_OT_bake_maps(bpy.types.Operator):
 
     bl_idname = "porous_weathering.bake_maps"
     bl_label = "Bake Weathering Maps"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}
 
     maps: bpy.props.EnumProperty(
         name="Maps", options={"ENUM_FLAG"}, default={"rain"},

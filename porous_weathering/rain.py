@@ -49,6 +49,8 @@ class RainSettings:
     def __post_init__(self):
         if not 0.0 < self.cone <= 89.0:
             raise ValueError(f"rain cone half-angle must be in (0, 89] degrees, not {self.cone}")
+        if not math.isfinite(self.wind_azimuth):
+            raise ValueError(f"wind azimuth must be a finite number of degrees, not {self.wind_azimuth}")
         if not 0.0 <= self.wind_tilt <= 90.0:
             raise ValueError(f"wind tilt must be in [0, 90] degrees, not {self.wind_tilt}")
         if self.samples < 1:

@@ -53,8 +53,11 @@ def add_sun(scene, towards=(0.0, 0.0, 1.0), strength=3.0, name="Sun"):
 
 def aim_sun(sun, towards):
     """Rotate a sun so that the unit vector towards it is ``towards`` (its local +Z)."""
+    towards = Vector(towards)
+    if not towards.length > 0.0:
+        raise ValueError(f"cannot aim the sun '{sun.name}' along a zero-length (or NaN) direction")
     sun.rotation_mode = "XYZ"
-    sun.rotation_euler = Vector(towards).normalized().to_track_quat("Z", "Y").to_euler("XYZ")
+    sun.rotation_euler = towards.normalized().to_track_quat("Z", "Y").to_euler("XYZ")
 
 
 def add_point_light(scene, location, power=1000.0, name="Lamp", kind="POINT"):

@@ -1,24 +1,16 @@
 """The committed node-group asset library: assets in catalogs, and what build_assets.py builds."""
 
-import importlib.util
 import pathlib
 
 import bpy
 import pytest
 
 from porous_weathering import assets
+from generators import OLDEST_LINE, load_script
 
 NODE_GROUPS = pathlib.Path(__file__).resolve().parent.parent / "node_groups"
 
-
-def load_build_script():
-    spec = importlib.util.spec_from_file_location("build_assets", NODE_GROUPS / "build_assets.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-build_assets = load_build_script()
+build_assets = load_script("node_groups/build_assets.py")
 
 
 def catalogs(path):
@@ -51,6 +43,11 @@ def test_committed_groups_are_assets_in_catalogs_with_previews():
         assert known.get(group["catalog"], "").startswith("Porous Weathering/"), name
         assert group["description"], name
         assert group["preview"] == (build_assets.PREVIEW_SIZE,) * 2, name
+
+
+def test_committed_file_is_saved_by_the_oldest_line():
+    bpy.ops.wm.open_mainfile(filepath=str(NODE_GROUPS / build_assets.FILENAME))
+    assert bpy.data.version[:2] == OLDEST_LINE, "rebuild it with the bpy module of the oldest line"
 
 
 def test_committed_file_is_what_the_script_builds(tmp_path):

@@ -122,7 +122,7 @@ def test_sobel_kernels_and_filter_on_a_step():
     """A vertical step of 1/2 in one channel: S_v = 4 * 1/2, S_h = 0, so C = 1 on both sides."""
     normals = np.full((6, 6, 3), 0.5, dtype=np.float32)
     normals[:, 3:, 0] = 1.0
-    mask = edges.sobel_edge_mask(normals, np.ones((6, 6), dtype=bool))
+    mask = edges.sobel_edge_mask(normals)
     assert np.allclose(mask[:, 2:4], 1.0) and np.allclose(mask[:, [0, 5]], 0.0)
     assert np.allclose(mask[:, 1], 0.0) and np.allclose(mask[:, 4], 0.0)
 

@@ -73,7 +73,7 @@ def test_zip_is_valid_and_holds_only_the_extension(plain_zip):
 
 
 INSTALL = textwrap.dedent("""
-    import json, os, sys
+    import importlib, json, os, sys
     import bpy
 
     def operator_registered():
@@ -95,6 +95,8 @@ INSTALL = textwrap.dedent("""
     installed = os.path.join(os.path.dirname(package.__file__), "node_groups")
     assert os.path.samefile(library.path, installed), (library.path, installed)
     assert os.path.isfile(os.path.join(installed, "porous_weathering_assets.blend"))
+    api = importlib.import_module(module + ".porous_weathering")  # the documented installed import
+    assert api.make_preset_material("BRICK")["pw_preset"] == "BRICK"
     # Blender unpacks the wheels of enabled extensions into a site-packages of the user config.
     sites = [path for path in sys.path if path.startswith(os.environ["BLENDER_USER_EXTENSIONS"])]
     unpacked = sorted(name for site in sites if os.path.isdir(site) for name in os.listdir(site))

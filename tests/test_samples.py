@@ -1,7 +1,6 @@
 """The committed sample scenes: they open, have porous preset materials, render, and are what
 sample_blends/build_samples.py builds."""
 
-import importlib.util
 import pathlib
 
 import bpy
@@ -9,18 +8,11 @@ import numpy as np
 import pytest
 
 from porous_weathering import render
+from generators import OLDEST_LINE, load_script
 
 SAMPLES = pathlib.Path(__file__).resolve().parent.parent / "sample_blends"
 
-
-def load_build_script():
-    spec = importlib.util.spec_from_file_location("build_samples", SAMPLES / "build_samples.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-build_samples = load_build_script()
+build_samples = load_script("sample_blends/build_samples.py")
 
 
 def meshes(scene):
@@ -28,10 +20,11 @@ def meshes(scene):
 
 
 def summary(path):
-    """What must not change between builds: objects, their sizes and materials."""
+    """What must not change between builds: objects, their sizes and materials, the node groups."""
     bpy.ops.wm.open_mainfile(filepath=str(path))
-    return [(obj.name, len(obj.data.vertices), len(obj.data.polygons), [m.name for m in obj.data.materials])
-            for obj in meshes(bpy.context.scene)]
+    objects = [(obj.name, len(obj.data.vertices), len(obj.data.polygons), [m.name for m in obj.data.materials])
+               for obj in meshes(bpy.context.scene)]
+    return objects, sorted((group.name, len(group.nodes)) for group in bpy.data.node_groups)
 
 
 @pytest.mark.parametrize("name", build_samples.SAMPLES)
@@ -39,6 +32,7 @@ def test_sample_opens_with_porous_materials_and_renders(name):
     path = SAMPLES / f"{name}.blend"
     assert path.stat().st_size < 2_000_000
     bpy.ops.wm.open_mainfile(filepath=str(path))
+    assert bpy.data.version[:2] == OLDEST_LINE, "rebuild it with the bpy module of the oldest line"
     scene = bpy.context.scene
     assert scene.camera is not None and scene.render.engine == "CYCLES"
     assert any(obj.type == "LIGHT" and obj.data.type == "SUN" for obj in scene.objects)

@@ -1,0 +1,167 @@
+"""Scale: bake the maps of a 2M-triangle scan-like mesh and measure peak memory and time.
+
+Each stage runs in a child process of its own; its peak resident memory is the child's
+``ru_maxrss`` (from ``os.wait4``), so stages do not hide each other's peaks. The stages go
+through the real pipeline, ``bake.bake_maps``:
+
+- ``build``: only make the mesh (the baseline: Python, bpy and the mesh itself);
+- ``rain-attribute``: rain exposure to the per-corner colour attribute ``pw_rain``;
+- ``rain-image``: rain exposure to a float EXR on the mesh's own (non-overlapping) UV map;
+- ``edges-attribute``: the curvature edge mask to the colour attribute ``pw_edges``;
+
+then the curvature alone (``edges.curvature``) at growing sizes, to show it is linear.
+
+    /tmp/venv52/bin/python benchmarks/bench_scale.py [--triangles 2000000] [--samples 16]
+        [--resolution 2048] [--sizes 125000 250000 500000 1000000 2000000] [--json out.json]
+
+The mesh is a heightfield (a weathered wall: waves, ridges and pits) of triangles with planar
+UVs in [0, 1], so the image bake reuses them (xatlas on a 2M-triangle scan is not measured
+here). Rain time grows linearly with ``--samples`` (docs/reliability.md gives the numbers).
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+GIB = 1024 ** 3
+LIMIT_BYTES = 8 * GIB
+DEFAULT_EDGE_RADIUS = 0.05  # bake.DEFAULT_EDGE_RADIUS, which the stages use
+STAGES = ("build", "rain-attribute", "rain-image", "edges-attribute")
+
+
+def heightfield(name, triangles):
+    """A linked mesh object of about ``triangles`` triangles: an n x n grid of quads, each cut
+    in two, its height a sum of waves, ridges and pits; UVs planar in [0, 1]."""
+    import bpy
+    import numpy as np
+
+    n = max(1, int(round((triangles / 2) ** 0.5)))
+    u = np.linspace(0.0, 1.0, n + 1)
+    x, y = np.meshgrid(u, u, indexing="xy")
+    z = (0.05 * np.sin(12 * x) * np.cos(9 * y) + 0.02 * np.abs(np.sin(40 * x + 3 * y))
+         - 0.03 * np.exp(-((x - 0.4) ** 2 + (y - 0.6) ** 2) / 0.002))
+    positions = np.stack([x * 4.0, y * 4.0, z], axis=-1).reshape(-1, 3).astype(np.float32)
+
+    a = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()  # lower-left vertex of each quad
+    b, c, d = a + 1, a + n + 2, a + n + 1
+    tris = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)]).astype(np.int32)
+
+    mesh = bpy.data.meshes.new(name)
+    mesh.vertices.add(len(positions))
+    mesh.vertices.foreach_set("co", positions.ravel())
+    mesh.loops.add(tris.size)
+    mesh.loops.foreach_set("vertex_index", tris.ravel())
+    mesh.polygons.add(len(tris))
+    mesh.polygons.foreach_set("loop_start", np.arange(0, tris.size, 3, dtype=np.int32))
+    mesh.update(calc_edges=True)
+    layer = mesh.uv_layers.new(name="UVMap")
+    uvs = positions[tris.ravel(), :2] / 4.0
+    layer.data.foreach_set("uv", np.clip(uvs, 0.0, 1.0).ravel())
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    bpy.context.view_layer.update()
+    return obj
+
+
+def child(args):
+    """Run one stage in this process and print its timings as JSON."""
+    sys.path.insert(0, ROOT)
+    import bpy
+
+    from porous_weathering import bake, edges, rain
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    start = time.perf_counter()
+    obj = heightfield("Scan", args.triangles)
+    result = {"stage": args.child, "triangles": len(obj.data.polygons), "vertices": len(obj.data.vertices),
+              "build_s": time.perf_counter() - start}
+    settings = rain.RainSettings(samples=args.samples)
+    start = time.perf_counter()
+    if args.child == "rain-attribute":
+        bake.bake_maps([obj], bake.BakeOptions(maps=("rain",), target="attribute", rain_settings=settings))
+        assert rain.RAIN_ATTRIBUTE in obj.data.color_attributes
+    elif args.child == "rain-image":
+        with tempfile.TemporaryDirectory() as out:
+            [outcome] = bake.bake_maps([obj], bake.BakeOptions(maps=("rain",), resolution=args.resolution,
+                                                               out_dir=out, rain_settings=settings))
+            assert outcome.status == "written" and os.path.getsize(outcome.where) > 0
+    elif args.child == "edges-attribute":
+        bake.bake_maps([obj], bake.BakeOptions(maps=("edges",), target="attribute"))
+        assert edges.EDGE_ATTRIBUTE in obj.data.color_attributes
+    elif args.child == "curvature":
+        edges.curvature(obj, bake.DEFAULT_EDGE_RADIUS)
+    result["stage_s"] = time.perf_counter() - start
+    print("RESULT " + json.dumps(result), flush=True)
+
+
+def run_child(stage, triangles, args):
+    """(timings dict, peak resident bytes) of one stage run in a fresh child process."""
+    command = [sys.executable, os.path.abspath(__file__), "--child", stage, "--triangles", str(triangles),
+               "--samples", str(args.samples), "--resolution", str(args.resolution)]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    output = process.stdout.read()
+    _, status, usage = os.wait4(process.pid, 0)
+    process.returncode = os.waitstatus_to_exitcode(status)
+    lines = [line[7:] for line in output.splitlines() if line.startswith("RESULT ")]
+    if process.returncode != 0 or not lines:
+        raise RuntimeError(f"stage {stage} at {triangles} triangles failed (exit {process.returncode})")
+    return json.loads(lines[-1]), usage.ru_maxrss * 1024  # ru_maxrss is in KiB on Linux
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--triangles", type=int, default=2_000_000)
+    parser.add_argument("--samples", type=int, default=16, help="rain samples per corner / texel")
+    parser.add_argument("--resolution", type=int, default=2048, help="rain image size")
+    parser.add_argument("--sizes", type=int, nargs="+", default=[125_000, 250_000, 500_000, 1_000_000, 2_000_000],
+                        help="triangle counts for the curvature linearity series")
+    parser.add_argument("--stages", nargs="+", default=list(STAGES), choices=STAGES)
+    parser.add_argument("--json", help="also write the results here")
+    parser.add_argument("--child", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        return child(args)
+
+    import bpy  # noqa: F401  (only to report the version)
+
+    report = {"blender": bpy.app.version_string, "cpus": os.cpu_count(), "samples": args.samples,
+              "resolution": args.resolution, "stages": [], "curvature": []}
+    print(f"Blender {bpy.app.version_string}, {os.cpu_count()} CPUs, rain samples {args.samples}, "
+          f"image {args.resolution}^2, limit {LIMIT_BYTES / GIB:.0f} GiB")
+    print(f"{'stage':16} {'triangles':>10} {'build s':>8} {'stage s':>8} {'peak GiB':>9}")
+    for stage in args.stages:
+        timings, peak = run_child(stage, args.triangles, args)
+        timings["peak_bytes"] = peak
+        report["stages"].append(timings)
+        print(f"{stage:16} {timings['triangles']:>10} {timings['build_s']:8.1f} {timings['stage_s']:8.1f} "
+              f"{peak / GIB:9.2f}{'  OVER THE LIMIT' if peak > LIMIT_BYTES else ''}", flush=True)
+
+    print(f"\ncurvature (edges.curvature, radius {DEFAULT_EDGE_RADIUS} scene units)")
+    print(f"{'triangles':>10} {'seconds':>8} {'us / triangle':>14} {'peak GiB':>9}")
+    for size in args.sizes:
+        timings, peak = run_child("curvature", size, args)
+        timings["peak_bytes"] = peak
+        report["curvature"].append(timings)
+        print(f"{timings['triangles']:>10} {timings['stage_s']:8.2f} {1e6 * timings['stage_s'] / timings['triangles']:14.2f} "
+              f"{peak / GIB:9.2f}", flush=True)
+    series = report["curvature"]
+    if len(series) >= 2:
+        per_triangle = [t["stage_s"] / t["triangles"] for t in series]
+        report["curvature_time_ratio_largest_to_smallest_per_triangle"] = per_triangle[-1] / per_triangle[0]
+        print(f"time per triangle, largest / smallest size: {per_triangle[-1] / per_triangle[0]:.2f} "
+              "(1.0 is exactly linear)")
+    worst = max((t["peak_bytes"] for t in report["stages"] + series), default=0)
+    print(f"largest peak: {worst / GIB:.2f} GiB of {LIMIT_BYTES / GIB:.0f} GiB")
+    if args.json:
+        with open(args.json, "w") as handle:
+            json.dump(report, handle, indent=2)
+    return 0 if worst <= LIMIT_BYTES else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,17 @@
+"""The repo's generator scripts (they are not in a package), loaded as modules for the tests."""
+
+import importlib.util
+import pathlib
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+#: Generated .blend files are saved by the oldest supported Blender line, so that every line opens them.
+OLDEST_LINE = (4, 5)
+
+
+def load_script(relative_path):
+    path = ROOT / relative_path
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module

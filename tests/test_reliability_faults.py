@@ -1,0 +1,278 @@
+"""Faults mid-way: a bake cancelled, killed or out of disk space leaves the previous maps whole
+and the scene as it was; undo restores the scene after each operation; a saved file keeps
+materials, maps (relative paths and packed) and keyframed animation.
+
+Undo headless: ``bpy.ops.ed.undo`` works in background mode once there are undo steps, but
+an operator run from Python pushes none there (its UNDO flag only acts with a window), so
+these tests push a step before and after each operation themselves, as the UI does.
+"""
+
+import os
+import pathlib
+import shutil
+import signal
+import subprocess
+import sys
+
+import bpy
+import numpy as np
+import pytest
+
+import porous_weathering
+from bad_meshes import cube, snapshot
+from porous_weathering import bake, imageio, rain, studio, ui, uv
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+FAST = dict(resolution=16, rain_settings=rain.RainSettings(samples=2))
+
+
+def planes(scene, count=2):
+    return [studio.add_plane(scene, name=f"Stone {i}", size=1.0) for i in range(count)]
+
+
+def place(objects):
+    for i, obj in enumerate(objects):
+        obj.location.x = 3.0 * i
+    bpy.context.view_layer.update()
+
+
+def cancel_after(steps):
+    """A ``cancelled()`` hook that lets ``steps`` steps start, then asks to stop."""
+    asked = []
+
+    def cancelled():
+        asked.append(None)
+        return len(asked) > steps
+
+    return cancelled
+
+
+def test_cancelled_image_bake_keeps_the_previous_maps_and_the_scene(fresh_scene, tmp_path):
+    stones = planes(fresh_scene)
+    place(stones)
+    out = tmp_path / "maps"
+    bake.bake_maps(stones, bake.BakeOptions(out_dir=str(out), **FAST))
+    previous = {path.name: path.read_bytes() for path in out.iterdir()}
+    before = snapshot(stones)
+    changed = bake.BakeOptions(out_dir=str(out), resolution=16, rain_settings=rain.RainSettings(samples=2, cone=30))
+    with pytest.raises(bake.BakeCancelled):
+        bake.bake_maps(stones, changed, cancelled=cancel_after(1))
+    assert snapshot(stones) == before
+    assert (out / "Stone 1.rain.exr").read_bytes() == previous["Stone 1.rain.exr"]  # untouched
+    assert (out / "Stone 0.rain.exr").read_bytes() != previous["Stone 0.rain.exr"]  # the finished step
+    assert sorted(p.name for p in out.iterdir()) == sorted(previous)  # no temporary files
+    for path in out.iterdir():
+        assert np.isfinite(imageio.read_image(path)[0]).all()
+
+
+def test_cancelled_attribute_bake_keeps_the_previous_attribute(fresh_scene):
+    stones = planes(fresh_scene)
+    place(stones)
+    bake.bake_maps(stones, bake.BakeOptions(target="attribute", **FAST))
+    mesh = stones[1].data
+    previous = (np.array([c.color[0] for c in mesh.color_attributes[rain.RAIN_ATTRIBUTE].data]),
+                mesh[f"{rain.RAIN_ATTRIBUTE}_inputs"])
+    before = snapshot(stones)
+    changed = bake.BakeOptions(target="attribute", rain_settings=rain.RainSettings(samples=2, cone=30))
+    with pytest.raises(bake.BakeCancelled):
+        bake.bake_maps(stones, changed, cancelled=cancel_after(1))
+    assert snapshot(stones) == before
+    assert np.array_equal([c.color[0] for c in mesh.color_attributes[rain.RAIN_ATTRIBUTE].data], previous[0])
+    assert mesh[f"{rain.RAIN_ATTRIBUTE}_inputs"] == previous[1]
+
+
+def test_cancel_before_any_map_removes_the_new_lightmap(fresh_scene, tmp_path):
+    stone = cube(fresh_scene, "Bare")
+    assert not stone.data.uv_layers
+    before = snapshot([stone])
+    with pytest.raises(bake.BakeCancelled):
+        bake.bake_maps([stone], bake.BakeOptions(maps=("rain", "edges"), out_dir=str(tmp_path), **FAST),
+                       cancelled=cancel_after(0))
+    assert snapshot([stone]) == before and list(tmp_path.iterdir()) == []
+    with pytest.raises(bake.BakeCancelled):  # one map done: the lightmap it lies on stays
+        bake.bake_maps([stone], bake.BakeOptions(maps=("rain", "edges"), out_dir=str(tmp_path), **FAST),
+                       cancelled=cancel_after(1))
+    assert [layer.name for layer in stone.data.uv_layers] == [uv.LIGHTMAP_UV]
+    assert [p.name for p in tmp_path.iterdir()] == ["Bare.rain.exr"]
+
+
+# --- a bake process killed or out of space ---------------------------------------------------
+
+CHILD = r"""
+import os, resource, signal, sys, time
+import bpy
+from porous_weathering import bake, imageio, rain
+blend, out, mode = sys.argv[1:4]
+bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False, use_scripts=False)
+if mode == "kill-in-cycles":
+    original = rain._bake
+    def announced(*args, **kwargs):
+        print("BAKING", flush=True)
+        time.sleep(0.3)
+        return original(*args, **kwargs)
+    rain._bake = announced
+elif mode == "kill-before-rename":
+    def stalled(source, target):
+        print("TEMPORARY WRITTEN", flush=True)
+        time.sleep(120)
+    imageio.os.replace = stalled
+elif mode == "disk-full":
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a full disk: writes fail with EFBIG, not a signal
+    resource.setrlimit(resource.RLIMIT_FSIZE, (64, resource.RLIM_INFINITY))
+options = bake.BakeOptions(out_dir=out, resolution=64, rain_settings=rain.RainSettings(samples=2, cone=40))
+try:
+    bake.bake_maps([bpy.data.objects["Stone 0"]], options)
+except OSError as error:
+    print("ERROR", error, flush=True)
+    sys.exit(3)
+"""
+
+
+@pytest.fixture
+def baked(fresh_scene, tmp_path):
+    """(blend path, map folder, previous map bytes): one plane, its rain map already baked."""
+    [stone] = planes(fresh_scene, 1)
+    out = tmp_path / "maps"
+    [outcome] = bake.bake_maps([stone], bake.BakeOptions(out_dir=str(out), **FAST))
+    blend = tmp_path / "wall.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    return blend, out, pathlib.Path(outcome.where).read_bytes()
+
+
+def start_child(blend, out, mode):
+    return subprocess.Popen([sys.executable, "-c", CHILD, str(blend), str(out), mode], cwd=ROOT,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def assert_previous_map_intact(out, previous):
+    path = out / "Stone 0.rain.exr"
+    assert path.read_bytes() == previous
+    pixels, metadata = imageio.read_image(path)
+    assert pixels.shape == (16, 16, 1) and bake.HASH_KEY in metadata
+
+
+@pytest.mark.parametrize("mode, signal_line", [("kill-in-cycles", "BAKING"),
+                                               ("kill-before-rename", "TEMPORARY WRITTEN")])
+def test_killed_bake_leaves_the_previous_map_whole(baked, mode, signal_line):
+    blend, out, previous = baked
+    child = start_child(blend, out, mode)
+    try:
+        lines = iter(child.stdout.readline, "")  # Blender logs lines of its own first
+        assert any(line.strip() == signal_line for line in lines), child.stderr.read()
+        child.send_signal(signal.SIGKILL)
+    finally:
+        child.wait(timeout=60)
+        child.stdout.close()
+        child.stderr.close()
+    assert child.returncode == -signal.SIGKILL
+    assert_previous_map_intact(out, previous)
+    leftovers = sorted(p.name for p in out.iterdir() if p.name != "Stone 0.rain.exr")
+    # killed between writing and renaming, the whole new map is left as a hidden temporary file
+    assert all(name.startswith(".pw_") and name.endswith(".exr") for name in leftovers)
+    assert len(leftovers) == (mode == "kill-before-rename")
+
+
+def test_full_disk_fails_clearly_and_keeps_the_previous_map(baked):
+    blend, out, previous = baked
+    child = start_child(blend, out, "disk-full")
+    stdout, stderr = child.communicate(timeout=120)
+    assert child.returncode == 3, stderr[-2000:]
+    assert "ERROR cannot write image" in stdout and "Stone 0.rain.exr" in stdout
+    assert_previous_map_intact(out, previous)
+    assert sorted(p.name for p in out.iterdir()) == ["Stone 0.rain.exr"]  # the temporary file is removed
+
+
+# --- undo ----------------------------------------------------------------------------------------
+
+
+OPERATORS = [cls for cls in ui.CLASSES if issubclass(cls, bpy.types.Operator)]
+@pytest.mark.parametrize("operator", OPERATORS, ids=[cls.__name__ for cls in OPERATORS])
+def test_every_operator_is_undoable(operator):
+    assert {"REGISTER", "UNDO"} <= operator.bl_options
+
+
+def undo_restores(operation, names):
+    """Run ``operation`` between two undo pushes, undo, and compare snapshots of ``names``."""
+    before = snapshot([bpy.data.objects[name] for name in names])
+    bpy.ops.ed.undo_push(message="before")
+    operation()
+    bpy.ops.ed.undo_push(message="after")
+    changed = snapshot([bpy.data.objects[name] for name in names])
+    bpy.ops.ed.undo()
+    after = snapshot([bpy.data.objects[name] for name in names])  # objects are new Python objects now
+    return before, changed, after
+
+
+@pytest.fixture
+def registered():
+    porous_weathering.register()
+    yield
+    porous_weathering.unregister()
+
+
+def test_undo_after_adding_a_porous_material(fresh_scene, registered):
+    sphere = studio.add_sphere(fresh_scene, segments=8, rings=4)
+    bpy.context.view_layer.objects.active = sphere
+    before, changed, after = undo_restores(bpy.ops.porous_weathering.add_porous_material, ["Sphere"])
+    assert changed != before and after == before
+
+
+@pytest.mark.parametrize("target", ["attribute", "image"])
+def test_undo_after_a_bake(fresh_scene, tmp_path, target):
+    cube(fresh_scene, "Bare")  # no UV map: an image bake adds the lightmap
+
+    def bake_it():
+        bake.bake_maps([bpy.data.objects["Bare"]], bake.BakeOptions(maps=("rain", "edges"), target=target,
+                                                                    out_dir=str(tmp_path), **FAST))
+
+    before, changed, after = undo_restores(bake_it, ["Bare"])
+    assert changed != before and after == before
+
+
+# --- saving and reopening ------------------------------------------------------------------------
+
+
+def test_saved_file_keeps_materials_maps_and_animation(fresh_scene, tmp_path):
+    stone = studio.add_plane(fresh_scene, name="Stone", size=1.0)
+    sun = studio.add_sun(fresh_scene, (0.3, 0.2, 0.9))
+    material = porous_weathering.make_porous_material("Weathered", porosity=0.1, key_light=sun)
+    studio.assign(stone, material)
+    porosity = material.node_tree.nodes["Porous"].inputs["Porosity"]
+    for frame, value in ((1, 0.1), (20, 0.4)):
+        porosity.default_value = value
+        porosity.keyframe_insert("default_value", frame=frame)
+        sun.rotation_euler.x = value
+        sun.keyframe_insert("rotation_euler", index=0, frame=frame)
+
+    project = tmp_path / "project"
+    options = bake.BakeOptions(maps=("rain", "edges"), out_dir=str(project / "maps"), **FAST)
+    bake.bake_maps([stone], options)
+    bake.bake_maps([stone], bake.BakeOptions(target="attribute", **FAST))
+    bpy.ops.wm.save_as_mainfile(filepath=str(project / "wall.blend"))
+    bake.link_images([stone], options)
+    edges_image = bpy.data.images[stone["pw_edges_image"]]
+    edges_image.pack()
+    edges_pixels = np.array(edges_image.pixels[:])
+    rain_before = [c.color[0] for c in stone.data.color_attributes[rain.RAIN_ATTRIBUTE].data]
+    bpy.ops.wm.save_mainfile()
+
+    moved = tmp_path / "moved elsewhere"
+    shutil.move(project, moved)  # relative paths must follow the project
+    os.remove(moved / "maps" / "Stone.edges.exr")  # the packed map needs no file
+    bpy.ops.wm.open_mainfile(filepath=str(moved / "wall.blend"), load_ui=False, use_scripts=False)
+
+    stone, sun = bpy.data.objects["Stone"], bpy.data.objects["Sun"]
+    material = stone.active_material
+    assert material.name == "Weathered" and material["pw_light_mode"] == "SUN"
+    assert len(material.node_tree.animation_data.drivers) == 3
+    rain_image = bpy.data.images[stone["pw_rain_image"]]
+    assert rain_image.filepath == "//maps/Stone.rain.exr" and tuple(rain_image.size) == (16, 16)
+    assert np.allclose(np.array(rain_image.pixels[:])[0::4], 1.0, atol=0.05)
+    edges_image = bpy.data.images[stone["pw_edges_image"]]
+    assert edges_image.packed_file is not None and np.array_equal(np.array(edges_image.pixels[:]), edges_pixels)
+    assert [c.color[0] for c in stone.data.color_attributes[rain.RAIN_ATTRIBUTE].data] == rain_before
+    porosity = material.node_tree.nodes["Porous"].inputs["Porosity"]
+    for frame, value in ((1, 0.1), (20, 0.4), (10.5, 0.25)):
+        bpy.context.scene.frame_set(int(frame), subframe=frame % 1)
+        assert porosity.default_value == pytest.approx(value, abs=0.06 if frame % 1 else 1e-6)
+        assert sun.rotation_euler.x == pytest.approx(value, abs=0.06 if frame % 1 else 1e-6)

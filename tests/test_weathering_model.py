@@ -1,0 +1,208 @@
+"""The weathering section of model.py (SPEC 4): exactness at t = 0, bounds and monotone aging;
+and the efflorescence location maps."""
+
+import warnings
+
+import bpy
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from porous_weathering import efflorescence_map, imageio, model
+
+SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+TIMES = np.linspace(0.0, 1.0, 41)
+MODE_SETS = [(model.SOILING,), (model.WET,), (model.EFFLORESCENCE,), model.MODES]
+
+unit = st.floats(0.0, 1.0)
+colour = st.tuples(unit, unit, unit)
+
+
+@st.composite
+def stones(draw):
+    """Valid porous parameters (k_d + k_s <= 1) and a light/view pair; None is the ambient mode."""
+    kd = np.array(draw(colour))
+    ks = draw(unit) * (1.0 - kd.max())
+    n_dot_l = draw(st.one_of(st.none(), unit))
+    return dict(kd=kd, ks=ks, m=draw(st.floats(0.0, 1.5)), alpha=draw(unit), sp=draw(st.floats(0.0, 10.0)),
+                n_dot_l=n_dot_l, n_dot_v=draw(unit))
+
+
+@st.composite
+def masks(draw):
+    return dict(rain_map=draw(unit), edge_map=draw(unit), efflorescence_map=draw(unit),
+                front_width=draw(st.floats(0.01, 1.0)), rain_threshold=draw(unit))
+
+
+def weathered(stone, modes, **state):
+    used = set(model.inputs_of(modes))
+    return model.weathered_coefficients(stone["kd"], stone["ks"], stone["m"], stone["alpha"], stone["sp"],
+                                        stone["n_dot_l"], stone["n_dot_v"], modes,
+                                        **{name: value for name, value in state.items() if name in used})
+
+
+def over_time(stone, modes, **state):
+    """(k_d, k_s, k_water) at every time in TIMES, time on the first axis."""
+    kd_w, ks_w, water_w = weathered(stone, modes, time=TIMES, **state)
+    return kd_w, np.broadcast_to(ks_w, TIMES.shape)[:, None], water_w
+
+
+@SETTINGS
+@given(stone=stones(), state=masks(), modes=st.sampled_from(MODE_SETS))
+def test_time_zero_is_the_clean_material_exactly(stone, state, modes):
+    clean = model.porous_coefficients(stone["kd"], stone["ks"], stone["m"], stone["alpha"], stone["sp"],
+                                      stone["n_dot_l"], stone["n_dot_v"])
+    kd_w, ks_w, water_w = weathered(stone, modes, time=0.0, **state)
+    assert np.array_equal(kd_w, clean[0]) and np.array_equal(ks_w, clean[1])
+    assert not water_w.any()
+
+
+@SETTINGS
+@given(stone=stones(), state=masks(), modes=st.sampled_from(MODE_SETS))
+def test_no_energy_is_created_and_all_is_finite(stone, state, modes):
+    kd_w, ks_w, water_w = over_time(stone, modes, **state)
+    total = kd_w + ks_w + water_w
+    assert np.isfinite(total).all()
+    assert kd_w.min() >= 0.0 and ks_w.min() >= 0.0 and water_w.min() >= 0.0
+    assert total.max() <= 1.0 + 1e-12
+
+
+@SETTINGS
+@given(stone=stones(), state=masks(), darkness=unit)
+def test_soiling_darkens(stone, state, darkness):
+    """With black carbon and a deposit darker than the stone's pore-free part, every step darkens."""
+    deposit = stone["kd"] * (1.0 - stone["alpha"]) * darkness
+    kd_w, ks_w, _ = over_time(stone, model.SOILING, pollution_color=(0.0, 0.0, 0.0), deposit_color=deposit, **state)
+    assert (np.diff(kd_w, axis=0) <= 1e-12).all()
+    assert (np.diff(ks_w, axis=0) <= 1e-12).all()
+
+
+@SETTINGS
+@given(stone=stones(), state=masks())
+def test_wetting_darkens_the_diffuse_and_raises_the_specular(stone, state):
+    kd_w, ks_w, water_w = over_time(stone, model.WET, **state)
+    assert (np.diff(kd_w, axis=0) <= 1e-12).all()
+    assert (np.diff(ks_w + water_w, axis=0) >= -1e-12).all()
+    assert (np.diff(water_w, axis=0) >= -1e-12).all()
+
+
+@SETTINGS
+@given(stone=stones(), state=masks(), salt=unit)
+def test_efflorescence_whitens(stone, state, salt):
+    """Salt at least as bright as the stone's specular coefficient (white salt: 0.8) whitens."""
+    salt = stone["ks"] + salt * (1.0 - stone["ks"])
+    kd_w, _, _ = over_time(stone, model.EFFLORESCENCE, salt_color=(salt,) * 3, **state)
+    assert (np.diff(kd_w, axis=0) >= -1e-12).all()
+
+
+def test_each_mode_changes_what_the_paper_says():
+    """Soaked pores: eq. (9) diffuse and a water lobe; salt-filled: eq. (11) with s_p = 0;
+    carbon-filled: eq. (7) with s_p = 0, under no deposit (smooth stone, m = 0)."""
+    kd, ks, alpha = np.array([0.6, 0.5, 0.4]), 0.1, 0.3
+    stone = dict(kd=kd, ks=ks, m=0.0, alpha=alpha, sp=3.0, n_dot_l=0.8, n_dot_v=0.9)
+    full = dict(time=1.0, front_width=0.1)
+    gp = 1.0  # m = 0: no shadowing at all
+    kd_w, ks_w, water_w = weathered(stone, model.WET, rain_map=1.0, **full)
+    assert np.allclose(kd_w, kd * (1 - alpha * gp)) and np.allclose(water_w, alpha * gp)
+    assert np.isclose(ks_w, ks * (1 - alpha * gp))
+    kd_w, _, _ = weathered(stone, model.EFFLORESCENCE, efflorescence_map=1.0, salt_color=(0.8,) * 3, **full)
+    assert np.allclose(kd_w, np.minimum(kd + 0.8 * alpha * gp, 1 - ks * (1 - alpha * gp)))
+    pollution = np.array([0.02, 0.03, 0.04])
+    kd_w, _, _ = weathered(stone, model.SOILING, edge_map=1.0, pollution_color=pollution, **full)
+    assert np.allclose(kd_w, kd * (1 - alpha * gp) + pollution * alpha * gp)
+
+
+def test_white_area_stays_clean_and_grey_area_takes_the_deposit():
+    stone = dict(kd=np.array([0.7, 0.6, 0.5]), ks=0.1, m=0.8, alpha=0.3, sp=2.0, n_dot_l=0.7, n_dot_v=0.9)
+    clean = weathered(stone, model.SOILING, time=0.0)
+    washed = weathered(stone, model.SOILING, time=1.0, rain_map=0.9, edge_map=1.0)
+    assert np.array_equal(washed[0], clean[0])
+    deposit = np.array([0.3, 0.29, 0.27])
+    grey = weathered(stone, model.SOILING, time=1.0, rain_map=0.0, edge_map=0.0, deposit_color=deposit)
+    coverage = 0.8 / (0.8 + model.DEPOSIT_HALF_ROUGHNESS)
+    assert np.allclose(grey[0], clean[0] + coverage * (deposit - clean[0]))
+    assert np.isclose(grey[1], clean[1] * (1 - coverage))
+
+
+def test_fill_curve_has_three_phases():
+    x = np.linspace(0.0, 1.0, 1001)
+    f = model.fill_curve(x)
+    assert f[0] == 0.0 and f[-1] == 1.0 and (np.diff(f) >= 0).all()
+    slope = np.gradient(f, x)
+    slow_end, fast_end = (3 - np.sqrt(3)) / 6, (3 + np.sqrt(3)) / 6  # where the rate is the mean rate
+    assert (slope[x < slow_end - 1e-3] < 1).all() and (slope[(x > slow_end + 1e-3) & (x < fast_end - 1e-3)] > 1).all()
+    assert model.fill_curve(1.7) == 1.0 and model.fill_curve(-0.2) == 0.0  # saturated, and not started
+
+
+def test_the_front_reaches_the_highest_mask_first():
+    fills = model.pore_fill(np.array([1.0, 0.8, 0.5]), 0.3, 1.0, 0.25)
+    assert fills[0] > fills[1] > fills[2] == 0.0
+
+
+@pytest.mark.parametrize("name, value, clamped", [("time", 1.7, 1.0), ("time", -0.3, 0.0),
+                                                   ("rain_map", 2.0, 1.0), ("edge_map", np.nan, 0.0),
+                                                   ("front_width", 0.0, 0.01)])
+def test_out_of_range_inputs_are_clamped_with_a_warning(name, value, clamped):
+    stone = dict(kd=np.array([0.6, 0.5, 0.4]), ks=0.1, m=0.5, alpha=0.3, sp=2.0, n_dot_l=0.7, n_dot_v=0.9)
+    base = dict(time=0.6, rain_map=0.2, edge_map=0.8, front_width=0.2)
+    with pytest.warns(model.PorousInputWarning, match=name):
+        result = weathered(stone, model.MODES, **{**base, name: value})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        expected = weathered(stone, model.MODES, **{**base, name: clamped})
+    for got, want in zip(result, expected):
+        assert np.array_equal(got, want) and np.isfinite(got).all()
+
+
+def test_modes_and_inputs_are_checked():
+    with pytest.raises(ValueError, match="rust"):
+        model.weathering_modes(("soiling", "rust"))
+    with pytest.raises(TypeError, match="wetness"):
+        model.weathering_state(model.WET, {"wetness": 1.0})
+    with pytest.warns(model.PorousInputWarning, match="salt_color"):
+        model.weathering_state(model.WET, {"salt_color": (1, 1, 1)})
+    assert model.weathering_modes(["wet", "soiling"]) == ("soiling", "wet")
+    assert "edge_map" not in model.inputs_of(model.WET) and "salt_color" not in model.inputs_of(model.SOILING)
+
+
+# --- efflorescence location maps --------------------------------------------------------
+
+
+def test_brick_map_is_highest_along_the_joints():
+    height = efflorescence_map.brick_joint_map(128, rows=8, bricks_per_row=4, noise=0.0)
+    assert height.shape == (128, 128) and height.dtype == np.float32
+    assert height.min() == 0.0 and height.max() == 1.0
+    bed_joint, brick_middle = height[64], height[72]  # v = 0.5 is a joint; v = 0.4375 mid-course
+    assert bed_joint.min() > 0.99 and np.median(brick_middle) < 0.1  # head joints cross it too
+    noisy = efflorescence_map.brick_joint_map(128, seed=1)
+    assert np.array_equal(noisy, efflorescence_map.brick_joint_map(128, seed=1))
+    assert not np.array_equal(noisy, efflorescence_map.brick_joint_map(128, seed=2))
+
+
+def test_photo_map_is_denoised_normalised_luminance(tmp_path):
+    """A bright salt patch on dark brick, with salt-and-pepper grain: the map keeps the patch."""
+    rng = np.random.default_rng(0)
+    photo = np.full((64, 64, 3), (0.35, 0.12, 0.08), dtype=np.float32)
+    photo[20:44, 10:54] = 0.9
+    grain = rng.random((64, 64)) < 0.03
+    photo[grain] = rng.choice([0.0, 1.0], size=(grain.sum(), 1))
+    path = tmp_path / "salt.png"
+    imageio.write_image(path, photo)
+    height = efflorescence_map.photo_map(path, denoise_width=3)
+    assert height.min() == 0.0 and height.max() == 1.0
+    assert height[24:40, 14:50].min() > 0.95 and height[:14].max() < 0.05  # grain gone, patch kept
+    with pytest.raises(OSError, match="gone.png"):
+        efflorescence_map.photo_map(tmp_path / "gone.png")
+
+
+def test_map_is_saved_beside_the_blend(tmp_path):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with pytest.raises(ValueError, match="save the .blend"):
+        efflorescence_map.default_path("Wall")
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
+    path = efflorescence_map.save_map(efflorescence_map.brick_joint_map(32), efflorescence_map.default_path("Wall"))
+    assert path == str(tmp_path / "Wall.efflorescence.exr")
+    assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temporary left
+    pixels, _ = imageio.read_image(path)
+    assert np.array_equal(pixels[..., 0], efflorescence_map.brick_joint_map(32))

@@ -1,0 +1,193 @@
+"""Rendered weathered materials against model.py, pixel by pixel (Cycles CPU, fixed seed).
+
+A weathered pixel must equal k_d D + k_s G + k_water W, where D, G and W are renders of a
+white Lambert, a white GGX of the stone's roughness and a white GGX of the water's
+roughness, and the weights come from model.weathered_coefficients at that pixel's normal
+and mask values (read from probe renders).
+"""
+
+import bpy
+import numpy as np
+import pytest
+
+import porous_weathering as pw
+from lit_sphere import LitSphere
+from porous_weathering import model, nodes, render, studio, weathering
+from test_porous_render import TOLERANCE, assert_matches
+
+STONE = dict(base_color=(0.62, 0.55, 0.45), ks=0.08, roughness=0.6, porosity=0.35, pore_depth_ratio=2.5)
+WATER_ROUGHNESS = 0.3  # a lobe wide enough to be seen under a sun of angle 0
+
+#: Mask values that leave every fill partial, so each term of each mode shows.
+STATES = {
+    "soiling": dict(time=0.45, rain_map=0.35, edge_map=0.75, pollution_color=(0.05, 0.04, 0.03)),
+    "wet": dict(time=0.6, rain_map=0.55, water_specular=0.9),
+    "efflorescence": dict(time=0.5, efflorescence_map=0.62, salt_color=(0.85, 0.8, 0.75)),
+    "soiling+wet+efflorescence": dict(time=0.7, rain_map=0.4, edge_map=0.6, efflorescence_map=0.5),
+}
+
+
+def weathered(name, modes, key_light=None, **state):
+    return pw.make_weathered_material(name, modes=modes, key_light=key_light, water_roughness=WATER_ROUGHNESS,
+                                      **STONE, **state)
+
+
+def lobes(render_with, roughness):
+    """White Lambert, white GGX at the stone's roughness and at the water's."""
+    diffuse = render_with(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0, roughness=roughness))
+    glossy = render_with(pw.make_base_material("G", base_color=(0, 0, 0), ks=1.0, roughness=roughness))
+    water = render_with(pw.make_base_material("W", base_color=(0, 0, 0), ks=1.0, roughness=WATER_ROUGHNESS))
+    return diffuse[..., :3], glossy[..., :3], water[..., :3]
+
+
+def expected_image(weights, lobe_images):
+    kd_w, ks_w, water_w = weights
+    diffuse, glossy, water = lobe_images
+    return kd_w * diffuse + np.asarray(ks_w)[..., None] * glossy + water_w * water
+
+
+def model_weights(modes, n_dot_l, n_dot_v, **state):
+    p = STONE
+    return model.weathered_coefficients(p["base_color"], p["ks"], p["roughness"], p["porosity"],
+                                        p["pore_depth_ratio"], n_dot_l, n_dot_v, modes, **state)
+
+
+@pytest.mark.parametrize("modes", list(STATES))
+def test_key_light_matches_model(fresh_scene, modes):
+    sphere = LitSphere(fresh_scene)
+    image = sphere.render(weathered("Weathered", modes.split("+"), key_light=sphere.sun, **STATES[modes]))
+    n_dot_l, n_dot_v = sphere.cosines()
+    expected = expected_image(model_weights(modes.split("+"), n_dot_l, n_dot_v, **STATES[modes]),
+                              lobes(sphere.render, STONE["roughness"]))
+    assert_matches(image, expected, sphere.covered & (n_dot_l > 0.0))
+
+
+def test_ambient_matches_model(fresh_scene):
+    modes = "soiling+wet+efflorescence"
+    sphere = LitSphere(fresh_scene)
+    image = sphere.render(weathered("Weathered", modes.split("+"), **STATES[modes]))
+    n_dot_l, n_dot_v = sphere.cosines()
+    expected = expected_image(model_weights(modes.split("+"), None, n_dot_v, **STATES[modes]),
+                              lobes(sphere.render, STONE["roughness"]))
+    assert_matches(image, expected, sphere.covered & (n_dot_l > 0.0))
+
+
+@pytest.mark.parametrize("light", ["key", "ambient"])
+def test_time_zero_renders_the_clean_material_exactly(fresh_scene, light):
+    sphere = LitSphere(fresh_scene)
+    key_light = sphere.sun if light == "key" else None
+    clean = sphere.render(pw.make_porous_material("Clean", key_light=key_light, **STONE))
+    state = {**STATES["soiling+wet+efflorescence"], "time": 0.0}
+    aged = sphere.render(weathered("New", model.MODES, key_light=key_light, **state))
+    assert np.array_equal(aged, clean)
+
+
+class MaskedPlane:
+    """A plane facing +Z under a tilted sun, its masks varying across it."""
+
+    def __init__(self, scene, size=32):
+        self.scene = scene
+        self.plane = studio.add_plane(scene)
+        self.sun = studio.add_sun(scene, (0.5, 0.3, 0.8))
+        studio.add_ortho_camera(scene)
+        render.use_cycles(scene, size=size, samples=1)
+
+    def render(self, material):
+        studio.assign(self.plane, material)
+        return render.render_array(self.scene)
+
+    def probe(self, source):
+        """Per-pixel values of a mask source, read through the same nodes the material uses."""
+        probe = studio.emission_probe("Mask Probe", lambda graph, geometry: weathering.mask_socket(graph, source))
+        return self.render(probe)[..., 0]
+
+
+def gradient_image(name, values):
+    """A float image whose rows are ``values`` (a 2D array, top row last as Blender stores it)."""
+    height, width = values.shape
+    image = bpy.data.images.new(name, width, height, float_buffer=True, is_data=True)
+    rgba = np.repeat(values[..., None], 4, axis=-1).astype(np.float32)
+    rgba[..., 3] = 1.0
+    image.pixels.foreach_set(rgba.ravel())
+    return image
+
+
+def test_image_and_attribute_masks_match_model(fresh_scene):
+    """Rain and edge maps from images, the efflorescence map from a colour attribute."""
+    plane = MaskedPlane(fresh_scene)
+    ramp = np.linspace(0.0, 1.0, 16)
+    rain = gradient_image("Rain", np.tile(ramp, (16, 1)))
+    edge = gradient_image("Edge", np.tile(ramp[:, None], (1, 16)))
+    salt = plane.plane.data.color_attributes.new("salt", "FLOAT_COLOR", "POINT")
+    for corner, value in zip(salt.data, (0.0, 0.3, 1.0, 0.6)):
+        corner.color = (value, value, value, 1.0)
+    state = dict(time=0.55, front_width=0.3)
+    image = plane.render(weathered("Masked", model.MODES, key_light=plane.sun, rain_map=rain, edge_map=edge,
+                                   efflorescence_map="salt", **state))
+    masks = dict(rain_map=plane.probe(rain), edge_map=plane.probe(edge), efflorescence_map=plane.probe("salt"))
+    covered = image[..., 3] > 0.999
+    n_dot_l = np.dot(np.array(plane.sun.matrix_world.to_3x3().col[2]), (0.0, 0.0, 1.0))
+    expected = expected_image(model_weights(model.MODES, n_dot_l, 1.0, **state, **masks),
+                              lobes(plane.render, STONE["roughness"]))
+    assert np.ptp(masks["rain_map"][covered]) > 0.8 and np.ptp(masks["efflorescence_map"][covered]) > 0.8
+    assert_matches(image, expected, covered)
+
+
+def test_missing_image_renders_as_the_default_constant(fresh_scene, tmp_path):
+    sphere = LitSphere(fresh_scene, size=32)
+    with pytest.warns(model.PorousInputWarning, match="not found"):
+        missing = weathered("Missing", model.EFFLORESCENCE, efflorescence_map=str(tmp_path / "gone.png"), time=0.8)
+    constant = weathered("Constant", model.EFFLORESCENCE, time=0.8)
+    lost = bpy.data.images.new("Lost", 4, 4)
+    lost.source, lost.filepath = "FILE", str(tmp_path / "lost.exr")
+    with pytest.warns(model.PorousInputWarning, match="no pixels"):
+        unloadable = weathered("Unloadable", model.EFFLORESCENCE, efflorescence_map=lost, time=0.8)
+    reference = sphere.render(constant)
+    for material in (missing, unloadable):
+        assert not any(node.type == "TEX_IMAGE" for node in material.node_tree.nodes)
+        assert np.array_equal(sphere.render(material), reference)
+
+
+def test_out_of_range_values_render_clamped(fresh_scene):
+    sphere = LitSphere(fresh_scene, size=32)
+    bright = gradient_image("Bright", np.full((4, 4), 1.6))
+    with pytest.warns(model.PorousInputWarning, match="outside"):
+        over = weathered("Over", model.MODES, time=1.4, rain_map=bright, edge_map=-0.5, efflorescence_map=7.0)
+    inside = weathered("Inside", model.MODES, time=1.0, rain_map=1.0, edge_map=0.0, efflorescence_map=1.0)
+    image = sphere.render(over)
+    assert np.isfinite(image).all()
+    assert np.abs(image - sphere.render(inside)).max() <= TOLERANCE
+
+
+def test_materials_hold_only_their_modes_nodes():
+    groups = {modes: nodes.weathered_group(modes, nodes.SUN) for modes in
+              [(), ("soiling",), ("wet",), ("efflorescence",), model.MODES]}
+    assert groups[()] is nodes.porous_group(nodes.SUN)
+    inputs = {modes: {item.name for item in group.interface.items_tree if item.in_out == "INPUT"}
+              for modes, group in groups.items()}
+    assert "Time" not in inputs[()]
+    assert {"Edge Map", "Pollution Color"} <= inputs[("soiling",)] and "Salt Color" not in inputs[("soiling",)]
+    assert "Rain Map" in inputs[("wet",)] and "Edge Map" not in inputs[("wet",)]
+    assert "Rain Map" not in inputs[("efflorescence",)]
+    for modes, group in groups.items():
+        glossy = [node for node in group.nodes if node.type == "BSDF_GLOSSY"]
+        assert len(glossy) == (2 if "wet" in modes else 1)
+        # one set of porous nodes: theta_i and theta_r are each computed once, whatever the modes
+        arccos = [node for node in group.nodes if node.type == "MATH" and node.operation == "ARCCOSINE"]
+        assert len(arccos) == 2
+        assert len(group.nodes) > len(groups[()].nodes) or modes == ()
+    again = pw.make_weathered_material("Again", modes=("wet",), key_light=None)
+    assert again.node_tree.nodes["Porous"].node_tree is nodes.weathered_group(("wet",), nodes.AMBIENT)
+
+
+def test_time_is_one_keyframe_pair(fresh_scene):
+    material = weathered("Aging", model.SOILING)
+    studio.assign(studio.add_plane(fresh_scene), material)  # only materials in use are evaluated
+    weathering.animate_weathering(material, 1, 101)
+    weathering.animate_weathering(material, 1, 101, input_name="soiling_level", start=0.2, end=0.9)
+    socket = material.node_tree.nodes["Porous"].inputs["Time"]
+    fresh_scene.frame_set(51)
+    assert socket.default_value == pytest.approx(0.5, abs=0.05)
+    fresh_scene.frame_set(101)
+    assert socket.default_value == pytest.approx(1.0)
+    assert material.node_tree.nodes["Porous"].inputs["Soiling Level"].default_value == pytest.approx(0.9)
