@@ -16,6 +16,7 @@ whose stored hash matches is reported "unchanged" and not baked again.
 
 import hashlib
 import json
+import math
 import os
 import sys
 from dataclasses import asdict, dataclass, field
@@ -58,8 +59,10 @@ class BakeOptions:
             raise ValueError(f"maps must be some of {', '.join(MAPS)}, not {', '.join(self.maps) or 'none'}")
         if self.target not in TARGETS:
             raise ValueError(f"target must be one of {', '.join(TARGETS)}, not {self.target!r}")
-        if not 8 <= self.resolution <= 16384:
-            raise ValueError(f"resolution must be between 8 and 16384 texels, not {self.resolution}")
+        if not (self.resolution == int(self.resolution) and 8 <= self.resolution <= 16384):
+            raise ValueError(f"resolution must be a whole number of texels from 8 to 16384, not {self.resolution}")
+        if not (math.isfinite(self.edge_radius) and self.edge_radius > 0.0):
+            raise ValueError(f"edge radius must be a positive number of scene units, not {self.edge_radius}")
 
 
 @dataclass(frozen=True)

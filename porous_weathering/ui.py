@@ -233,28 +233,29 @@ def draw_panel(layout, context):
     col.operator(PW_OT_keyframe_aging.bl_idname, icon="KEY_HLT")
 
 
-class PW_PT_material(bpy.types.Panel):
-    """Porous Weathering: make, bake and age porous materials"""
+class PanelBody:
+    """What both panels draw (one draw, two places)."""
 
     bl_label = "Porous Weathering"
+
+    def draw(self, context):
+        draw_panel(self.layout, context)
+
+
+class PW_PT_material(PanelBody, bpy.types.Panel):
+    """Porous Weathering: make, bake and age porous materials"""
+
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     bl_context = "material"
 
-    def draw(self, context):
-        draw_panel(self.layout, context)
 
-
-class PW_PT_sidebar(bpy.types.Panel):
+class PW_PT_sidebar(PanelBody, bpy.types.Panel):
     """Porous Weathering in the 3D viewport's sidebar: make, bake and age porous materials"""
 
-    bl_label = "Porous Weathering"
     bl_space_type = "VIEW_3D"
     bl_region_type = "UI"
     bl_category = "Weathering"
-
-    def draw(self, context):
-        draw_panel(self.layout, context)
 
 
 CLASSES = (PW_Settings, PW_OT_add_porous_material, PW_OT_make_material, PW_OT_keyframe_aging,
