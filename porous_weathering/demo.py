@@ -81,9 +81,7 @@ def render_aging(out, size, samples, bake_samples):
     render.use_cycles(scene, size=size, samples=samples, bounces=4, pixel_filter=1.5)
     scene.render.resolution_x = size * 4 // 3
     sun = next((obj for obj in scene.objects if obj.type == "LIGHT"), None)
-    preset = presets.PRESETS["LIMESTONE"]
-    stone = dict(base_color=preset.linear_base_color(), ks=preset.ks, roughness=preset.roughness,
-                 porosity=preset.porosity, pore_depth_ratio=preset.pore_depth_ratio, key_light=sun)
+    stone = dict(presets.PRESETS["LIMESTONE"].material_params(), key_light=sun)
     pictures = []
     progress = bake.ProgressBar("rendering the aging sequence")
     for row, (mode, masks) in enumerate(MODE_MASKS.items()):

@@ -14,7 +14,7 @@
 import bpy
 import numpy as np
 
-from . import studio
+from . import scratch_scene, studio
 
 #: The paper's Table 1: S_h responds to changes along the rows (v), S_v along the columns (u).
 SOBEL_H = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], dtype=np.float32)
@@ -24,7 +24,6 @@ SOBEL_V = SOBEL_H.T.copy()
 EDGE_ATTRIBUTE = "pw_edges"
 
 #: Object types that evaluate to a mesh (``Object.to_mesh``).
-GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 
 #: Grids summed by ``smooth_over_radius`` (docs/maps.md: the spread along a straight edge).
 SHIFTS = tuple(np.full(3, k / 4) for k in range(4))
@@ -108,12 +107,11 @@ def bake_world_normals(obj, uv_map_name, resolution):
         texture = probe.node_tree.nodes.new("ShaderNodeTexImage")
         texture.image = image
         probe.node_tree.nodes.active = texture
-        copy = _placed_copy(obj, scene, probe)
+        copy = scratch_scene.placed_copy(obj, scene, probe, own_mesh=True)
         scene.render.engine = "CYCLES"
         scene.cycles.device = "CPU"
         scene.cycles.samples = 1  # deterministic; more samples only box-filter the normals
-        context = dict(scene=scene, view_layer=scene.view_layers[0], object=copy, active_object=copy,
-                       selected_objects=[copy], selected_editable_objects=[copy])
+        context = scratch_scene.only_selected(copy)
         pixels = np.empty((2, resolution, resolution, 4), dtype=np.float32)
         for margin in (0, 1):
             image.pixels.foreach_set(np.zeros(resolution * resolution * 4, dtype=np.float32))
@@ -133,25 +131,6 @@ def bake_world_normals(obj, uv_map_name, resolution):
         bpy.data.images.remove(image)
 
 
-def _placed_copy(obj, scene, material):
-    """A copy of ``obj`` (with its modifiers and its own copy of the mesh) standing where
-    ``obj`` stands, alone in ``scene``, selected and active, showing only ``material``."""
-    copy = obj.copy()
-    copy.data = obj.data.copy()
-    copy.data.materials.clear()
-    copy.data.materials.append(material)
-    for slot in copy.material_slots:
-        slot.link = "DATA"
-    copy.parent = None
-    copy.matrix_world = obj.matrix_world.copy()
-    copy.animation_data_clear()
-    copy.hide_render = False
-    scene.collection.objects.link(copy)
-    copy.select_set(True, view_layer=scene.view_layers[0])
-    scene.view_layers[0].objects.active = copy
-    return copy
-
-
 # --- (b) mean curvature of the evaluated mesh, smoothed over a radius ------------------------
 
 
@@ -169,7 +148,7 @@ def curvature(obj, radius, depsgraph=None):
         raise ValueError(f"curvature radius must be a positive number of scene units, not {radius}")
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh() if obj.type in GEOMETRY_TYPES else None
+    mesh = evaluated.to_mesh() if obj.type in scratch_scene.GEOMETRY_TYPES else None
     try:
         if mesh is None or not mesh.polygons:
             raise ValueError(f"object '{obj.name}' has no faces to measure curvature on")

@@ -19,6 +19,11 @@ class Preset:
     roughness: float  #: m
     description: str
 
+    def material_params(self):
+        """The keyword arguments of make_porous_material (and make_weathered_material) it gives."""
+        return dict(base_color=self.linear_base_color(), ks=self.ks, roughness=self.roughness,
+                    porosity=self.porosity, pore_depth_ratio=self.pore_depth_ratio)
+
     def linear_base_color(self):
         """k_d: the sRGB hex colour decoded to linear RGBA, which is what shaders take."""
         return (*(_srgb_to_linear(int(self.base_color[i:i + 2], 16) / 255) for i in (1, 3, 5)), 1.0)
@@ -58,10 +63,8 @@ def make_preset_material(preset_name, name=None, key_light=None):
         preset = PRESETS[preset_name]
     except KeyError:
         raise ValueError(f"unknown preset {preset_name!r}: choose one of {', '.join(PRESETS)}") from None
-    base_color = preset.linear_base_color()
-    material = make_porous_material(name or preset.label, base_color=base_color, ks=preset.ks,
-                                    roughness=preset.roughness, porosity=preset.porosity,
-                                    pore_depth_ratio=preset.pore_depth_ratio, key_light=key_light)
-    material.diffuse_color = base_color  # the viewport's solid-mode colour
+    params = preset.material_params()
+    material = make_porous_material(name or preset.label, **params, key_light=key_light)
+    material.diffuse_color = params["base_color"]  # the viewport's solid-mode colour
     material["pw_preset"] = preset_name
     return material

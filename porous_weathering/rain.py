@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import compat
+from . import compat, scratch_scene
 from .shader_math import Graph, dot
 from .studio import aim_sun
 
@@ -30,7 +30,6 @@ from .studio import aim_sun
 RAIN_ATTRIBUTE = "pw_rain"
 #: Samples per texel: see benchmarks/bench_rain.py and docs/maps.md.
 DEFAULT_SAMPLES = 64
-GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 
 
 @dataclass(frozen=True)
@@ -71,7 +70,8 @@ def default_occluders(target, collection=None):
         candidates = collection.all_objects
     else:
         candidates = {o for scene in target.users_scene for o in scene.objects}
-    return [o for o in candidates if o.type in GEOMETRY_TYPES and not o.hide_render and o != target]
+    geometry = scratch_scene.GEOMETRY_TYPES
+    return [o for o in candidates if o.type in geometry and not o.hide_render and o != target]
 
 
 def bake_rain_image(obj, uv_map, size, settings=RainSettings(), occluders=(), margin=4):
@@ -109,16 +109,9 @@ def bake_rain_corners(obj, settings=RainSettings(), occluders=()):
 
 
 def _bake(copy, target, margin):
-    with bpy.context.temp_override(**_object_context(copy)):
+    with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
         bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target=target, margin=margin,
                             margin_type="EXTEND", use_clear=True, use_selected_to_active=False)
-
-
-def _object_context(obj):
-    scene = obj.users_scene[0]
-    view_layer = scene.view_layers[0]
-    return dict(scene=scene, view_layer=view_layer, object=obj, active_object=obj,
-                selected_objects=[obj], selected_editable_objects=[obj])
 
 
 @contextmanager
@@ -134,18 +127,13 @@ def _bake_scene(target, occluders, settings):
         surface = compat.new_material("PW Rain Surface")
         made["materials"].append(surface)
 
-        copy = _placed_copy(target, scene, surface, made)
-        copy.data = target.data.copy()
+        copy = scratch_scene.placed_copy(target, scene, surface, own_mesh=True)
+        made["objects"].append(copy)
         made["meshes"].append(copy.data)
-        copy.data.materials.clear()
-        copy.data.materials.append(surface)
-        copy.active_material_index = 0
         for occluder in occluders:
             if occluder != target:
-                _placed_copy(occluder, scene, surface, made)
+                made["objects"].append(scratch_scene.placed_copy(occluder, scene, surface))
         _add_sky(scene, settings, made)
-        copy.select_set(True, view_layer=scene.view_layers[0])
-        scene.view_layers[0].objects.active = copy
         yield copy
     finally:
         for kind in ("objects", "meshes", "lights", "materials", "worlds"):
@@ -153,22 +141,6 @@ def _bake_scene(target, occluders, settings):
             for block in made[kind]:
                 collection.remove(block)
         bpy.data.scenes.remove(scene)
-
-
-def _placed_copy(obj, scene, material, made):
-    """A copy of ``obj`` standing where ``obj`` stands, unparented, its slots showing ``material``."""
-    copy = obj.copy()
-    made["objects"].append(copy)
-    copy.animation_data_clear()
-    copy.constraints.clear()
-    copy.parent = None
-    copy.matrix_world = obj.matrix_world.copy()
-    copy.hide_render = False
-    for slot in copy.material_slots:
-        slot.link = "OBJECT"  # the material is the object's, so the shared mesh is untouched
-        slot.material = material
-    scene.collection.objects.link(copy)
-    return copy
 
 
 def _configure_cycles(scene, settings):

@@ -56,29 +56,34 @@ def render_array(scene=None, path=None):
     if not keep:
         handle, path = tempfile.mkstemp(suffix=".exr", prefix="pw_render_")
         os.close(handle)
-    previous = scene.render.filepath
-    scene.render.filepath = path
     try:
-        bpy.ops.render.render(write_still=True, scene=scene.name)
+        write_still(scene, path)
         return imageio.read_image(path)[0]
     finally:
-        scene.render.filepath = previous
         if not keep:
             os.remove(path)
 
 
 def render_picture(scene, path, view_transform="AgX"):
     """Render ``scene`` to a PNG picture at ``path`` through a display view transform."""
-    settings = scene.render.image_settings
-    previous = (settings.file_format, settings.color_depth, scene.view_settings.view_transform,
-                scene.render.film_transparent, scene.render.filepath)
-    settings.file_format, settings.color_depth = "PNG", "8"
-    scene.view_settings.view_transform = view_transform
-    scene.render.film_transparent = False
-    scene.render.filepath = os.fspath(path)
+    return write_still(scene, path, {
+        (scene.render.image_settings, "file_format"): "PNG",
+        (scene.render.image_settings, "color_depth"): "8",
+        (scene.view_settings, "view_transform"): view_transform,
+        (scene.render, "film_transparent"): False,
+    })
+
+
+def write_still(scene, path, overrides=None):
+    """Render ``scene`` into the file ``path`` with ``{(owner, attribute): value}`` set for the
+    render only; the scene's own settings are restored afterwards."""
+    overrides = {(scene.render, "filepath"): os.fspath(path), **(overrides or {})}
+    previous = {key: getattr(*key) for key in overrides}
     try:
+        for (owner, attribute), value in overrides.items():
+            setattr(owner, attribute, value)
         bpy.ops.render.render(write_still=True, scene=scene.name)
     finally:
-        (settings.file_format, settings.color_depth, scene.view_settings.view_transform,
-         scene.render.film_transparent, scene.render.filepath) = previous
+        for (owner, attribute), value in previous.items():
+            setattr(owner, attribute, value)
     return path

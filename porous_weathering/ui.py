@@ -4,10 +4,22 @@ import warnings
 
 import bpy
 
-from . import bake, material, model, ops_bake, presets, weathering
+from . import bake, material, model, ops_bake, presets, scratch_scene, weathering
 
 
-class PW_OT_add_porous_material(bpy.types.Operator):
+class NeedsMaterialObject:
+    """Operators that give the active object a material: poll for one that can have them."""
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.type not in scratch_scene.GEOMETRY_TYPES:
+            cls.poll_message_set("Select an object that can have materials")
+            return False
+        return True
+
+
+class PW_OT_add_porous_material(NeedsMaterialObject, bpy.types.Operator):
     """Give the active object a new porous material (SPEC 2), lit by the scene's key light or ambient"""
 
     bl_idname = "porous_weathering.add_porous_material"
@@ -19,13 +31,6 @@ class PW_OT_add_porous_material(bpy.types.Operator):
         description="Light whose direction the pore shadowing follows; empty for ambient (environment) lighting",
     )
 
-    @classmethod
-    def poll(cls, context):
-        obj = context.active_object
-        if obj is None or obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
-            cls.poll_message_set("Select an object that can have materials")
-            return False
-        return True
 
     def execute(self, context):
         obj = context.active_object
@@ -105,20 +110,13 @@ def missing_maps(obj, modes):
     return sorted({name for mode in modes for name in MODE_MAPS[mode] if name not in have})
 
 
-class PW_OT_make_material(bpy.types.Operator):
+class PW_OT_make_material(NeedsMaterialObject, bpy.types.Operator):
     """Give the active object a porous material from the chosen stone, light and weathering modes, wired to its baked maps"""
 
     bl_idname = "porous_weathering.make_material"
     bl_label = "Make Porous Material"
     bl_options = {"REGISTER", "UNDO"}
 
-    @classmethod
-    def poll(cls, context):
-        obj = context.active_object
-        if obj is None or obj.type not in {"MESH", "CURVE", "SURFACE", "META", "FONT"}:
-            cls.poll_message_set("Select an object that can have materials")
-            return False
-        return True
 
     def execute(self, context):
         settings = context.scene.porous_weathering
@@ -148,8 +146,7 @@ def build_material(obj, settings):
     else:
         preset = presets.PRESETS[settings.source]
         textures = {}
-        params = dict(base_color=preset.linear_base_color(), ks=preset.ks, roughness=preset.roughness,
-                      porosity=preset.porosity, pore_depth_ratio=preset.pore_depth_ratio)
+        params = preset.material_params()
         name = f"{obj.name} {preset.label}"
     modes = settings.modes()
     if modes:
