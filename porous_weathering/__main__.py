@@ -1,5 +1,3 @@
-import sys
+from porous_weathering.cli import exit_with
 
-from porous_weathering.cli import main
-
-sys.exit(main())
+exit_with()

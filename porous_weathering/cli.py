@@ -7,6 +7,7 @@ Each command lives in its own module, which defines ``configure_parser(parser)``
 
 import argparse
 import importlib
+import os
 import sys
 
 #: command -> (module, relative to this package, so it works installed as bl_ext.*; help)
@@ -31,6 +32,19 @@ def main(argv=None):
     """Parse ``argv`` (default: sys.argv[1:]) and run the command; returns its exit code."""
     args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
     return importlib.import_module(args.module_name, __package__).run(args)
+
+
+def exit_with(argv=None):
+    """Run ``main(argv)`` and end the process with its exit code, skipping bpy's exit-time
+    cleanup: bpy 4.5 can hang for ever in a static destructor at interpreter exit (seen after
+    opening a .blend whose text block is registered as a module), after the work is done."""
+    try:
+        code = main(argv)
+    except SystemExit as error:  # argparse's --help and usage errors
+        code = error.code if isinstance(error.code, int) else 2 if error.code else 0
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(code)
 
 
 _command_handle = None

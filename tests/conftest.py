@@ -1,6 +1,8 @@
 """Every test starts from an empty factory scene; a failing test leaves its .blend in tests/failed/."""
 
+import os
 import pathlib
+import sys
 
 import bpy
 import pytest
@@ -26,3 +28,18 @@ def pytest_runtest_makereport(item, call):
         except RuntimeError as error:
             report.sections.append(("failed scene", f"could not be saved: {error}"))
     return report
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_unconfigure(config):
+    """Leave without bpy's exit-time cleanup, once pytest has reported: bpy 4.5 can hang for
+    ever in a static destructor at interpreter exit (seen at the end of the full suite)."""
+    status = getattr(config, "_pw_exit_status", None)
+    if status is not None:  # a session ran (not --help or --version)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    session.config._pw_exit_status = int(exitstatus)

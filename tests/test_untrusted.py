@@ -138,7 +138,7 @@ import sys
 import bpy
 bpy.context.preferences.filepaths.use_scripts_auto_execute = True  # a user who trusts their own files
 from porous_weathering import cli
-sys.exit(cli.main(["bake", sys.argv[1], "--out", sys.argv[2], "--resolution", "16", "--samples", "1"]))
+cli.exit_with(["bake", sys.argv[1], "--out", sys.argv[2], "--resolution", "16", "--samples", "1"])
 """
 
 

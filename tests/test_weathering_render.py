@@ -133,8 +133,6 @@ def test_image_and_attribute_masks_match_model(fresh_scene):
     assert_matches(image, expected, covered)
 
 
-@pytest.mark.skipif(bpy.app.version < (5, 0, 0), reason="hangs (idle, on a futex) in bpy 4.5 when run after the rest "
-                    "of the suite, though it passes alone: under investigation, see the issue note")
 def test_missing_image_renders_as_the_default_constant(fresh_scene, tmp_path):
     sphere = LitSphere(fresh_scene, size=32)
     with pytest.warns(model.PorousInputWarning, match="not found"):
