@@ -89,15 +89,37 @@ def image_path(out_dir, object_name, map_name):
     return os.path.join(out_dir, f"{safe}.{map_name}.exr")
 
 
-def check_targets(objects):
-    """Raise ValueError naming the first object that cannot be baked."""
+def check_targets(objects, options=BakeOptions()):
+    """Raise ValueError naming the first object that cannot be baked with ``options``, before
+    anything is written."""
     if not objects:
         raise ValueError("no objects to bake")
+    owners = {}
     for obj in objects:
         if obj.type != "MESH":
             raise ValueError(f"object '{obj.name}' has no mesh (its type is {obj.type}): only meshes can be baked")
         if not obj.data.polygons:
             raise ValueError(f"object '{obj.name}' has a mesh without faces: nothing to bake on")
+        library = obj.library or obj.data.library
+        if library is not None:  # UV maps and attributes added to library data are lost on save
+            raise ValueError(f"object '{obj.name}' is linked from the library {library.filepath}: "
+                             "make it local before baking")
+        if options.target == "attribute":
+            owners.setdefault(obj.data.name, []).append(obj.name)
+            if "edges" in options.maps:
+                _check_vertices_kept(obj)
+    shared = next((names for names in owners.values() if len(names) > 1), None)
+    if shared:  # one mesh holds one attribute: each object would overwrite the others' map
+        raise ValueError(f"objects {', '.join(repr(n) for n in shared)} share one mesh, which can hold only "
+                         "one colour-attribute map: bake them to images, or make their meshes single-user")
+
+
+def _check_vertices_kept(obj):
+    """The edge attribute is per vertex of the mesh: modifiers must not change the vertex count."""
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    if len(evaluated.data.vertices) != len(obj.data.vertices):
+        raise ValueError(f"object '{obj.name}': its modifiers change the vertex count, so the edge attribute "
+                         "cannot follow its mesh; apply the modifiers or bake edges to an image")
 
 
 def check_writable_folder(folder):
@@ -134,7 +156,7 @@ def iter_bake(objects, options=BakeOptions(), *, dry_run=False):
     """Generate the Steps of the bake (see the module docstring). Closing the generator
     early (cancel) undoes the lightmap UV map of the object in progress if none of its maps
     was written."""
-    check_targets(objects)
+    check_targets(objects, options)
     if options.target == "image" and not dry_run:
         check_writable_folder(options.out_dir)
     digests = _Digests()

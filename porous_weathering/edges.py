@@ -11,6 +11,8 @@
   concave < 0.
 """
 
+import math
+
 import bpy
 import numpy as np
 
@@ -280,6 +282,8 @@ def _grid_sums(scaled, normals, integrated, area):
 def curvature_mask(curvature_values, radius, part="both", saturation=DEFAULT_SATURATION):
     """C in [0, 1] from signed curvature: the dimensionless H * radius / ``saturation``,
     of the convex part (H > 0), the concave part (H < 0) or both (|H|), clipped to [0, 1]."""
+    if not (math.isfinite(saturation) and saturation > 0.0):
+        raise ValueError(f"saturation must be a positive number, not {saturation}")
     scaled = np.asarray(curvature_values, dtype=np.float64) * radius / saturation
     parts = {"convex": scaled, "concave": -scaled, "both": np.abs(scaled)}
     if part not in parts:
@@ -290,11 +294,13 @@ def curvature_mask(curvature_values, radius, part="both", saturation=DEFAULT_SAT
 def write_edge_attribute(obj, mask, name=EDGE_ATTRIBUTE):
     """Store ``mask`` (one value per vertex of ``obj``'s mesh) as the grey colour attribute
     ``name`` (FLOAT_COLOR, per point), replacing any old one only once the new one is whole."""
+    if obj.type != "MESH":
+        raise ValueError(f"object '{obj.name}' is not a mesh (its type is {obj.type}): "
+                         "an edge attribute needs mesh vertices")
     mask = np.asarray(mask, dtype=np.float32)
-    if obj.type != "MESH" or mask.shape != (len(obj.data.vertices),):
+    if mask.shape != (len(obj.data.vertices),):
         raise ValueError(f"object '{obj.name}': {mask.shape[0] if mask.ndim else 0} mask values for "
-                         f"{len(obj.data.vertices) if obj.type == 'MESH' else 0} mesh vertices "
-                         "(modifiers that add vertices must be applied first)")
+                         f"{len(obj.data.vertices)} mesh vertices (modifiers that add vertices must be applied first)")
     colours = np.ones((len(mask), 4), dtype=np.float32)
     colours[:, :3] = np.clip(np.nan_to_num(mask), 0.0, 1.0)[:, None]
     attributes = obj.data.color_attributes

@@ -154,8 +154,6 @@ def test_curvature_radius_far_too_small_is_refused_not_exhausting_memory(fresh_s
         edges.curvature(obj, 1e-6)
 
 
-@pytest.mark.xfail(strict=True, reason="edges.curvature_mask divides by saturation unchecked: 0 raises a "
-                                       "RuntimeWarning (divide by zero), NaN returns a NaN mask")
 @pytest.mark.parametrize("saturation", [0.0, NAN])
 def test_curvature_mask_refuses_a_saturation_that_is_not_positive(saturation):
     with pytest.raises(ValueError, match="saturation"):

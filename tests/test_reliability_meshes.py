@@ -30,21 +30,10 @@ REFUSED = {
     ("unapplied modifiers", "attribute"): "modifiers",
 }
 
-#: Cases that do not yet behave as REFUSED / "works whole" says (strict: they flip when fixed).
-KNOWN_BUGS = {
-    ("linked library data", "image"):
-        "bake.check_targets accepts linked meshes: the lightmap UV map is added to library data and lost on save",
-    ("linked library data", "attribute"):
-        "bake.check_targets accepts linked meshes: pw_rain/pw_edges are written into library data, lost on save",
-    ("unapplied modifiers", "attribute"):
-        "bake_maps writes pw_rain, then edges.write_edge_attribute refuses the modified mesh: a half-done bake",
-}
 
 
 def cases():
-    return [pytest.param(name, operation, id=f"{name}-{operation}",
-                         marks=[pytest.mark.xfail(strict=True, reason=KNOWN_BUGS[name, operation])]
-                         if (name, operation) in KNOWN_BUGS else [])
+    return [pytest.param(name, operation, id=f"{name}-{operation}")
             for name in BUILDERS for operation in ("operator", "image", "attribute")]
 
 
@@ -146,8 +135,6 @@ def test_inside_out_cube_is_rained_on_or_refused(fresh_scene, tmp_path):
     assert face_means(obj, values)[(0, 0, -1)] == pytest.approx(1.0, abs=0.05)  # its top face's normal points down
 
 
-@pytest.mark.xfail(strict=True, reason="bake_maps writes the attribute of a shared mesh once per object: the last "
-                                       "object's rain overwrites the others' (no refusal, no warning)")
 def test_objects_sharing_a_mesh_are_not_baked_over_each_other(fresh_scene, tmp_path):
     twin_a = BUILDERS["shared mesh"](fresh_scene, tmp_path)
     twin_b = bpy.data.objects["Twin B"]
@@ -173,8 +160,6 @@ def test_shared_mesh_gets_one_lightmap_and_a_map_file_per_object(fresh_scene, tm
 
 
 @pytest.mark.parametrize("case", ["curve", "text"])
-@pytest.mark.xfail(strict=True, reason="edges.write_edge_attribute tells a curve/text object to apply its "
-                                       "modifiers ('N mask values for 0 mesh vertices') instead of saying it is not a mesh")
 def test_curvature_attribute_on_a_curve_says_it_is_not_a_mesh(fresh_scene, case):
     obj = BUILDERS[case](fresh_scene, None)
     bpy.context.view_layer.update()
