@@ -3,9 +3,10 @@
     python node_groups/build_assets.py [--out DIR]     (the bpy module; commit with the 4.5 line,
                                                         the oldest we support, so every line reads it)
 
-Every node group in ASSETS is built by the package's own builders into an empty file, marked
-as an asset with a catalog, a description and a rendered preview, and saved beside its
-blender_assets.cats.txt. The same code gives the same groups: tests/test_assets.py rebuilds
+Every node group in ASSETS (the porous BRDF and the soiling, wet-surface and efflorescence
+groups, each in the three light modes) is built by the package's own builders into an empty
+file, marked as an asset with a catalog, a description and a rendered preview (weathering
+groups fully weathered), and saved beside its blender_assets.cats.txt. The same code gives the same groups: tests/test_assets.py rebuilds
 the file and compares it with the committed one.
 """
 
@@ -13,7 +14,7 @@ import argparse
 import pathlib
 import sys
 import uuid
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import bpy
@@ -21,7 +22,7 @@ import bpy
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from porous_weathering import compat, nodes, render, studio  # noqa: E402
+from porous_weathering import compat, model, nodes, render, studio  # noqa: E402
 
 FILENAME = "porous_weathering_assets.blend"
 CATALOGS_FILENAME = "blender_assets.cats.txt"
@@ -38,16 +39,34 @@ class Asset:
     build: Callable[[], "bpy.types.NodeTree"]
     catalog: str  #: the catalog path, "/"-separated
     description: str
+    #: Group inputs (model.WEATHERING_INPUTS names) set for the preview only, so that it shows
+    #: the weathered look rather than the new stone of the defaults (time = 0).
+    preview_inputs: dict = field(default_factory=dict)
 
 
-#: One line per node group; the weathering groups join here.
-ASSETS = (
-    Asset(lambda: nodes.porous_group(nodes.SUN), "Porous Weathering/Porous BRDF",
-          "Porous BRDF (Merillou et al. 2000) lit by a key sun: wire its direction to Light Direction"),
-    Asset(lambda: nodes.porous_group(nodes.POINT), "Porous Weathering/Porous BRDF",
-          "Porous BRDF lit by a key point, spot or area light: wire its position to Light Position"),
-    Asset(lambda: nodes.porous_group(nodes.AMBIENT), "Porous Weathering/Porous BRDF",
-          "Porous BRDF for environment lighting: pore shadowing averaged over the sky"),
+LIGHTS = {
+    nodes.SUN: "lit by a key sun: wire its direction to Light Direction",
+    nodes.POINT: "lit by a key point, spot or area light: wire its position to Light Position",
+    nodes.AMBIENT: "for environment lighting: pore shadowing averaged over the sky",
+}
+#: Each weathering mode: its catalog, what it does, and the masks of a fully weathered preview.
+WEATHERING = {
+    model.SOILING: ("Soiling", "Soiling (white, grey and black areas) from a rain map and an edge map",
+                    dict(time=1.0, rain_map=0.0, edge_map=1.0)),
+    model.WET: ("Wet Surfaces", "Wet surface: water fills the pores where the rain map is highest first",
+                dict(time=1.0, rain_map=1.0)),
+    model.EFFLORESCENCE: ("Efflorescence", "Efflorescence: salt fills the pores where the location map is "
+                                           "highest first", dict(time=1.0, efflorescence_map=1.0)),
+}
+
+#: Every node group of the library: the porous BRDF, then each weathering mode, in each light mode.
+ASSETS = tuple(
+    Asset(lambda light=light: nodes.porous_group(light), "Porous Weathering/Porous BRDF",
+          f"Porous BRDF (Merillou et al. 2000) {text}") for light, text in LIGHTS.items()
+) + tuple(
+    Asset(lambda mode=mode, light=light: nodes.weathered_group((mode,), light), f"Porous Weathering/{catalog}",
+          f"{summary}, on the porous BRDF, {text}; Time ages it from new (0) to weathered (1)", preview)
+    for mode, (catalog, summary, preview) in WEATHERING.items() for light, text in LIGHTS.items()
 )
 
 
@@ -71,8 +90,9 @@ def write_catalogs(path):
     path.write_text("\n".join(lines) + "\n")
 
 
-def render_preview(group):
-    """A small Cycles render of a sphere shaded by ``group`` (its first shader output)."""
+def render_preview(group, inputs):
+    """A small Cycles render of a sphere shaded by ``group`` (its first shader output), with the
+    weathering ``inputs`` set."""
     scene = bpy.context.scene
     shader_outputs = [s for s in group.interface.items_tree
                       if s.item_type == "SOCKET" and s.in_out == "OUTPUT" and s.socket_type == "NodeSocketShader"]
@@ -86,6 +106,8 @@ def render_preview(group):
     for name, value in (("Light Direction", PREVIEW_SUN), ("Light Position", tuple(10 * c for c in PREVIEW_SUN))):
         if name in node.inputs:
             node.inputs[name].default_value = value
+    for name, value in inputs.items():
+        node.inputs[nodes.socket_name(name)].default_value = value
     output = tree.nodes.new("ShaderNodeOutputMaterial")
     tree.links.new(node.outputs[shader_outputs[0].name], output.inputs["Surface"])
     sphere = studio.add_sphere(scene, segments=32, rings=16)
@@ -127,7 +149,7 @@ def build(out_dir=HERE):
         group.asset_data.catalog_id = catalog_id(asset.catalog)
         group.asset_data.description = asset.description
         group.asset_data.author = AUTHOR
-        pixels = render_preview(group)
+        pixels = render_preview(group, asset.preview_inputs)
         if pixels is not None:
             set_preview(group, pixels)
     # Only the node groups stay in the file.

@@ -19,7 +19,7 @@ import json
 import math
 import os
 import sys
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import bpy
 import numpy as np
@@ -30,6 +30,9 @@ MAPS = ("rain", "edges")
 TARGETS = ("image", "attribute")
 ATTRIBUTES = {"rain": rain.RAIN_ATTRIBUTE, "edges": "pw_edges"}
 HASH_KEY = "pw:inputs"
+#: The EXR header field naming the UV map an image map was baked on (weathered materials read
+#: the image through it, weathering.image_uv_map).
+UV_MAP_KEY = "pw:uv_map"
 DEFAULT_RESOLUTION = 512
 #: Texels filled around every UV island (and packed between xatlas charts).
 MARGIN = 4
@@ -209,7 +212,7 @@ def _bake_one(obj, map_name, options, uv_map, inputs, dry_run):
 
     if options.target == "image":
         pixels = _bake_image(obj, map_name, options, uv_map)
-        imageio.write_image(where, pixels, metadata={HASH_KEY: inputs, "pw:map": map_name, "pw:uv_map": uv_map})
+        imageio.write_image(where, pixels, metadata={HASH_KEY: inputs, "pw:map": map_name, UV_MAP_KEY: uv_map})
     elif map_name == "rain":
         occluders = rain.default_occluders(obj, options.occluders)
         write_corner_attribute(mesh, where, rain.bake_rain_corners(obj, options.rain_settings, occluders))
@@ -320,6 +323,12 @@ def configure_parser(parser):
                         help="side the rain is driven from, degrees from +X towards +Y (default: 0)")
     parser.add_argument("--wind-tilt", type=float, default=0.0, metavar="DEG",
                         help="lean of the mean rain direction from the vertical (default: 0, vertical rain)")
+    parser.add_argument("--edge-radius", type=float, default=DEFAULT_EDGE_RADIUS, metavar="M",
+                        help="scene units over which the curvature of attribute edge maps (--maps edges --target "
+                             f"attribute) is smoothed (default: {DEFAULT_EDGE_RADIUS:g}; docs/maps.md)")
+    parser.add_argument("--occluders", metavar="COLLECTION",
+                        help="only the objects of this collection (children included) shelter the baked objects "
+                             "from rain (default: every other object of the scene)")
     parser.add_argument("--out", default=".", metavar="DIR", help="folder of the image maps (default: .)")
     parser.add_argument("--save", action="store_true",
                         help="store the maps in the .blend (attributes, or images linked by relative path, "
@@ -342,7 +351,7 @@ def run(args):
     """The ``bake`` command; returns the exit code (0: every requested map was written)."""
     try:
         options = BakeOptions(maps=args.maps, target=args.target, resolution=args.resolution,
-                              out_dir=os.path.abspath(args.out),
+                              out_dir=os.path.abspath(args.out), edge_radius=args.edge_radius,
                               rain_settings=rain.RainSettings(cone=args.rain_cone, wind_azimuth=args.wind_azimuth,
                                                      wind_tilt=args.wind_tilt, samples=args.samples))
         if args.target == "attribute" and not (args.save or args.dry_run):
@@ -376,6 +385,7 @@ def _bake_file(path, args, options, written_paths):
     """Bake one file; returns the number of failures."""
     bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
     objects = _chosen_objects(args)
+    options = replace(options, occluders=occluder_collection(args.occluders))
     if options.target == "image":
         clashes = {image_path(options.out_dir, o.name, m) for o in objects for m in options.maps} & written_paths
         if clashes:
@@ -410,6 +420,15 @@ def _chosen_objects(args):
     if not objects:
         raise ValueError("no mesh objects to bake")
     return objects
+
+
+def occluder_collection(name):
+    """The collection whose objects are the rain occluders, or None (every other object) for no name."""
+    if not name:
+        return None
+    if name not in bpy.data.collections:
+        raise ValueError(f"no collection named '{name}' to take the occluders from")
+    return bpy.data.collections[name]
 
 
 def link_images(objects, options):

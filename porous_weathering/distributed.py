@@ -231,7 +231,8 @@ def _shared_options(args, options):
     return ["--target", options.target, "--out", options.out_dir,
             "--resolution", str(options.resolution), "--samples", str(args.samples),
             "--rain-cone", repr(args.rain_cone), "--wind-azimuth", repr(args.wind_azimuth),
-            "--wind-tilt", repr(args.wind_tilt)]
+            "--wind-tilt", repr(args.wind_tilt), "--edge-radius", repr(options.edge_radius),
+            *(["--occluders", args.occluders] if args.occluders else [])]
 
 
 def _gather(client, bar, tasks):

@@ -16,7 +16,7 @@ import math
 import bpy
 import numpy as np
 
-from . import scratch_scene, studio
+from . import mesh_arrays, scratch_scene, studio
 
 #: The paper's Table 1: S_h responds to changes along the rows (v), S_v along the columns (u).
 SOBEL_H = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], dtype=np.float32)
@@ -29,6 +29,16 @@ EDGE_ATTRIBUTE = "pw_edges"
 
 #: Grids summed by ``smooth_over_radius`` (docs/maps.md: the spread along a straight edge).
 SHIFTS = tuple(np.full(3, k / 4) for k in range(4))
+
+#: The corners (dx, dy, dz) of a grid cell, as offsets from its lower corner.
+CORNERS = np.array([(dx, dy, dz) for dx in (0, 1) for dy in (0, 1) for dz in (0, 1)])
+
+#: Points per block of the grid splat and gather: small enough that a block's temporaries
+#: stay in the CPU cache, so the time per point does not grow with the mesh.
+BLOCK = 1 << 14
+
+#: The largest box of grid cells numbered directly (one bool and one int32 per cell).
+DIRECT_CELLS_MAX = 1 << 25
 
 #: Default of ``curvature_mask``'s ``saturation``: the dimensionless curvature H * radius
 #: at which C reaches 1.  A sharp 90-degree edge gives 0.5 to 0.75 (docs/maps.md).
@@ -144,7 +154,8 @@ def curvature(obj, radius, depsgraph=None):
     Every edge carries the integrated mean curvature theta * length / 2 (theta its signed
     dihedral angle); H at a vertex is that curvature over the area around it, both summed
     with weights that fall from 1 at the vertex to 0 at 2 * ``radius`` (``smooth_over_radius``).
-    Boundary and non-manifold edges carry none; faces must be consistently oriented.
+    Boundary and non-manifold edges carry none; faces must be consistently oriented (a closed
+    mesh turned inside out is read from outside, as renders shade it).
     """
     if not np.isfinite(radius) or radius <= 0:
         raise ValueError(f"curvature radius must be a positive number of scene units, not {radius}")
@@ -163,14 +174,11 @@ def curvature(obj, radius, depsgraph=None):
     return smooth_over_radius(points, normals, integrated, area, radius)
 
 
-
 def _vertex_curvature(mesh, matrix_world):
     """World positions, unit normals (0 on loose vertices), integrated mean curvature and
     area per vertex, all float64, from the faces' area vectors (Newell) and edges' angles."""
-    def attribute(name, dtype, width=1):  # attribute arrays read ~100x faster than MeshLoop etc.
-        values = np.empty(len(mesh.attributes[name].data) * width, dtype=dtype)
-        mesh.attributes[name].data.foreach_get("vector" if name == "position" else "value", values)
-        return values.reshape(-1, width) if width > 1 else values
+    def attribute(name, dtype, width=1):
+        return mesh_arrays.attribute(mesh, name, dtype, width)
 
     local = attribute("position", np.float32, 3).astype(np.float64)
     points = local @ matrix_world[:3, :3].T + matrix_world[:3, 3]
@@ -179,45 +187,69 @@ def _vertex_curvature(mesh, matrix_world):
     edge_vertices = attribute(".edge_verts", np.int32, 2)
     loop_start = np.empty(len(mesh.polygons), dtype=np.int32)
     mesh.polygons.foreach_get("loop_start", loop_start)
-    loop_total = np.diff(loop_start, append=len(loop_vertex))
-    vertex_count, face_count = len(points), len(loop_start)
+    loop_bounds = np.append(loop_start, len(loop_vertex))
+    # Normals must point out: a mirroring transform reverses the winding, and so does a closed
+    # mesh made inside out (renders shade both from outside).
+    outward = (np.linalg.det(matrix_world[:3, :3]) >= 0) != mesh_arrays.is_inside_out(mesh)
+    side = 0.5 if outward else -0.5
+    faces = _face_sums(points, loop_vertex, loop_edge, loop_bounds, side, len(edge_vertices))
+    area_vectors, centres, area, normals, first_face, last_face = faces
+    face_normals = area_vectors / np.maximum(np.linalg.norm(area_vectors, axis=1), np.finfo(float).tiny)[:, None]
 
-    loop_face = np.repeat(np.arange(face_count), loop_total)
-    loop_next = np.arange(1, len(loop_vertex) + 1)
-    loop_next[loop_start + loop_total - 1] = loop_start
-    corners = points[loop_vertex]
-    # A mirroring transform reverses the winding: flip so that normals still point out.
-    side = 0.5 if np.linalg.det(matrix_world[:3, :3]) >= 0 else -0.5
-    area_vectors = side * sum_rows(loop_face, np.cross(corners, corners[loop_next]), face_count)
-    areas = np.linalg.norm(area_vectors, axis=1)
-    face_normals = area_vectors / np.maximum(areas, np.finfo(float).tiny)[:, None]
-    centres = sum_rows(loop_face, corners, face_count) / loop_total[:, None]
-
-    # The two faces of every edge used by exactly two faces (its loops are adjacent once sorted).
-    uses = np.bincount(loop_edge, minlength=len(edge_vertices))
-    first_use = np.cumsum(uses) - uses
-    manifold = np.flatnonzero(uses == 2)
-    by_edge = np.argsort(loop_edge, kind="stable")
-    face_a = loop_face[by_edge[first_use[manifold]]]
-    face_b = loop_face[by_edge[first_use[manifold] + 1]]
-    normal_a, normal_b = face_normals[face_a], face_normals[face_b]
-    angle = np.arctan2(np.linalg.norm(np.cross(normal_a, normal_b), axis=1), (normal_a * normal_b).sum(1))
-    # Convex when the faces lean away from each other: their normals part as their centres do.
-    convex = ((normal_a - normal_b) * (centres[face_a] - centres[face_b])).sum(1) >= 0
-    ends = edge_vertices[manifold]
-    length = np.linalg.norm(points[ends[:, 0]] - points[ends[:, 1]], axis=1)
-    half_edge_curvature = np.where(convex, angle, -angle) * length / 4  # theta * length / 2, halved per end
-
-    integrated = np.bincount(ends.ravel(), np.repeat(half_edge_curvature, 2), minlength=vertex_count)
-    area = np.bincount(loop_vertex, (areas / loop_total)[loop_face], minlength=vertex_count)
-    normals = sum_rows(loop_vertex, area_vectors[loop_face], vertex_count)
+    integrated = np.zeros(len(points))
+    manifold = np.flatnonzero(np.bincount(loop_edge, minlength=len(edge_vertices)) == 2)
+    for block in _blocks(len(manifold)):  # edges used by exactly two faces
+        pairs = manifold[block]
+        face_a, face_b = first_face[pairs], last_face[pairs]
+        normal_a, normal_b = face_normals[face_a], face_normals[face_b]
+        angle = np.arctan2(np.linalg.norm(np.cross(normal_a, normal_b), axis=1), (normal_a * normal_b).sum(1))
+        # Convex when the faces lean away from each other: their normals part as their centres do.
+        convex = ((normal_a - normal_b) * (centres[face_a] - centres[face_b])).sum(1) >= 0
+        ends = edge_vertices[pairs]
+        length = np.linalg.norm(points[ends[:, 0]] - points[ends[:, 1]], axis=1)
+        half_edge_curvature = np.where(convex, angle, -angle) * length / 4  # theta * length / 2, halved per end
+        np.add.at(integrated, ends.ravel(), np.repeat(half_edge_curvature, 2))
     normals /= np.maximum(np.linalg.norm(normals, axis=1), np.finfo(float).tiny)[:, None]
     return points, normals, integrated, area
 
 
-def sum_rows(index, rows, count):
-    """(count, k) sums of the (n, k) ``rows`` grouped by ``index`` (n,)."""
-    return np.stack([np.bincount(index, column, minlength=count) for column in rows.T], axis=1)
+def _face_sums(points, loop_vertex, loop_edge, loop_bounds, side, edge_count):
+    """(area vectors (F, 3), centres (F, 3), area per vertex (V,), sum of its faces' area
+    vectors per vertex (V, 3), first and last face of every edge (E,)).
+
+    A face's area vector is ``side`` times its Newell sum, and its area is shared equally by
+    its corners.  The faces go in blocks of about ``BLOCK`` corners, so that no temporary
+    outgrows the CPU cache: the time stays linear in the corner count."""
+    face_count = len(loop_bounds) - 1
+    area_vectors, centres = np.empty((face_count, 3)), np.empty((face_count, 3))
+    vertex_area, vertex_vectors = np.zeros(len(points)), np.zeros((3, len(points)))
+    first_face, last_face = np.full(edge_count, face_count), np.full(edge_count, -1)
+    faces_per_block = max(1, BLOCK * face_count // max(int(loop_bounds[-1]), 1))
+    for faces in _blocks(face_count, faces_per_block):
+        loops = slice(loop_bounds[faces.start], loop_bounds[faces.stop])
+        starts = loop_bounds[faces] - loops.start
+        counts = np.diff(loop_bounds[faces.start:faces.stop + 1])
+        vertices = loop_vertex[loops]
+        corners = points[vertices]
+        following = np.arange(1, len(corners) + 1)  # the next corner around the face
+        following[starts + counts - 1] = starts
+        vectors = side * np.add.reduceat(np.cross(corners, corners[following]), starts)
+        area_vectors[faces] = vectors
+        centres[faces] = np.add.reduceat(corners, starts) / counts[:, None]
+
+        corner_face = np.repeat(np.arange(len(counts)), counts)
+        np.add.at(vertex_area, vertices, (np.linalg.norm(vectors, axis=1) / counts)[corner_face])
+        for axis in range(3):
+            np.add.at(vertex_vectors[axis], vertices, vectors[corner_face, axis])
+        np.minimum.at(first_face, loop_edge[loops], corner_face + faces.start)
+        np.maximum.at(last_face, loop_edge[loops], corner_face + faces.start)
+    return area_vectors, centres, vertex_area, vertex_vectors.T, first_face, last_face
+
+
+def _blocks(count, size=None):
+    """Slices of ``range(count)`` of ``size`` items (default ``BLOCK``)."""
+    size = size or BLOCK
+    return [slice(start, min(start + size, count)) for start in range(0, count, size)]
 
 
 def smooth_over_radius(points, normals, integrated, area, radius, shifts=SHIFTS):
@@ -243,40 +275,73 @@ def smooth_over_radius(points, normals, integrated, area, radius, shifts=SHIFTS)
 
 
 def _grid_sums(scaled, normals, integrated, area):
+    """(numerator, denominator) of ``smooth_over_radius`` on one grid of unit cells: every
+    point splats ``integrated`` and ``area`` onto the 8 corners of its cell and gathers the
+    corner sums back, with the same trilinear and normal-direction weights.
+
+    The points go in blocks of ``BLOCK`` so that every temporary stays in the CPU cache, and
+    the corners are numbered without sorting (``_cell_numbering``): time grows linearly."""
     cell = np.floor(scaled)
     fraction = scaled - cell
     cell = (cell - cell.min(axis=0)).astype(np.int64)
     if cell.max() >= 2**20:
         raise ValueError("curvature radius is too small for an object this size")
+    base_keys, corner_offsets, box_size = _corner_keys(cell)
+    blocks = _blocks(len(scaled))
+    number, cell_count = _cell_numbering(base_keys, corner_offsets, box_size, blocks)
+
+    def buckets_and_weights(block):
+        corner_cells = number(base_keys[block, None] + corner_offsets)
+        return _corner_buckets(corner_cells, fraction[block], normals[block])
+
+    sums = np.zeros((2, 6 * cell_count))  # curvature and area per (corner cell, direction bin)
+    for block in blocks:
+        buckets, weights = buckets_and_weights(block)
+        np.add.at(sums[0], buckets.ravel(), (weights * integrated[block, None]).ravel())
+        np.add.at(sums[1], buckets.ravel(), (weights * area[block, None]).ravel())
+    gathered = np.empty((2, len(scaled)))
+    for block in blocks:
+        buckets, weights = buckets_and_weights(block)
+        gathered[:, block] = np.einsum("ij,kij->ki", weights, sums[:, buckets])
+    return gathered[0], gathered[1]
+
+
+def _corner_keys(cell):
+    """(base keys (N,), corner offsets (8,), box size): cell ``cell + (dx, dy, dz)`` of the box
+    of all cells and their corners has the key ``base + offset``, numbered row by row."""
+    height, depth = cell[:, 1].max() + 2, cell[:, 2].max() + 2
+    base_keys = (cell[:, 0] * height + cell[:, 1]) * depth + cell[:, 2]
+    corner_offsets = (CORNERS[:, 0] * height + CORNERS[:, 1]) * depth + CORNERS[:, 2]
+    return base_keys, corner_offsets, int(cell[:, 0].max() + 2) * int(height) * int(depth)
+
+
+def _cell_numbering(base_keys, corner_offsets, box_size, blocks):
+    """(number, count): ``number(keys)`` numbers the corner cells in use 0 .. count - 1.
+
+    A box of at most ``DIRECT_CELLS_MAX`` cells is numbered directly (a running count of the
+    cells in use, linear time); a larger, sparse one (a radius far below the object's size)
+    by sorting its keys."""
+    if box_size > DIRECT_CELLS_MAX:
+        used = np.unique(base_keys[:, None] + corner_offsets)
+        return (lambda keys: np.searchsorted(used, keys)), len(used)
+    in_use = np.zeros(box_size, dtype=bool)
+    for block in blocks:
+        in_use[base_keys[block, None] + corner_offsets] = True
+    numbers = np.cumsum(in_use, dtype=np.int32) - 1
+    return numbers.__getitem__, int(numbers[-1]) + 1
+
+
+def _corner_buckets(corner_cells, fraction, normals):
+    """(buckets, weights), both (n, 24): for each of the 8 corners of a point's cell, its
+    three direction bins (the sign of each normal component) weighted by the trilinear
+    weight of the corner times the squared normal component."""
+    axis_weights = np.stack([1 - fraction, fraction], axis=1)  # (n, lower/upper corner, axis)
+    dx, dy, dz = CORNERS.T
+    trilinear = axis_weights[:, dx, 0] * axis_weights[:, dy, 1] * axis_weights[:, dz, 2]
     direction_bin = 2 * np.arange(3) + (normals < 0)
-    direction_weight = normals ** 2
-    axis_weights = (1 - fraction, fraction)  # trilinear weights of the lower and upper corner
-
-    corners = [(dx, dy, dz) for dx in (0, 1) for dy in (0, 1) for dz in (0, 1)]
-    keys = np.stack([((cell[:, 0] + dx) << 42) | ((cell[:, 1] + dy) << 21) | (cell[:, 2] + dz)
-                     for dx, dy, dz in corners], axis=1)
-    unique_keys, corner_cell = np.unique(keys, return_inverse=True)
-    corner_cell = corner_cell.reshape(keys.shape)
-    bucket_count = 6 * len(unique_keys)
-
-    def buckets_and_weights(corner):
-        dx, dy, dz = corners[corner]
-        trilinear = axis_weights[dx][:, 0] * axis_weights[dy][:, 1] * axis_weights[dz][:, 2]
-        return 6 * corner_cell[:, corner, None] + direction_bin, trilinear[:, None] * direction_weight
-
-    curvature_sum = np.zeros(bucket_count)
-    area_sum = np.zeros(bucket_count)
-    for corner in range(8):
-        buckets, weights = buckets_and_weights(corner)
-        curvature_sum += np.bincount(buckets.ravel(), (weights * integrated[:, None]).ravel(), bucket_count)
-        area_sum += np.bincount(buckets.ravel(), (weights * area[:, None]).ravel(), bucket_count)
-    numerator = np.zeros(len(scaled))
-    denominator = np.zeros(len(scaled))
-    for corner in range(8):
-        buckets, weights = buckets_and_weights(corner)
-        numerator += np.einsum("ij,ij->i", weights, curvature_sum[buckets])
-        denominator += np.einsum("ij,ij->i", weights, area_sum[buckets])
-    return numerator, denominator
+    buckets = 6 * corner_cells[:, :, None] + direction_bin[:, None, :]
+    weights = trilinear[:, :, None] * (normals ** 2)[:, None, :]
+    return buckets.reshape(len(fraction), -1), weights.reshape(len(fraction), -1)
 
 
 def curvature_mask(curvature_values, radius, part="both", saturation=DEFAULT_SATURATION):

@@ -56,7 +56,7 @@ class PW_OT_bake_maps(bpy.types.Operator):
                 rain_settings=rain.RainSettings(cone=self.rain_cone, wind_azimuth=self.wind_azimuth,
                                                 wind_tilt=self.wind_tilt, samples=self.samples))
             objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
-            bake.check_targets(objects)
+            bake.check_targets(objects, options)
         except (ValueError, OSError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
@@ -111,11 +111,7 @@ class PW_OT_bake_maps(bpy.types.Operator):
         return result
 
     def _occluder_collection(self):
-        if not self.occluders:
-            return None
-        if self.occluders not in bpy.data.collections:
-            raise ValueError(f"no collection named '{self.occluders}' to take the occluders from")
-        return bpy.data.collections[self.occluders]
+        return bake.occluder_collection(self.occluders)
 
 
 CLASSES = (PW_OT_bake_maps,)

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import bpy
 import numpy as np
 
-from . import compat, scratch_scene
+from . import compat, mesh_arrays, scratch_scene
 from .shader_math import Graph, dot
 from .studio import aim_sun
 
@@ -109,9 +109,17 @@ def bake_rain_corners(obj, settings=RainSettings(), occluders=()):
 
 
 def _bake(copy, target, margin):
+    # Renders shade an inside-out mesh from outside (a back face turns its normal to the
+    # viewer); the bake weighs rain by the stored normal, so it bakes the copy turned right
+    # way out, then turns it back, which restores the order of its face corners.
+    inside_out = mesh_arrays.is_inside_out(copy.data)
+    if inside_out:
+        copy.data.flip_normals()
     with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
         bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target=target, margin=margin,
                             margin_type="EXTEND", use_clear=True, use_selected_to_active=False)
+    if inside_out:
+        copy.data.flip_normals()
 
 
 @contextmanager

@@ -7,7 +7,8 @@ import warnings
 import bpy
 import numpy as np
 
-from . import compat, material, model, nodes
+from . import compat, imageio, material, model, nodes
+from .bake import UV_MAP_KEY
 from .shader_math import Graph
 
 #: The weathering inputs that are per-point masks: a constant, an image or a colour attribute.
@@ -126,13 +127,32 @@ def _checked_image(mask, image, default):
     image.pixels.foreach_get(pixels)
     if not np.isfinite(pixels).all() or pixels.min() < 0.0 or pixels.max() > 1.0:
         _warn(f"{mask}: image {image.name!r} has values outside [0, 1]; the shader clamps them")
+    uv_map = image_uv_map(image)
+    if uv_map and not any(uv_map in mesh.uv_layers for mesh in bpy.data.meshes):
+        _warn(f"{mask}: image {image.name!r} was baked on the UV map {uv_map!r}, which no mesh has")
     return image
 
 
+def image_uv_map(image):
+    """The UV map an image mask was baked on, or None (then the mesh's active UV map reads it):
+    the Image's custom property ``UV_MAP_KEY`` ("pw:uv_map"), else that field of its file's
+    header, which the bake writes."""
+    name = image.get(UV_MAP_KEY)
+    if name is None and image.source == "FILE" and image.filepath:
+        name = imageio.read_metadata(bpy.path.abspath(image.filepath, library=image.library)).get(UV_MAP_KEY)
+    return name or None
+
+
 def mask_socket(graph, source):
-    """The output socket that reads a mask source (Image or attribute name) in ``graph``."""
+    """The output socket that reads a mask source (Image or attribute name) in ``graph``.
+
+    An image baked on a UV map of its own (``image_uv_map``, e.g. the bake's lightmap) is read
+    through a UV Map node naming it, whatever UV map of the mesh is active."""
     if isinstance(source, bpy.types.Image):
-        node = graph.node("ShaderNodeTexImage", depth=1, image=source, interpolation="Linear", extension="EXTEND")
+        uv_map = image_uv_map(source)
+        coordinates = {"Vector": graph.node("ShaderNodeUVMap", depth=0, uv_map=uv_map).outputs["UV"]} if uv_map else {}
+        node = graph.node("ShaderNodeTexImage", coordinates, depth=1, image=source, interpolation="Linear",
+                          extension="EXTEND")
         return node.outputs["Color"]
     node = graph.node("ShaderNodeAttribute", depth=1, attribute_name=source)
     return node.outputs["Fac"]

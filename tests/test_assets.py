@@ -3,9 +3,10 @@
 import pathlib
 
 import bpy
+import numpy as np
 import pytest
 
-from porous_weathering import assets
+from porous_weathering import assets, model, nodes
 from generators import OLDEST_LINE, load_script
 
 NODE_GROUPS = pathlib.Path(__file__).resolve().parent.parent / "node_groups"
@@ -20,13 +21,14 @@ def catalogs(path):
     return {row[0]: row[1] for row in rows}
 
 
-def asset_groups(blend):
-    """{name: summary} of the node-group assets in ``blend``, appended and then removed again."""
+def asset_groups(blend, describe=None):
+    """{name: summary} of the node-group assets in ``blend``, appended and then removed again;
+    ``describe(group)`` gives the summary (default: what a rebuild on any line must keep)."""
     with bpy.data.libraries.load(str(blend), assets_only=True) as (source, target):
         target.node_groups = list(source.node_groups)
     summary = {}
     for group in target.node_groups:
-        summary[group.name] = dict(
+        summary[group.name] = describe(group) if describe else dict(
             nodes=len(group.nodes), links=len(group.links),
             sockets=[(item.in_out, item.name) for item in group.interface.items_tree if item.item_type == "SOCKET"],
             catalog=group.asset_data.catalog_id, description=group.asset_data.description,
@@ -43,6 +45,28 @@ def test_committed_groups_are_assets_in_catalogs_with_previews():
         assert known.get(group["catalog"], "").startswith("Porous Weathering/"), name
         assert group["description"], name
         assert group["preview"] == (build_assets.PREVIEW_SIZE,) * 2, name
+
+
+def preview_pixels(group):
+    return np.array(group.preview.image_pixels_float[:]).reshape(-1, 4)
+
+
+def test_weathering_modes_are_assets_in_every_light_mode_with_weathered_previews():
+    blend = NODE_GROUPS / build_assets.FILENAME
+    groups, previews = asset_groups(blend), asset_groups(blend, preview_pixels)
+    known = catalogs(NODE_GROUPS / build_assets.CATALOGS_FILENAME)
+    for light in nodes.LIGHT_MODES:
+        clean = previews[nodes.porous_group_name(light)]
+        sphere = clean[:, 3] > 0.5
+        for mode in model.MODES:
+            name = nodes.weathered_group_name((mode,), light)
+            assert known[groups[name]["catalog"]] == f"Porous Weathering/{build_assets.WEATHERING[mode][0]}"
+            assert ("INPUT", "Time") in groups[name]["sockets"]
+            # the previews are fully weathered: soot and deposit darken, salt whitens, water
+            # darkens the diffuse and adds a mirror lobe
+            change = (previews[name] - clean)[sphere, :3]
+            assert np.abs(change).mean() > 0.01, name
+            assert {model.SOILING: change.mean() < -0.02, model.EFFLORESCENCE: change.mean() > 0.02}.get(mode, True), name
 
 
 def test_committed_file_is_saved_by_the_oldest_line():

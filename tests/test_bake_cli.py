@@ -9,7 +9,7 @@ import bpy
 import numpy as np
 import pytest
 
-from porous_weathering import bake, imageio, studio
+from porous_weathering import bake, edges, imageio, studio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FAST = ["--resolution", "16", "--samples", "4"]
@@ -68,6 +68,8 @@ def test_dry_run_writes_nothing(blend, tmp_path):
     (["{blend}", "--objects", "Nobody"], "no object named Nobody"),
     (["{blend}", "--out", "/proc/forbidden"], "/proc/forbidden"),
     (["{blend}", "--target", "attribute"], "--save"),
+    (["{blend}", "--edge-radius", "0"], "edge radius must be a positive number"),
+    (["{blend}", "--occluders", "Nowhere", "--dry-run"], "no collection named 'Nowhere'"),
 ])
 def test_bad_input_fails_with_a_clear_message(blend, args, message):
     result = run_cli(*[a.format(blend=blend) for a in args])
@@ -83,8 +85,32 @@ def test_bad_maps_option_is_refused(blend):
 def test_help_documents_every_option():
     result = run_cli("--help")
     for option in ("--objects", "--collection", "--maps", "--target", "--resolution", "--samples",
-                   "--rain-cone", "--wind-azimuth", "--wind-tilt", "--out", "--save", "--dry-run"):
+                   "--rain-cone", "--wind-azimuth", "--wind-tilt", "--edge-radius", "--occluders", "--out", "--save",
+                   "--dry-run"):
         assert option in result.stdout
+
+
+def test_occluders_option_chooses_what_shelters(blend, tmp_path):
+    """With only an empty collection as occluders, the cube no longer shelters the plane."""
+    bpy.context.scene.collection.children.link(bpy.data.collections.new("Open Sky"))
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    result = run_cli(blend, "--out", tmp_path / "open", "--objects", "Plane", "--occluders", "Open Sky", *FAST)
+    assert result.returncode == 0, result.stderr
+    plane, _ = imageio.read_image(tmp_path / "open" / "Plane.rain.exr")
+    assert plane[8, 8, 0] == pytest.approx(1.0, abs=0.02)  # under the cube, which is not an occluder now
+
+
+def test_edge_radius_option_sets_the_smoothing_radius(blend):
+    result = run_cli(blend, "--objects", "Cube", "--maps", "edges", "--target", "attribute", "--edge-radius", "0.3",
+                     "--save")
+    assert result.returncode == 0, result.stderr
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    cube = bpy.data.objects["Cube"]
+    colours = np.empty(len(cube.data.vertices) * 4, dtype=np.float32)
+    cube.data.color_attributes[bake.ATTRIBUTES["edges"]].data.foreach_get("color", colours)
+    expected = edges.curvature_mask(edges.curvature(cube, 0.3), 0.3)
+    assert np.allclose(colours[0::4], expected) and not np.allclose(expected, edges.curvature_mask(
+        edges.curvature(cube, bake.DEFAULT_EDGE_RADIUS), bake.DEFAULT_EDGE_RADIUS))
 
 
 def test_save_links_images_and_attributes_into_the_blend(blend, tmp_path):

@@ -223,6 +223,19 @@ def test_curvature_refuses_what_it_cannot_measure(fresh_scene):
         edges.curvature(cube(fresh_scene), 0.0)
 
 
+@pytest.mark.parametrize("block, direct_cells_max", [(7, edges.DIRECT_CELLS_MAX), (edges.BLOCK, 0), (64, 0)],
+                         ids=["small blocks", "sorted numbering", "both"])
+def test_curvature_does_not_depend_on_how_the_work_is_split(fresh_scene, monkeypatch, block, direct_cells_max):
+    """Blocks of faces, edges and points, and the two ways of numbering grid cells, give the
+    same values bit for bit (the test meshes fit one block by default)."""
+    obj = cube(fresh_scene, 3)
+    obj.modifiers.new("Bevel", "BEVEL").width = 0.2  # triangles, quads and n-gons
+    expected = edges.curvature(obj, 0.3)
+    monkeypatch.setattr(edges, "BLOCK", block)
+    monkeypatch.setattr(edges, "DIRECT_CELLS_MAX", direct_cells_max)
+    assert np.array_equal(edges.curvature(obj, 0.3), expected)
+
+
 def test_curvature_mask_parts_and_scale():
     curvature = np.array([-4.0, -1.0, 0.0, 1.0, 4.0])  # radius 0.25, saturation 0.5: H = 2 saturates
     assert np.allclose(edges.curvature_mask(curvature, 0.25, "convex", 0.5), [0, 0, 0, 0.5, 1])

@@ -11,7 +11,7 @@ import pytest
 
 import porous_weathering
 from bad_meshes import BUILDERS, cube, data_counts, snapshot
-from porous_weathering import bake, edges, imageio, rain, studio
+from porous_weathering import bake, edges, imageio, mesh_arrays, rain, studio
 
 FAST_RAIN = rain.RainSettings(samples=2)
 MAPS = ("rain", "edges")
@@ -123,16 +123,21 @@ def test_mirrored_cube_bakes_like_the_cube_it_mirrors(fresh_scene):
                        attribute_values(plain.data, edges.EDGE_ATTRIBUTE), atol=1e-5)
 
 
-@pytest.mark.xfail(strict=True, reason="rain.bake_rain_corners weighs rain by the shading normal: an inside-out "
-                                       "mesh silently reads 0 everywhere instead of being baked or refused")
-def test_inside_out_cube_is_rained_on_or_refused(fresh_scene, tmp_path):
+def test_inside_out_cube_is_baked_from_outside(fresh_scene, tmp_path):
     obj = BUILDERS["flipped normals"](fresh_scene, tmp_path)
-    try:
-        values = rain.bake_rain_corners(obj, FAST_RAIN)
-    except ValueError as refusal:
-        assert "'Inside Out'" in str(refusal) and "normal" in str(refusal)
-        return
-    assert face_means(obj, values)[(0, 0, -1)] == pytest.approx(1.0, abs=0.05)  # its top face's normal points down
+    before = [tuple(v.co) for v in obj.data.vertices], [p.vertices[:] for p in obj.data.polygons]
+    by_face = face_means(obj, rain.bake_rain_corners(obj, FAST_RAIN))
+    # rained on as the renders shade it, from outside: its top face's normal points down
+    assert by_face[(0, 0, -1)] == pytest.approx(1.0, abs=0.05) and by_face[(0, 0, 1)] < 0.01
+    assert ([tuple(v.co) for v in obj.data.vertices], [p.vertices[:] for p in obj.data.polygons]) == before
+    assert np.all(edges.curvature(obj, 0.05) > 0)  # its corners are convex from outside too
+
+
+def test_open_mesh_facing_down_is_taken_as_given(fresh_scene):
+    obj = studio.add_plane(fresh_scene, "Ceiling")
+    obj.data.flip_normals()
+    assert not mesh_arrays.is_inside_out(obj.data)
+    assert np.all(rain.bake_rain_corners(obj, FAST_RAIN) < 0.01)
 
 
 def test_objects_sharing_a_mesh_are_not_baked_over_each_other(fresh_scene, tmp_path):
