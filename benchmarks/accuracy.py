@@ -18,7 +18,7 @@ import bpy  # noqa: E402
 import numpy as np  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402
-from benchmarks import scenes  # noqa: E402
+from benchmarks import plots, scenes  # noqa: E402
 from porous_weathering import reference as ref  # noqa: E402
 from porous_weathering import render, studio  # noqa: E402
 
@@ -81,7 +81,7 @@ def percent(value):
 
 
 def sun_sweep(images):
-    rows, breakdown = [], {}
+    rows, breakdown, curves = [], {}, {}
     for name, params in MATERIALS.items():
         for zenith in ZENITH_ANGLES:
             lights = (ref.Sun(sun_towards(zenith)),)
@@ -91,6 +91,8 @@ def sun_sweep(images):
                 image = rendered("SPHERE", lights, None, params, mode)
                 (rmse, worst), mask = compared(image, expected)
                 row += [percent(rmse), percent(worst)]
+                curves.setdefault(f"{name}, {mode}", ([], []))[0].append(zenith)
+                curves[f"{name}, {mode}"][1].append(100 * rmse)
                 if mode == "ambient" and rmse > BREAKDOWN:
                     breakdown.setdefault(name, (zenith, rmse))
                 if zenith == 60 and name == "diffuse":
@@ -98,11 +100,13 @@ def sun_sweep(images):
             rows.append(row)
     table = scenes.markdown_table(["material", "sun zenith", "key RMSE", "key max", "ambient RMSE", "ambient max"],
                                   rows)
+    plots.line_plot(images / "accuracy_sun_sweep.png", curves, "sun zenith angle (°)", "RMSE (% of reference RMS)",
+                    "Porous sphere under one sun, Cycles vs exact reference", log="y")
     notes = [f"- {name}: ambient RMSE first exceeds {percent(BREAKDOWN)} at a sun {z}° from the zenith "
              f"({percent(e)})" for name, (z, e) in breakdown.items()]
     notes = notes or [f"- the ambient RMSE stays under {percent(BREAKDOWN)} at every angle"]
     return ("### One sun, Cycles (deterministic: a zero-angle sun needs one sample)\n\n" + table + "\n\n"
-            + "\n".join(notes) + "\n\nA large key-light max with a small RMSE comes from terminator pixels, "
+            + "\n".join(notes) + "\n\n![RMSE against sun angle](img/accuracy_sun_sweep.png)\n\nA large key-light max with a small RMSE comes from terminator pixels, "
             "where the smooth-shaded mesh shadows itself and the analytic sphere does not (geometry, not BRDF).")
 
 

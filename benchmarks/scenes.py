@@ -4,6 +4,8 @@ A scene is described once, as reference objects (a surface kind, lights, a sky),
 module makes its Blender twin, so a render and the reference always show the same thing.
 """
 
+import math
+
 import bpy
 
 from porous_weathering import reference, studio
@@ -18,6 +20,9 @@ def build(scene, surface, lights=(), sky=None):
     studio camera to ``scene``; return the surface object."""
     if surface == "SPHERE":
         obj = studio.add_sphere(scene, segments=SPHERE_SEGMENTS, rings=SPHERE_RINGS)
+        # Poles to the sides: at the pole facing the camera, Cycles' shadow rays from the fan of
+        # thin triangles found the mesh itself and left one pixel black (even for a plain Diffuse).
+        obj.rotation_euler = (math.pi / 2, 0.0, 0.0)
     elif surface == "PLANE":
         obj = studio.add_plane(scene)
     else:

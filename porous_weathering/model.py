@@ -299,7 +299,7 @@ def weathered_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes=MODES, 
     if WET in modes:
         water = pore_fill(s["rain_map"], s["time"], s["wet_level"], s["front_width"])
         ap = filled_absorption(kd, ka, sp, water, theta_i, theta_r)
-        kd_wet, water_lobe = wet_weights(kd, s["water_specular"], pore, ap)
+        kd_wet, water_lobe = wet_weights(kd, per_channel(s["water_specular"], kd), pore, ap)
         kd_w = blend(kd_w, kd_wet, per_channel(water, kd))
         water_w = per_channel(water, kd) * water_lobe
     if SOILING in modes:  # the deposit lies on top of whatever fills the pores

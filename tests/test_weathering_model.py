@@ -206,3 +206,21 @@ def test_map_is_saved_beside_the_blend(tmp_path):
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temporary left
     pixels, _ = imageio.read_image(path)
     assert np.array_equal(pixels[..., 0], efflorescence_map.brick_joint_map(32))
+
+
+def test_every_input_may_vary_per_point():
+    """Arrays of points (as the benchmarks and the reference renderer pass them) give each
+    point what it gets alone, every weathering input included."""
+    rng = np.random.default_rng(7)
+    count = 5
+    state = {name: rng.uniform(low, high, count) if np.ndim(default) == 0 else rng.uniform(0.0, 1.0, (count, 3))
+             for name, (default, low, high, _) in model.WEATHERING_INPUTS.items()}
+    stone = dict(kd=rng.uniform(0.0, 0.5, (count, 3)), ks=rng.uniform(0.0, 0.4, count), m=rng.uniform(0.0, 1.5, count),
+                 alpha=rng.uniform(0.0, 1.0, count), sp=rng.uniform(0.0, 10.0, count),
+                 n_dot_l=rng.uniform(0.0, 1.0, count), n_dot_v=rng.uniform(0.0, 1.0, count))
+    together = weathered(stone, model.MODES, **state)
+    for point in range(count):
+        alone = weathered({k: v[point] for k, v in stone.items()}, model.MODES,
+                          **{k: v[point] for k, v in state.items()})
+        for all_points, one_point in zip(together, alone):  # k_d, k_s (one value a point), k_water
+            assert np.allclose(all_points[point], one_point, rtol=1e-12, atol=1e-15)
