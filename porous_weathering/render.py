@@ -4,7 +4,6 @@ import os
 import tempfile
 
 import bpy
-import numpy as np
 
 from . import compat, imageio
 
