@@ -48,7 +48,7 @@ class BakeCancelled(Exception):
 
 @dataclass(frozen=True)
 class BakeOptions:
-    maps: tuple = ("rain",)
+    maps: tuple = MAPS  # every map unless asked for fewer
     target: str = "image"
     resolution: int = DEFAULT_RESOLUTION
     rain_settings: rain.RainSettings = field(default_factory=rain.RainSettings)
@@ -308,8 +308,8 @@ def configure_parser(parser):
                         help="bake only these objects (default: every mesh object of the file)")
     parser.add_argument("--collection", metavar="NAME",
                         help="bake only the mesh objects of this collection (children included)")
-    parser.add_argument("--maps", default="rain", type=_map_list, metavar="rain,edges",
-                        help="comma-separated maps to bake: rain, edges (default: rain)")
+    parser.add_argument("--maps", default=",".join(MAPS), type=_map_list, metavar="rain,edges",
+                        help="comma-separated maps to bake: rain, edges (default: both)")
     parser.add_argument("--target", choices=TARGETS, default="image",
                         help="image: EXR files on a lightmap UV map; attribute: per-corner colour attributes "
                              "stored in the .blend (needs --save) (default: image)")

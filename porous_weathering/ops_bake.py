@@ -14,7 +14,7 @@ class PW_OT_bake_maps(bpy.types.Operator):
     bl_options = {"REGISTER", "UNDO"}
 
     maps: bpy.props.EnumProperty(
-        name="Maps", options={"ENUM_FLAG"}, default={"rain"},
+        name="Maps", options={"ENUM_FLAG"}, default={"rain", "edges"},
         items=[("rain", "Rain Exposure", "Cosine-weighted fraction of the rain cone that reaches the surface"),
                ("edges", "Edges", "Edge/cavity mask: Sobel of the normal map (image) or mesh curvature (attribute)")])
     target: bpy.props.EnumProperty(

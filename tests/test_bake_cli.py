@@ -39,7 +39,8 @@ def test_maps_are_written_and_a_rerun_skips_them(blend, tmp_path):
     out = tmp_path / "maps"
     first = run_cli(blend, "--out", out, *FAST)
     assert first.returncode == 0, first.stderr
-    assert sorted(os.listdir(out)) == ["Cube.rain.exr", "Plane.rain.exr"]
+    # no --maps: every map
+    assert sorted(os.listdir(out)) == ["Cube.edges.exr", "Cube.rain.exr", "Plane.edges.exr", "Plane.rain.exr"]
     assert "100%" in first.stderr  # the progress bar
     plane, metadata = imageio.read_image(out / "Plane.rain.exr")
     assert plane.shape == (16, 16, 1) and metadata["pw:uv_map"] == "UVMap"
@@ -48,9 +49,9 @@ def test_maps_are_written_and_a_rerun_skips_them(blend, tmp_path):
     stamp = os.stat(out / "Plane.rain.exr").st_mtime_ns
     again = run_cli(blend, "--out", out, *FAST)
     assert again.returncode == 0, again.stderr
-    assert statuses(again) == ["unchanged", "unchanged"] and os.stat(out / "Plane.rain.exr").st_mtime_ns == stamp
-    changed = run_cli(blend, "--out", out, *FAST, "--rain-cone", "20")
-    assert statuses(changed) == ["written", "written"]
+    assert statuses(again) == ["unchanged"] * 4 and os.stat(out / "Plane.rain.exr").st_mtime_ns == stamp
+    changed = run_cli(blend, "--out", out, *FAST, "--rain-cone", "20")  # only the rain maps depend on it
+    assert sorted(statuses(changed)) == ["unchanged", "unchanged", "written", "written"]
 
 
 def test_dry_run_writes_nothing(blend, tmp_path):

@@ -18,8 +18,9 @@ from distributed import LocalCluster
 from porous_weathering import distributed, imageio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-FAST = ["--resolution", "16", "--samples", "4"]
-BOTH_MAPS = ["--maps", "rain,edges", *FAST]
+TINY = ["--resolution", "16", "--samples", "4"]
+FAST = ["--maps", "rain", *TINY]
+BOTH_MAPS = ["--maps", "rain,edges", *TINY]
 FILES = 3
 TIMEOUT = 240
 

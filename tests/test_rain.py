@@ -174,7 +174,7 @@ def test_overlapping_user_map_is_not_reused(fresh_scene):
 def test_image_bake_without_uvs_makes_a_dilated_lightmap(fresh_scene, tmp_path):
     plane = grid(fresh_scene, "Bare", 2, 1, 3, uvs=False)
     assert not plane.data.uv_layers
-    [outcome] = bake.bake_maps([plane], bake.BakeOptions(resolution=SIZE, out_dir=str(tmp_path),
+    [outcome] = bake.bake_maps([plane], bake.BakeOptions(maps=("rain",), resolution=SIZE, out_dir=str(tmp_path),
                                                          rain_settings=settings(samples=8)))
     assert outcome.status == "written" and [m.name for m in plane.data.uv_layers] == [uv.LIGHTMAP_UV]
     pixels, metadata = imageio.read_image(outcome.where)
@@ -197,21 +197,21 @@ def test_a_failed_bake_leaves_no_uv_map_and_no_file(fresh_scene, tmp_path, monke
 
     monkeypatch.setattr(rain, "bake_rain_image", broken)
     with pytest.raises(RuntimeError, match="simulated"):
-        bake.bake_maps([plane], bake.BakeOptions(resolution=SIZE, out_dir=str(tmp_path)))
+        bake.bake_maps([plane], bake.BakeOptions(maps=("rain",), resolution=SIZE, out_dir=str(tmp_path)))
     assert not plane.data.uv_layers
     assert list(tmp_path.iterdir()) == []
 
 
 def test_attribute_bake_is_skipped_until_an_input_changes(fresh_scene):
     plane = grid(fresh_scene, "Plane", 2, 2, 1)
-    options = bake.BakeOptions(target="attribute", rain_settings=settings(samples=4))
+    options = bake.BakeOptions(maps=("rain",), target="attribute", rain_settings=settings(samples=4))
     assert [o.status for o in bake.bake_maps([plane], options)] == ["written"]
     assert rain.RAIN_ATTRIBUTE in plane.data.color_attributes
     assert [o.status for o in bake.bake_maps([plane], options)] == ["unchanged"]
     plane.location.z += 1.0
     bpy.context.view_layer.update()
     assert [o.status for o in bake.bake_maps([plane], options)] == ["written"]
-    changed = bake.BakeOptions(target="attribute", rain_settings=settings(samples=4, cone=20.0))
+    changed = bake.BakeOptions(maps=("rain",), target="attribute", rain_settings=settings(samples=4, cone=20.0))
     assert [o.status for o in bake.bake_maps([plane], changed)] == ["written"]
 
 
@@ -224,7 +224,7 @@ def test_cancel_stops_between_steps(fresh_scene, tmp_path):
         return len(asked) > 1
 
     with pytest.raises(bake.BakeCancelled):
-        bake.bake_maps(planes, bake.BakeOptions(resolution=SIZE, out_dir=str(tmp_path),
+        bake.bake_maps(planes, bake.BakeOptions(maps=("rain",), resolution=SIZE, out_dir=str(tmp_path),
                                                 rain_settings=settings(samples=2)), cancelled=cancelled)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["P0.rain.exr"]
 

@@ -119,7 +119,7 @@ elif mode == "kill-before-rename":
 elif mode == "disk-full":
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a full disk: writes fail with EFBIG, not a signal
     resource.setrlimit(resource.RLIMIT_FSIZE, (64, resource.RLIM_INFINITY))
-options = bake.BakeOptions(out_dir=out, resolution=64, rain_settings=rain.RainSettings(samples=2, cone=40))
+options = bake.BakeOptions(maps=("rain",), out_dir=out, resolution=64, rain_settings=rain.RainSettings(samples=2, cone=40))
 try:
     bake.bake_maps([bpy.data.objects["Stone 0"]], options)
 except OSError as error:
@@ -133,7 +133,7 @@ def baked(fresh_scene, tmp_path):
     """(blend path, map folder, previous map bytes): one plane, its rain map already baked."""
     [stone] = planes(fresh_scene, 1)
     out = tmp_path / "maps"
-    [outcome] = bake.bake_maps([stone], bake.BakeOptions(out_dir=str(out), **FAST))
+    [outcome] = bake.bake_maps([stone], bake.BakeOptions(maps=("rain",), out_dir=str(out), **FAST))
     blend = tmp_path / "wall.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
     return blend, out, pathlib.Path(outcome.where).read_bytes()

@@ -213,7 +213,7 @@ def test_bake_replaces_a_corrupt_old_map_with_a_whole_one(fresh_scene, tmp_path)
     out = tmp_path / "maps"
     out.mkdir()
     (out / "Plane.rain.exr").write_text("a map file overwritten by something else")
-    [outcome] = bake.bake_maps([plane], bake.BakeOptions(resolution=16, out_dir=str(out),
+    [outcome] = bake.bake_maps([plane], bake.BakeOptions(maps=("rain",), resolution=16, out_dir=str(out),
                                                          rain_settings=rain.RainSettings(samples=2)))
     assert outcome.status == "written"
     pixels, _ = imageio.read_image(outcome.where)
@@ -231,7 +231,7 @@ def test_unwritable_output_folder_is_refused_before_anything_changes(fresh_scene
     plane.data.uv_layers.remove(plane.data.uv_layers[0])  # the bake would have to add a lightmap
     before = data_counts()
     with pytest.raises(OSError, match="output folder") as refusal:
-        bake.bake_maps([plane], bake.BakeOptions(resolution=16, out_dir=out))
+        bake.bake_maps([plane], bake.BakeOptions(maps=("rain",), resolution=16, out_dir=out))
     assert out in str(refusal.value)
     assert data_counts() == before and not plane.data.uv_layers
 
@@ -243,7 +243,7 @@ def test_read_only_folder_is_refused_when_the_system_says_so(fresh_scene, tmp_pa
     plane = studio.add_plane(fresh_scene, size=2.0)
     os.chmod(out, 0o555)
     try:
-        options = bake.BakeOptions(resolution=16, out_dir=str(out), rain_settings=rain.RainSettings(samples=1))
+        options = bake.BakeOptions(maps=("rain",), resolution=16, out_dir=str(out), rain_settings=rain.RainSettings(samples=1))
         if os.access(out, os.W_OK):  # root
             assert [o.status for o in bake.bake_maps([plane], options)] == ["written"]
         else:
