@@ -15,13 +15,17 @@ class PW_OT_bake_maps(bpy.types.Operator):
 
     maps: bpy.props.EnumProperty(
         name="Maps", options={"ENUM_FLAG"}, default={"rain", "edges"},
+        description="Which maps to bake: the weathering modes read rain exposure and the edge/cavity mask",
         items=[("rain", "Rain Exposure", "Cosine-weighted fraction of the rain cone that reaches the surface"),
                ("edges", "Edges", "Edge/cavity mask: Sobel of the normal map (image) or mesh curvature (attribute)")])
     target: bpy.props.EnumProperty(
         name="Target", default="image",
+        description="Where the maps go: image files on a lightmap UV map, or colour attributes on the mesh (scans "
+                    "without UVs)",
         items=[("image", "Image", "Float EXR files on a lightmap UV map"),
                ("attribute", "Colour Attribute", "Colour attributes pw_rain / pw_edges on the mesh")])
-    resolution: bpy.props.IntProperty(name="Resolution", default=bake.DEFAULT_RESOLUTION, min=8, max=16384)
+    resolution: bpy.props.IntProperty(name="Resolution", default=bake.DEFAULT_RESOLUTION, min=8, max=16384,
+                                      description="Width and height of the image maps, in texels")
     samples: bpy.props.IntProperty(name="Samples", default=rain.DEFAULT_SAMPLES, min=1,
                                    description="Rain samples per texel or corner")
     rain_cone: bpy.props.FloatProperty(name="Rain Cone", default=rain.RainSettings.cone, min=0.5, max=89.0,

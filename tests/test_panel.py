@@ -6,7 +6,7 @@ import bpy
 import pytest
 
 import porous_weathering
-from porous_weathering import ui
+from porous_weathering import ops_bake, ui
 
 SAMPLES = sorted((pathlib.Path(__file__).resolve().parents[1] / "sample_blends").glob("*.blend"))
 
@@ -55,5 +55,17 @@ def test_panel_operators_run_on_sample(sample, registered, tmp_path):
 
 
 def test_every_panel_class_has_a_description():
-    for cls in ui.CLASSES:
+    for cls in ui.CLASSES + ops_bake.CLASSES:
         assert (cls.__doc__ or "").strip(), cls.__name__
+
+
+def test_every_control_has_a_tooltip(registered):
+    """Every operator option and every panel setting says what it does."""
+    operators = [getattr(bpy.ops.porous_weathering, name) for name in dir(bpy.ops.porous_weathering)]
+    assert len(operators) >= 4
+    properties = [(op.idname(), prop) for op in operators for prop in op.get_rna_type().properties]
+    properties += [("settings", prop) for prop in bpy.context.scene.porous_weathering.bl_rna.properties
+                   if prop.identifier != "name"]
+    untold = [f"{owner}.{prop.identifier}" for owner, prop in properties
+              if prop.identifier != "rna_type" and not prop.description.strip()]
+    assert not untold
