@@ -156,12 +156,17 @@ def bake_maps(objects, options=BakeOptions(), *, dry_run=False, progress=None, c
 
 
 def iter_bake(objects, options=BakeOptions(), *, dry_run=False):
-    """Generate the Steps of the bake (see the module docstring). Closing the generator
-    early (cancel) undoes the lightmap UV map of the object in progress if none of its maps
-    was written."""
+    """The Steps of the bake, as a generator (see the module docstring). The objects and the
+    output folder are checked at once, so a refusal comes before anything starts. Closing the
+    generator early (cancel) undoes the lightmap UV map of the object in progress if none of
+    its maps was written."""
     check_targets(objects, options)
     if options.target == "image" and not dry_run:
         check_writable_folder(options.out_dir)
+    return _steps(objects, options, dry_run)
+
+
+def _steps(objects, options, dry_run):
     digests = _Digests()
     total = len(objects) * len(options.maps)
     for number, obj in enumerate(objects):

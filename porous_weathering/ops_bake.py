@@ -60,12 +60,11 @@ class PW_OT_bake_maps(bpy.types.Operator):
                 rain_settings=rain.RainSettings(cone=self.rain_cone, wind_azimuth=self.wind_azimuth,
                                                 wind_tilt=self.wind_tilt, samples=self.samples))
             objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
-            bake.check_targets(objects, options)
+            self._steps = bake.iter_bake(objects, options)  # refuses bad objects or folders here
         except (ValueError, OSError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         self._objects, self._options = objects, options
-        self._steps = bake.iter_bake(objects, options)
         self._outcomes = []
         context.window_manager.progress_begin(0, 1)
         if bpy.app.background or context.window is None:  # no event loop: run to the end
