@@ -185,19 +185,18 @@ def _vertex_curvature(mesh, matrix_world):
     loop_vertex = attribute(".corner_vert", np.int32)
     loop_edge = attribute(".corner_edge", np.int32)
     edge_vertices = attribute(".edge_verts", np.int32, 2)
-    loop_start = np.empty(len(mesh.polygons), dtype=np.int32)
-    mesh.polygons.foreach_get("loop_start", loop_start)
-    loop_bounds = np.append(loop_start, len(loop_vertex))
-    # Normals must point out: a mirroring transform reverses the winding, and so does a closed
-    # mesh made inside out (renders shade both from outside).
-    outward = (np.linalg.det(matrix_world[:3, :3]) >= 0) != mesh_arrays.is_inside_out(mesh)
-    side = 0.5 if outward else -0.5
+    loop_bounds = np.append(mesh_arrays.loop_starts(mesh), len(loop_vertex))
+    # A mirroring transform reverses the winding: flip so that normals still point out.
+    side = 0.5 if np.linalg.det(matrix_world[:3, :3]) >= 0 else -0.5
     faces = _face_sums(points, loop_vertex, loop_edge, loop_bounds, side, len(edge_vertices))
     area_vectors, centres, area, normals, first_face, last_face = faces
+    edge_uses = np.bincount(loop_edge, minlength=len(edge_vertices))
+    if mesh_arrays.encloses_negative_volume(edge_uses, centres, area_vectors):
+        area_vectors, normals = -area_vectors, -normals  # inside out: renders shade it from outside
     face_normals = area_vectors / np.maximum(np.linalg.norm(area_vectors, axis=1), np.finfo(float).tiny)[:, None]
 
     integrated = np.zeros(len(points))
-    manifold = np.flatnonzero(np.bincount(loop_edge, minlength=len(edge_vertices)) == 2)
+    manifold = np.flatnonzero(edge_uses == 2)
     for block in _blocks(len(manifold)):  # edges used by exactly two faces
         pairs = manifold[block]
         face_a, face_b = first_face[pairs], last_face[pairs]

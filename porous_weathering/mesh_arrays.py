@@ -11,23 +11,30 @@ def attribute(mesh, name, dtype, width=1):
     return values.reshape(-1, width) if width > 1 else values
 
 
-def is_inside_out(mesh):
-    """True when ``mesh`` is closed (every edge between exactly two faces) and its normals point
-    inwards: its signed volume, (1/3) Σ_faces centre · area vector, is negative.
+def loop_starts(mesh):
+    """The index of every face's first corner, as int32 (faces,)."""
+    starts = np.empty(len(mesh.polygons), dtype=np.int32)
+    mesh.polygons.foreach_get("loop_start", starts)
+    return starts
 
-    Open meshes (a wall, a scan with holes) have no inside: their normals are taken as given.
-    """
-    loop_edge = attribute(mesh, ".corner_edge", np.int32)
-    if not len(loop_edge) or np.any(np.bincount(loop_edge, minlength=len(mesh.edges)) != 2):
+
+def encloses_negative_volume(edge_uses, face_points, area_vectors):
+    """True when the faces close a volume (every edge between exactly two of them, by its
+    count ``edge_uses``) whose signed volume, (1/3) Σ face point · area vector, is negative:
+    their normals point inwards. Open meshes (a wall, a scan with holes) have no inside."""
+    closed = len(area_vectors) > 0 and bool(np.all(edge_uses == 2))
+    return closed and np.einsum("ij,ij->", face_points, area_vectors) < 0.0
+
+
+def is_inside_out(mesh):
+    """True when ``mesh`` is closed and its normals point inwards (``encloses_negative_volume``)."""
+    starts = loop_starts(mesh)
+    if not len(starts):
         return False
+    loop_edge = attribute(mesh, ".corner_edge", np.int32)
     points = attribute(mesh, "position", np.float32, 3).astype(np.float64)
     corners = points[attribute(mesh, ".corner_vert", np.int32)]
-    loop_start = np.empty(len(mesh.polygons), dtype=np.int32)
-    mesh.polygons.foreach_get("loop_start", loop_start)
-    loop_next = np.arange(1, len(corners) + 1)
-    loop_next[np.append(loop_start[1:], len(corners)) - 1] = loop_start
-    # Each face as the fan of tetrahedra (origin, p_0, p_i, p_next): the terms of its first and
-    # last corners vanish, so one sum over all corners gives the volume.
-    face_first = np.repeat(loop_start, np.diff(loop_start, append=len(corners)))
-    volume = np.einsum("ij,ij->", corners[face_first], np.cross(corners, corners[loop_next])) / 6.0
-    return volume < 0.0
+    following = np.arange(1, len(corners) + 1)  # the next corner around the face
+    following[np.append(starts[1:], len(corners)) - 1] = starts
+    area_vectors = np.add.reduceat(np.cross(corners, corners[following]), starts) / 2.0  # Newell
+    return encloses_negative_volume(np.bincount(loop_edge, minlength=len(mesh.edges)), corners[starts], area_vectors)
