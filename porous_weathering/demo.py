@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import bpy
 
-from . import bake, efflorescence_map, material, model, presets, render, studio, weathering
+from . import bake, efflorescence_map, material, model, presets, rain, render, studio, weathering
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SAMPLES_DIR = os.path.join(ROOT, "sample_blends")
@@ -101,7 +101,7 @@ class Sample:
         baked = tuple(map_name for map_name in bake.MAPS if map_name in used)
         sources = {map_name: bake.ATTRIBUTES[map_name] for map_name in baked}
         if baked:
-            options = bake.BakeOptions(maps=baked, target="attribute", rain_settings=bake.rain.RainSettings(
+            options = bake.BakeOptions(maps=baked, target="attribute", rain_settings=rain.RainSettings(
                 samples=bake_samples, **self.recipe.rain))
             bar = bake.ProgressBar(f"baking the maps of {self.name}") if progress else None
             bake.bake_maps(self.objects, options, progress=bar)
@@ -174,11 +174,16 @@ def docs_pictures(args):
     with tempfile.TemporaryDirectory(prefix="pw_docs_") as work:
         aging = render_aging(work, args.size, args.samples, args.bake_samples)
         written.append(side_by_side(aging, len(AGES), os.path.join(DOCS_IMAGES, "facade_aging.png")))
+        modes_of = {}  # sample -> the modes it shows: each sample is opened and baked once
         for mode, name in DOCS_BEFORE_AFTER.items():
+            modes_of.setdefault(name, []).append(mode)
+        for name, modes in modes_of.items():
             sample = Sample(name, bake_samples=args.bake_samples, map_dir=work, progress=True)
             sample.use_cycles(args.size, args.samples)
-            pictures = [sample.render(mode, age, os.path.join(work, f"{name}_{mode}_{age}.png")) for age in (0.0, 1.0)]
-            written.append(side_by_side(pictures, 2, os.path.join(DOCS_IMAGES, f"{mode}_before_after.png")))
+            for mode in modes:
+                pictures = [sample.render(mode, age, os.path.join(work, f"{name}_{mode}_{age}.png"))
+                            for age in (0.0, 1.0)]
+                written.append(side_by_side(pictures, 2, os.path.join(DOCS_IMAGES, f"{mode}_before_after.png")))
     return written
 
 
