@@ -28,6 +28,7 @@ matplotlib.use("Agg")  # files only, no display
 import matplotlib.pyplot as plt  # noqa: E402
 
 import machine  # noqa: E402  (benchmarks/machine.py)
+import timing  # noqa: E402  (benchmarks/timing.py)
 from porous_weathering import edges  # noqa: E402
 
 IMAGES = pathlib.Path(__file__).resolve().parents[1] / "docs" / "img"
@@ -73,9 +74,7 @@ def curvature_timings(tori, rounds):
     best = {len(obj.data.vertices): (np.inf, np.inf) for obj in tori}
     for _ in range(rounds):
         for obj in tori:
-            wall, cpu = time.perf_counter(), time.process_time()
-            edges.write_curvature_attribute(obj, 0.1)
-            wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+            wall, cpu = timing.wall_and_cpu_seconds(lambda: edges.write_curvature_attribute(obj, 0.1))
             vertices = len(obj.data.vertices)
             best[vertices] = (min(best[vertices][0], wall), min(best[vertices][1], cpu))
     return best

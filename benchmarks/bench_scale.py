@@ -76,36 +76,38 @@ def child(args):
     sys.path.insert(0, ROOT)
     import bpy
 
-    from porous_weathering import bake, edges, rain
+    from benchmarks import timing
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     start = time.perf_counter()
     obj = heightfield("Scan", args.triangles)
     result = {"stage": args.child, "triangles": len(obj.data.polygons), "vertices": len(obj.data.vertices),
               "build_s": time.perf_counter() - start}
+    # The curvature is timed best of --rounds; a bake runs once (a second run would find its map
+    # unchanged and skip it).
+    rounds = args.rounds if args.child == "curvature" else 1
+    timings = [timing.wall_and_cpu_seconds(lambda: run_stage(args.child, obj, args)) for _ in range(rounds)]
+    result["stage_s"], result["stage_cpu_s"] = (min(seconds) for seconds in zip(*timings))
+    print("RESULT " + json.dumps(result), flush=True)
+
+
+def run_stage(stage, obj, args):
+    from porous_weathering import bake, edges, rain
+
     settings = rain.RainSettings(samples=args.samples)
-    start = time.perf_counter()
-    if args.child == "rain-attribute":
+    if stage == "rain-attribute":
         bake.bake_maps([obj], bake.BakeOptions(maps=("rain",), target="attribute", rain_settings=settings))
         assert rain.RAIN_ATTRIBUTE in obj.data.color_attributes
-    elif args.child == "rain-image":
+    elif stage == "rain-image":
         with tempfile.TemporaryDirectory() as out:
             [outcome] = bake.bake_maps([obj], bake.BakeOptions(maps=("rain",), resolution=args.resolution,
                                                                out_dir=out, rain_settings=settings))
             assert outcome.status == "written" and os.path.getsize(outcome.where) > 0
-    elif args.child == "edges-attribute":
+    elif stage == "edges-attribute":
         bake.bake_maps([obj], bake.BakeOptions(maps=("edges",), target="attribute"))
         assert edges.EDGE_ATTRIBUTE in obj.data.color_attributes
-    elif args.child == "curvature":  # best of --rounds: wall and CPU time (CPU is steadier on a shared machine)
-        rounds = []
-        for _ in range(args.rounds):
-            wall, cpu = time.perf_counter(), time.process_time()
-            edges.curvature(obj, bake.DEFAULT_EDGE_RADIUS)
-            rounds.append((time.perf_counter() - wall, time.process_time() - cpu))
-        result["stage_s"], result["stage_cpu_s"] = min(r[0] for r in rounds), min(r[1] for r in rounds)
-        return print("RESULT " + json.dumps(result), flush=True)
-    result["stage_s"] = time.perf_counter() - start
-    print("RESULT " + json.dumps(result), flush=True)
+    elif stage == "curvature":
+        edges.curvature(obj, bake.DEFAULT_EDGE_RADIUS)
 
 
 def run_child(stage, triangles, args):
