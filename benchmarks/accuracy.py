@@ -1,7 +1,7 @@
 """Accuracy of the rendered porous material against the exact reference (issue 6).
 
 Prints markdown: per light mode (key light, ambient) the relative RMSE and max error of Cycles
-(and a few EEVEE) renders against porous_weathering.reference, as a sun moves from the zenith
+(and a few EEVEE) renders against benchmarks/reference.py, as a sun moves from the zenith
 to 89 degrees, and in three environments (uniform sky, overcast, sun + sky).  Error images go
 to ``--images``.  Errors are relative to the reference's RMS over the covered pixels.
 
@@ -19,7 +19,7 @@ import numpy as np  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402
 from benchmarks import plots, scenes  # noqa: E402
-from porous_weathering import reference as ref  # noqa: E402
+from benchmarks import reference as ref  # noqa: E402
 from porous_weathering import render, studio  # noqa: E402
 
 MATERIALS = {
@@ -50,8 +50,15 @@ def environments():
 def porous_material(params, key_light):
     if params["alpha"] == 0.0:  # the base Diffuse + Glossy material, which the reference gives at alpha = 0
         return pw.make_base_material("Base", base_color=params["kd"], ks=params["ks"], roughness=params["m"])
-    return pw.make_porous_material("Porous", base_color=params["kd"], ks=params["ks"], roughness=params["m"],
-                                   porosity=params["alpha"], pore_depth_ratio=params["sp"], key_light=key_light)
+    return pw.make_porous_material(
+        "Porous",
+        base_color=params["kd"],
+        ks=params["ks"],
+        roughness=params["m"],
+        porosity=params["alpha"],
+        pore_depth_ratio=params["sp"],
+        key_light=key_light,
+    )
 
 
 def rendered(surface, lights, sky, params, mode, engine="CYCLES", size=SIZE, samples=1):
@@ -69,8 +76,13 @@ def rendered(surface, lights, sky, params, mode, engine="CYCLES", size=SIZE, sam
 
 
 def exact(surface, lights, sky, params, size, light_mode=ref.EXACT):
-    return ref.render(scenes.reference_surface(surface, size), ref.Porous(**params, light_mode=light_mode),
-                      lights, sky, samples=REFERENCE_SAMPLES)
+    return ref.render(
+        scenes.reference_surface(surface, size),
+        ref.Porous(**params, light_mode=light_mode),
+        lights,
+        sky,
+        samples=REFERENCE_SAMPLES,
+    )
 
 
 def compared(image, expected):
@@ -100,16 +112,31 @@ def sun_sweep(images):
                 if zenith == 60 and name == "diffuse":
                     scenes.write_error_image(images / f"error_sun60_{mode}.png", image, expected.rgb, mask)
             rows.append(row)
-    table = scenes.markdown_table(["material", "sun zenith", "key RMSE", "key max", "ambient RMSE", "ambient max"],
-                                  rows)
-    plots.line_plot(images / "accuracy_sun_sweep.png", curves, "sun zenith angle (°)", "RMSE (% of reference RMS)",
-                    "Porous sphere under one sun, Cycles vs exact reference", log="y")
-    notes = [f"- {name}: ambient RMSE first exceeds {percent(BREAKDOWN)} at a sun {z}° from the zenith "
-             f"({percent(e)})" for name, (z, e) in breakdown.items()]
+    table = scenes.markdown_table(
+        ["material", "sun zenith", "key RMSE", "key max", "ambient RMSE", "ambient max"], rows
+    )
+    plots.line_plot(
+        images / "accuracy_sun_sweep.png",
+        curves,
+        "sun zenith angle (°)",
+        "RMSE (% of reference RMS)",
+        "Porous sphere under one sun, Cycles vs exact reference",
+        log="y",
+    )
+    notes = [
+        f"- {name}: ambient RMSE first exceeds {percent(BREAKDOWN)} at a sun {z}° from the zenith ({percent(e)})"
+        for name, (z, e) in breakdown.items()
+    ]
     notes = notes or [f"- the ambient RMSE stays under {percent(BREAKDOWN)} at every angle"]
-    return ("### One sun, Cycles (deterministic: a zero-angle sun needs one sample)\n\n" + table + "\n\n"
-            + "\n".join(notes) + "\n\n![RMSE against sun angle](img/accuracy_sun_sweep.png)\n\nA large key-light max with a small RMSE comes from terminator pixels, "
-            "where the smooth-shaded mesh shadows itself and the analytic sphere does not (geometry, not BRDF).")
+    return (
+        "### One sun, Cycles (deterministic: a zero-angle sun needs one sample)\n\n"
+        + table
+        + "\n\n"
+        + "\n".join(notes)
+        + "\n\n![RMSE against sun angle](img/accuracy_sun_sweep.png)\n\n"
+        + "A large key-light max with a small RMSE comes from terminator pixels, "
+        "where the smooth-shaded mesh shadows itself and the analytic sphere does not (geometry, not BRDF)."
+    )
 
 
 def eevee_rows():
@@ -126,11 +153,14 @@ def eevee_rows():
                 (rmse, worst), _ = compared(image, expected)
                 row += [percent(rmse), percent(worst)]
             rows.append(row)
-    return ("### One sun, EEVEE (key light, 16 samples, 32 px)\n\n"
-            + scenes.markdown_table(["material", "sun zenith", "porous RMSE", "porous max",
-                                     "base Diffuse+Glossy RMSE", "base max"], rows)
-            + "\n\nThe base material has no porous nodes: where its error matches the porous one, the "
-            "difference is EEVEE's own diffuse and glossy lobes against Cycles' GGX, not the porous maths.")
+    return (
+        "### One sun, EEVEE (key light, 16 samples, 32 px)\n\n"
+        + scenes.markdown_table(
+            ["material", "sun zenith", "porous RMSE", "porous max", "base Diffuse+Glossy RMSE", "base max"], rows
+        )
+        + "\n\nThe base material has no porous nodes: where its error matches the porous one, the "
+        "difference is EEVEE's own diffuse and glossy lobes against Cycles' GGX, not the porous maths."
+    )
 
 
 def v_groove_rows():
@@ -141,8 +171,10 @@ def v_groove_rows():
         image = rendered(("V_GROOVE", 45.0), lights, None, params, "key")
         (rmse, worst), _ = compared(image, expected)
         rows.append([name, percent(rmse), percent(worst)])
-    return "### V-groove (45° faces, sun 60° across it: the far face shadows the lit one), Cycles key light\n\n" + \
-        scenes.markdown_table(["material", "RMSE", "max"], rows)
+    return (
+        "### V-groove (45° faces, sun 60° across it: the far face shadows the lit one), Cycles key light\n\n"
+        + scenes.markdown_table(["material", "RMSE", "max"], rows)
+    )
 
 
 def environment_rows():
@@ -165,13 +197,27 @@ def environment_rows():
                 (rmse, worst), _ = compared(image, expected)
                 bound = np.sqrt(np.mean(expected.bound[expected.covered] ** 2 / 9.0))
                 scale = np.sqrt(np.mean(expected.rgb[expected.covered] ** 2))
-                rows.append([name, environment, mode, percent(model_rmse), percent(model_max), percent(rmse),
-                             percent(worst), percent(bound / scale)])
-    return (f"### Environments (sphere {SKY_SIZE} px; Cycles {SKY_SAMPLES} samples; reference "
-            f"{REFERENCE_SAMPLES} samples)\n\n" + environment_rows.__doc__.split("\n\n")[1].strip().replace("\n    ", " ")
-            + " 'ref σ' is the reference's own Monte Carlo standard error (RMS over pixels).\n\n"
-            + scenes.markdown_table(["material", "environment", "mode", "model RMSE", "model max", "Cycles RMSE",
-                                     "Cycles max", "ref σ"], rows))
+                rows.append(
+                    [
+                        name,
+                        environment,
+                        mode,
+                        percent(model_rmse),
+                        percent(model_max),
+                        percent(rmse),
+                        percent(worst),
+                        percent(bound / scale),
+                    ]
+                )
+    return (
+        f"### Environments (sphere {SKY_SIZE} px; Cycles {SKY_SAMPLES} samples; reference "
+        f"{REFERENCE_SAMPLES} samples)\n\n"
+        + environment_rows.__doc__.split("\n\n")[1].strip().replace("\n    ", " ")
+        + " 'ref σ' is the reference's own Monte Carlo standard error (RMS over pixels).\n\n"
+        + scenes.markdown_table(
+            ["material", "environment", "mode", "model RMSE", "model max", "Cycles RMSE", "Cycles max", "ref σ"], rows
+        )
+    )
 
 
 def main():

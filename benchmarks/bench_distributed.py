@@ -36,8 +36,12 @@ def make_files(folder, count):
 
 def timed_bake(paths, out, options):
     started = time.perf_counter()
-    subprocess.run([sys.executable, "-m", "porous_weathering", "bake", *paths, "--out", out, *options],
-                   cwd=ROOT, check=True, capture_output=True)
+    subprocess.run(
+        [sys.executable, "-m", "porous_weathering", "bake", *paths, "--out", out, *options],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+    )
     return time.perf_counter() - started
 
 
@@ -54,11 +58,14 @@ def main():
         paths = make_files(folder, args.files)
         maps = 2 * args.files * len(args.maps.split(","))
         runs = {"serial": []} | {f"--workers {n}": ["--workers", str(n)] for n in (1, 2)}
-        times = {name: timed_bake(paths, os.path.join(folder, name.replace(" ", "")), options + extra)
-                 for name, extra in runs.items()}
+        times = {
+            name: timed_bake(paths, os.path.join(folder, name.replace(" ", "")), options + extra)
+            for name, extra in runs.items()
+        }
 
-    print(f"{args.files} files, {maps} maps of {args.resolution}^2 texels, {args.samples} samples, "
-          f"{os.cpu_count()} CPUs")
+    print(
+        f"{args.files} files, {maps} maps of {args.resolution}^2 texels, {args.samples} samples, {os.cpu_count()} CPUs"
+    )
     print("| run | wall time (s) | ratio to serial |")
     print("|---|---:|---:|")
     for name, seconds in times.items():

@@ -25,10 +25,10 @@ import matplotlib  # noqa: E402
 import numpy as np  # noqa: E402
 
 matplotlib.use("Agg")  # files only, no display
-import matplotlib.pyplot as plt  # noqa: E402
-
 import machine  # noqa: E402  (benchmarks/machine.py)
+import matplotlib.pyplot as plt  # noqa: E402
 import timing  # noqa: E402  (benchmarks/timing.py)
+
 from porous_weathering import edges  # noqa: E402
 
 IMAGES = pathlib.Path(__file__).resolve().parents[1] / "docs" / "img"
@@ -74,7 +74,7 @@ def curvature_timings(tori, rounds):
     best = {len(obj.data.vertices): (np.inf, np.inf) for obj in tori}
     for _ in range(rounds):
         for obj in tori:
-            wall, cpu = timing.wall_and_cpu_seconds(lambda: edges.write_curvature_attribute(obj, 0.1))
+            wall, cpu = timing.wall_and_cpu_seconds(lambda obj=obj: edges.write_curvature_attribute(obj, 0.1))
             vertices = len(obj.data.vertices)
             best[vertices] = (min(best[vertices][0], wall), min(best[vertices][1], cpu))
     return best
@@ -112,7 +112,7 @@ def main():
     parser.add_argument("--no-sobel", action="store_true", help="time the curvature mask only")
     args = parser.parse_args()
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    tori = [torus(segments) for segments in SEGMENTS if segments ** 2 // 2 <= args.max_vertices]
+    tori = [torus(segments) for segments in SEGMENTS if segments**2 // 2 <= args.max_vertices]
     best = curvature_timings(tori, args.rounds)
     print(f"{machine.describe(bpy.app.version_string)}")
     print(f"smoothing radius 0.1 on a torus of radii 1 and 0.4; best of {args.rounds} interleaved rounds\n")
@@ -122,8 +122,11 @@ def main():
     for vertices, (wall, cpu) in sorted(best.items()):
         per_vertex = np.array([wall, cpu]) / vertices * 1e6
         first = per_vertex if first is None else first
-        print(f"| {vertices:,} | {wall:.3f} | {per_vertex[0]:.2f} | {per_vertex[0] / first[0]:.2f} "
-              f"| {cpu:.3f} | {per_vertex[1]:.2f} | {per_vertex[1] / first[1]:.2f} |", flush=True)
+        print(
+            f"| {vertices:,} | {wall:.3f} | {per_vertex[0]:.2f} | {per_vertex[0] / first[0]:.2f} "
+            f"| {cpu:.3f} | {per_vertex[1]:.2f} | {per_vertex[1] / first[1]:.2f} |",
+            flush=True,
+        )
     plot = IMAGES / f"edges_benchmark_{bpy.app.version[0]}.{bpy.app.version[1]}.png"
     write_plot(best, plot)
     print(f"\nwrote {plot}")
@@ -138,7 +141,7 @@ def sobel_timings(repeats):
     print(f"\n| texels (Sobel, {len(obj.data.vertices):,} vertices) | edge mask image (s) | ns / texel |")
     print("|---:|---:|---:|")
     for resolution in RESOLUTIONS:
-        seconds = best_time(lambda: edges.edge_mask_image(obj, "UVMap", resolution), repeats)
+        seconds = best_time(lambda resolution=resolution: edges.edge_mask_image(obj, "UVMap", resolution), repeats)
         print(f"| {resolution}^2 | {seconds:.3f} | {seconds / resolution**2 * 1e9:.0f} |", flush=True)
 
 

@@ -25,8 +25,13 @@ from benchmarks import scenes, speed, timing  # noqa: E402
 from porous_weathering import model, nodes, render, studio  # noqa: E402
 
 #: label -> modes, and the paper's instruction count
-MODE_SETS = {"porosity": ((), 83), "soiling": ((model.SOILING,), 138), "wet": ((model.WET,), 120),
-             "efflorescence": ((model.EFFLORESCENCE,), 101), "all three": (model.MODES, None)}
+MODE_SETS = {
+    "porosity": ((), 83),
+    "soiling": ((model.SOILING,), 138),
+    "wet": ((model.WET,), 120),
+    "efflorescence": ((model.EFFLORESCENCE,), 101),
+    "all three": (model.MODES, None),
+}
 MATHS = {"MATH", "VECT_MATH", "GAMMA"}
 
 
@@ -57,9 +62,10 @@ def measure(size, samples, rounds):
     scene = bpy.context.scene
     obj = scenes.build(scene, "SPHERE", (speed.SUN,))
     sun = next(o for o in scene.objects if o.type == "LIGHT")
-    materials = {label: speed.weathered(modes, sun) if modes else pw.make_porous_material(label, **speed.stone(),
-                                                                                          key_light=sun)
-                 for label, (modes, _) in MODE_SETS.items()}
+    materials = {
+        label: speed.weathered(modes, sun) if modes else pw.make_porous_material(label, **speed.stone(), key_light=sun)
+        for label, (modes, _) in MODE_SETS.items()
+    }
     render.use_eevee(scene, size=size, samples=samples)
     studio.assign(obj, pw.make_base_material("Warm-up"))
     timing.timed_render(scene)  # compiles EEVEE's engine shaders
@@ -69,8 +75,9 @@ def measure(size, samples, rounds):
         first[label] = timing.timed_render(scene)[0]
     times, _ = timing.interleaved_rounds(scene, obj, materials, lambda *_: None, (samples,), rounds, warm_up=0)
     steady = {label: statistics.median(times[label, samples]) for label in materials}
-    ratios = {label: [t / base for t, base in zip(times[label, samples], times["porosity", samples])]
-              for label in materials}
+    ratios = {
+        label: [t / base for t, base in zip(times[label, samples], times["porosity", samples])] for label in materials
+    }
     return {label: (first[label], steady[label], ratios[label]) for label in materials}
 
 
@@ -86,16 +93,40 @@ def main():
         total, maths, live = node_counts(modes, nodes.SUN)
         ambient_total, _, ambient_live = node_counts(modes, nodes.AMBIENT)
         first_seconds, render_seconds, ratios = measured[label]
-        rows.append([label, paper or "—", f"{paper / 83:.2f}" if paper else "—", total, ambient_total, maths,
-                     f"{live} / {ambient_live}", f"{live / node_counts((), nodes.SUN)[2]:.2f}", f"{first_seconds:.2f}",
-                     f"{render_seconds:.2f}",
-                     f"{statistics.median(ratios):.2f} ({min(ratios):.2f}–{max(ratios):.2f})"])
-    header = ["material", "paper instr.", "paper × porosity", "nodes (sun)", "nodes (ambient)", "maths nodes (sun)",
-              "live maths nodes (sun / ambient)", "live × porosity", "EEVEE first render s", "EEVEE later renders s", "render × porosity (range)"]
-    print(f"### Shader cost per weathering mode (EEVEE, Blender {bpy.app.version_string}, {args.size} px sphere, "
-          f"{args.samples} samples)\n\nFirst render = shader compile + render; later renders = median of "
-          f"{args.rounds} interleaved rounds; ratios per round, median and range.\n\n"
-          + scenes.markdown_table(header, rows))
+        rows.append(
+            [
+                label,
+                paper or "—",
+                f"{paper / 83:.2f}" if paper else "—",
+                total,
+                ambient_total,
+                maths,
+                f"{live} / {ambient_live}",
+                f"{live / node_counts((), nodes.SUN)[2]:.2f}",
+                f"{first_seconds:.2f}",
+                f"{render_seconds:.2f}",
+                f"{statistics.median(ratios):.2f} ({min(ratios):.2f}–{max(ratios):.2f})",
+            ]
+        )
+    header = [
+        "material",
+        "paper instr.",
+        "paper × porosity",
+        "nodes (sun)",
+        "nodes (ambient)",
+        "maths nodes (sun)",
+        "live maths nodes (sun / ambient)",
+        "live × porosity",
+        "EEVEE first render s",
+        "EEVEE later renders s",
+        "render × porosity (range)",
+    ]
+    print(
+        f"### Shader cost per weathering mode (EEVEE, Blender {bpy.app.version_string}, {args.size} px sphere, "
+        f"{args.samples} samples)\n\nFirst render = shader compile + render; later renders = median of "
+        f"{args.rounds} interleaved rounds; ratios per round, median and range.\n\n"
+        + scenes.markdown_table(header, rows)
+    )
 
 
 if __name__ == "__main__":

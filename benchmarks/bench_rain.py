@@ -16,8 +16,8 @@ import pathlib
 import sys
 import time
 
-import bpy
 import bmesh  # noqa: E402  (importable only once bpy is)
+import bpy
 import matplotlib
 import matplotlib.ticker
 import numpy as np
@@ -26,9 +26,9 @@ matplotlib.use("Agg")  # files only, no display
 import matplotlib.pyplot as plt  # noqa: E402
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
-from porous_weathering import rain, studio  # noqa: E402
-
 import machine  # noqa: E402  (benchmarks/machine.py)
+
+from porous_weathering import rain, studio  # noqa: E402
 
 SAMPLES = (1, 4, 16, 64, 256)
 DOCS = pathlib.Path(__file__).resolve().parent.parent / "docs"
@@ -110,24 +110,34 @@ def report(rows, triangles, args, reference_time):
     """docs/rain_benchmark.md: the setting, the table, the plot and the default's numbers."""
     measured = {(sky, samples): (seconds, rmse) for sky, samples, seconds, rmse in rows}
     default = rain.DEFAULT_SAMPLES
-    lines = ["# Rain bake: error against samples per texel and wall time", "",
-             f"`python benchmarks/bench_rain.py` ({machine.describe(bpy.app.version_string)}).", "",
-             f"Rain bake on a {triangles}-triangle terrain half under a roof, {args.resolution}² texels, cone 15°, "
-             f"vertical rain. Reference: sun lamp, {args.reference} samples ({reference_time:.1f} s).", "",
-             "| sky | samples per texel | wall time (s) | RMSE vs reference | RMSE × 255 |",
-             "|---|---:|---:|---:|---:|"]
-    lines += [f"| {sky} | {samples} | {seconds:.2f} | {rmse:.4f} | {rmse * 255:.1f} |"
-              for sky, samples, seconds, rmse in rows]
+    lines = [
+        "# Rain bake: error against samples per texel and wall time",
+        "",
+        f"`python benchmarks/bench_rain.py` ({machine.describe(bpy.app.version_string)}).",
+        "",
+        f"Rain bake on a {triangles}-triangle terrain half under a roof, {args.resolution}² texels, cone 15°, "
+        f"vertical rain. Reference: sun lamp, {args.reference} samples ({reference_time:.1f} s).",
+        "",
+        "| sky | samples per texel | wall time (s) | RMSE vs reference | RMSE × 255 |",
+        "|---|---:|---:|---:|---:|",
+    ]
+    lines += [
+        f"| {sky} | {samples} | {seconds:.2f} | {rmse:.4f} | {rmse * 255:.1f} |" for sky, samples, seconds, rmse in rows
+    ]
     lines += ["", f"![RMSE against wall time]({PLOT.relative_to(DOCS)})", ""]
+
     def sun(samples):
         seconds, rmse = measured["sun", samples]
         return f"RMSE {rmse * 255:.1f}/255 in {seconds:.2f} s"
 
     if ("sun", default) in measured:
         neighbours = [f"; {n} samples: {sun(n)}" for n in (default // 4, default * 4) if ("sun", n) in measured]
-        lines += [f"Default (`rain.DEFAULT_SAMPLES`): {default} samples per texel with the sun lamp, {sun(default)}"
-                  + "".join(neighbours) + ". Why this default: "
-                  "[maps.md](maps.md#sun-lamp-or-world-texture-cone-and-the-default-sample-count)."]
+        lines += [
+            f"Default (`rain.DEFAULT_SAMPLES`): {default} samples per texel with the sun lamp, {sun(default)}"
+            + "".join(neighbours)
+            + ". Why this default: "
+            "[maps.md](maps.md#sun-lamp-or-world-texture-cone-and-the-default-sample-count)."
+        ]
     return "\n".join(lines) + "\n"
 
 

@@ -31,7 +31,7 @@ import tempfile
 import time
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
-GIB = 1024 ** 3
+GIB = 1024**3
 LIMIT_BYTES = 8 * GIB
 DEFAULT_EDGE_RADIUS = 0.05  # bake.DEFAULT_EDGE_RADIUS, which the stages use
 STAGES = ("build", "rain-attribute", "rain-image", "edges-attribute")
@@ -46,8 +46,11 @@ def heightfield(name, triangles):
     n = max(1, int(round((triangles / 2) ** 0.5)))
     u = np.linspace(0.0, 1.0, n + 1)
     x, y = np.meshgrid(u, u, indexing="xy")
-    z = (0.05 * np.sin(12 * x) * np.cos(9 * y) + 0.02 * np.abs(np.sin(40 * x + 3 * y))
-         - 0.03 * np.exp(-((x - 0.4) ** 2 + (y - 0.6) ** 2) / 0.002))
+    z = (
+        0.05 * np.sin(12 * x) * np.cos(9 * y)
+        + 0.02 * np.abs(np.sin(40 * x + 3 * y))
+        - 0.03 * np.exp(-((x - 0.4) ** 2 + (y - 0.6) ** 2) / 0.002)
+    )
     positions = np.stack([x * 4.0, y * 4.0, z], axis=-1).reshape(-1, 3).astype(np.float32)
 
     a = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()  # lower-left vertex of each quad
@@ -81,8 +84,12 @@ def child(args):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     start = time.perf_counter()
     obj = heightfield("Scan", args.triangles)
-    result = {"stage": args.child, "triangles": len(obj.data.polygons), "vertices": len(obj.data.vertices),
-              "build_s": time.perf_counter() - start}
+    result = {
+        "stage": args.child,
+        "triangles": len(obj.data.polygons),
+        "vertices": len(obj.data.vertices),
+        "build_s": time.perf_counter() - start,
+    }
     # The curvature is timed best of --rounds; a bake runs once (a second run would find its map
     # unchanged and skip it).
     rounds = args.rounds if args.child == "curvature" else 1
@@ -100,8 +107,9 @@ def run_stage(stage, obj, args):
         assert rain.RAIN_ATTRIBUTE in obj.data.color_attributes
     elif stage == "rain-image":
         with tempfile.TemporaryDirectory() as out:
-            [outcome] = bake.bake_maps([obj], bake.BakeOptions(maps=("rain",), resolution=args.resolution,
-                                                               out_dir=out, rain_settings=settings))
+            [outcome] = bake.bake_maps(
+                [obj], bake.BakeOptions(maps=("rain",), resolution=args.resolution, out_dir=out, rain_settings=settings)
+            )
             assert outcome.status == "written" and os.path.getsize(outcome.where) > 0
     elif stage == "edges-attribute":
         bake.bake_maps([obj], bake.BakeOptions(maps=("edges",), target="attribute"))
@@ -112,8 +120,20 @@ def run_stage(stage, obj, args):
 
 def run_child(stage, triangles, args):
     """(timings dict, peak resident bytes) of one stage run in a fresh child process."""
-    command = [sys.executable, os.path.abspath(__file__), "--child", stage, "--triangles", str(triangles),
-               "--samples", str(args.samples), "--resolution", str(args.resolution), "--rounds", str(args.rounds)]
+    command = [
+        sys.executable,
+        os.path.abspath(__file__),
+        "--child",
+        stage,
+        "--triangles",
+        str(triangles),
+        "--samples",
+        str(args.samples),
+        "--resolution",
+        str(args.resolution),
+        "--rounds",
+        str(args.rounds),
+    ]
     process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     output = process.stdout.read()
     _, status, usage = os.wait4(process.pid, 0)
@@ -129,8 +149,13 @@ def main():
     parser.add_argument("--triangles", type=int, default=2_000_000)
     parser.add_argument("--samples", type=int, default=16, help="rain samples per corner / texel")
     parser.add_argument("--resolution", type=int, default=2048, help="rain image size")
-    parser.add_argument("--sizes", type=int, nargs="+", default=[125_000, 250_000, 500_000, 1_000_000, 2_000_000],
-                        help="triangle counts for the curvature linearity series")
+    parser.add_argument(
+        "--sizes",
+        type=int,
+        nargs="+",
+        default=[125_000, 250_000, 500_000, 1_000_000, 2_000_000],
+        help="triangle counts for the curvature linearity series",
+    )
     parser.add_argument("--stages", nargs="*", default=list(STAGES), choices=STAGES)
     parser.add_argument("--rounds", type=int, default=3, help="curvature timings: best of this many")
     parser.add_argument("--json", help="also write the results here")
@@ -141,17 +166,28 @@ def main():
 
     import bpy  # noqa: F401  (only to report the version)
 
-    report = {"blender": bpy.app.version_string, "cpus": os.cpu_count(), "samples": args.samples,
-              "resolution": args.resolution, "stages": [], "curvature": []}
-    print(f"Blender {bpy.app.version_string}, {os.cpu_count()} CPUs, rain samples {args.samples}, "
-          f"image {args.resolution}^2, limit {LIMIT_BYTES / GIB:.0f} GiB")
+    report = {
+        "blender": bpy.app.version_string,
+        "cpus": os.cpu_count(),
+        "samples": args.samples,
+        "resolution": args.resolution,
+        "stages": [],
+        "curvature": [],
+    }
+    print(
+        f"Blender {bpy.app.version_string}, {os.cpu_count()} CPUs, rain samples {args.samples}, "
+        f"image {args.resolution}^2, limit {LIMIT_BYTES / GIB:.0f} GiB"
+    )
     print(f"{'stage':16} {'triangles':>10} {'build s':>8} {'stage s':>8} {'peak GiB':>9}")
     for stage in args.stages:
         timings, peak = run_child(stage, args.triangles, args)
         timings["peak_bytes"] = peak
         report["stages"].append(timings)
-        print(f"{stage:16} {timings['triangles']:>10} {timings['build_s']:8.1f} {timings['stage_s']:8.1f} "
-              f"{peak / GIB:9.2f}{'  OVER THE LIMIT' if peak > LIMIT_BYTES else ''}", flush=True)
+        print(
+            f"{stage:16} {timings['triangles']:>10} {timings['build_s']:8.1f} {timings['stage_s']:8.1f} "
+            f"{peak / GIB:9.2f}{'  OVER THE LIMIT' if peak > LIMIT_BYTES else ''}",
+            flush=True,
+        )
 
     print(f"\ncurvature (edges.curvature, radius {DEFAULT_EDGE_RADIUS} scene units)")
     print(f"{'triangles':>10} {'wall s':>8} {'CPU s':>8} {'CPU us / triangle':>18} {'peak GiB':>9}")
@@ -159,14 +195,19 @@ def main():
         timings, peak = run_child("curvature", size, args)
         timings["peak_bytes"] = peak
         report["curvature"].append(timings)
-        print(f"{timings['triangles']:>10} {timings['stage_s']:8.2f} {timings['stage_cpu_s']:8.2f} "
-              f"{1e6 * timings['stage_cpu_s'] / timings['triangles']:18.2f} {peak / GIB:9.2f}", flush=True)
+        print(
+            f"{timings['triangles']:>10} {timings['stage_s']:8.2f} {timings['stage_cpu_s']:8.2f} "
+            f"{1e6 * timings['stage_cpu_s'] / timings['triangles']:18.2f} {peak / GIB:9.2f}",
+            flush=True,
+        )
     series = report["curvature"]
     if len(series) >= 2:
         per_triangle = [t["stage_cpu_s"] / t["triangles"] for t in series]
         report["curvature_cpu_ratio_largest_to_smallest_per_triangle"] = per_triangle[-1] / per_triangle[0]
-        print(f"CPU time per triangle, largest / smallest size: {per_triangle[-1] / per_triangle[0]:.2f} "
-              "(1.0 is exactly linear)")
+        print(
+            f"CPU time per triangle, largest / smallest size: {per_triangle[-1] / per_triangle[0]:.2f} "
+            "(1.0 is exactly linear)"
+        )
     worst = max((t["peak_bytes"] for t in report["stages"] + series), default=0)
     print(f"largest peak: {worst / GIB:.2f} GiB of {LIMIT_BYTES / GIB:.0f} GiB")
     if args.json:

@@ -43,17 +43,21 @@ def with_maths_nodes(count):
 def measure(size, rounds):
     scene, obj = osl_variant.sun_scene("PLANE", size, SAMPLES[0])
     sun = next(o for o in scene.objects if o.type == "LIGHT")
-    materials = {BASELINE: pw.make_base_material("Base", **speed.stone(False)),
-                 **{f"Diffuse+Glossy + {count} maths nodes": with_maths_nodes(count) for count in CHAINS},
-                 "porous key light": pw.make_porous_material("Key", **speed.stone(), key_light=sun),
-                 "porous ambient": pw.make_porous_material("Ambient", **speed.stone())}
+    materials = {
+        BASELINE: pw.make_base_material("Base", **speed.stone(False)),
+        **{f"Diffuse+Glossy + {count} maths nodes": with_maths_nodes(count) for count in CHAINS},
+        "porous key light": pw.make_porous_material("Key", **speed.stone(), key_light=sun),
+        "porous ambient": pw.make_porous_material("Ambient", **speed.stone()),
+    }
 
     def configure(scene_, samples):
         scene_.cycles.samples = samples
 
     times, _ = timing.interleaved_rounds(scene, obj, materials, configure, SAMPLES, rounds)
-    return [[name, f"{cost['ms/sample']:.1f}", timing.ratio_cell(cost)]
-            for name, cost in timing.costs(times, materials, SAMPLES, BASELINE).items()]
+    return [
+        [name, f"{cost['ms/sample']:.1f}", timing.ratio_cell(cost)]
+        for name, cost in timing.costs(times, materials, SAMPLES, BASELINE).items()
+    ]
 
 
 def main():
@@ -61,12 +65,14 @@ def main():
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--rounds", type=int, default=5)
     args = parser.parse_args()
-    table = scenes.markdown_table(["material", "ms / sample", "× Diffuse+Glossy per sample (range)"],
-                                  measure(args.size, args.rounds))
-    print(f"### What a maths node costs in Cycles ({args.size} px plane under a sun, {SAMPLES} samples, median of "
-          f"{args.rounds} interleaved rounds)\n\nThe porous group evaluates its maths nodes for every sample that "
-          f"shades a point; nodes whose inputs are all constants are folded away by Cycles before rendering.\n\n"
-          + table)
+    table = scenes.markdown_table(
+        ["material", "ms / sample", "× Diffuse+Glossy per sample (range)"], measure(args.size, args.rounds)
+    )
+    print(
+        f"### What a maths node costs in Cycles ({args.size} px plane under a sun, {SAMPLES} samples, median of "
+        f"{args.rounds} interleaved rounds)\n\nThe porous group evaluates its maths nodes for every sample that "
+        f"shades a point; nodes whose inputs are all constants are folded away by Cycles before rendering.\n\n" + table
+    )
 
 
 if __name__ == "__main__":

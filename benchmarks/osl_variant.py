@@ -27,15 +27,20 @@ sys.path.insert(0, str(ROOT))
 import bpy  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402
+from benchmarks import reference as ref  # noqa: E402
 from benchmarks import scenes, timing  # noqa: E402
 from benchmarks.accuracy import MATERIALS, percent, sun_towards  # noqa: E402
 from porous_weathering import compat, render, studio  # noqa: E402
-from porous_weathering import reference as ref  # noqa: E402
 
 OSL_SOURCE = ROOT / "benchmarks" / "osl" / "porous.osl"
 #: .oso parameter types -> node socket types
-SOCKET_TYPES = {"color": "NodeSocketColor", "float": "NodeSocketFloat", "vector": "NodeSocketVector",
-                "int": "NodeSocketInt", "closure color": "NodeSocketShader"}
+SOCKET_TYPES = {
+    "color": "NodeSocketColor",
+    "float": "NodeSocketFloat",
+    "vector": "NodeSocketVector",
+    "int": "NodeSocketInt",
+    "closure color": "NodeSocketShader",
+}
 SUN = ref.Sun(sun_towards(45.0), 3.0)
 SAMPLES = (16, 64)
 
@@ -83,8 +88,14 @@ def osl_material(name, params, light_direction=None):
     tree = material.node_tree
     tree.nodes.clear()
     node = script_node(tree, compile_osl(OSL_SOURCE))
-    values = {"BaseColor": (*params["kd"], 1.0), "Specular": params["ks"], "Roughness": params["m"],
-              "Porosity": params["alpha"], "PoreDepthRatio": params["sp"], "Ambient": int(light_direction is None)}
+    values = {
+        "BaseColor": (*params["kd"], 1.0),
+        "Specular": params["ks"],
+        "Roughness": params["m"],
+        "Porosity": params["alpha"],
+        "PoreDepthRatio": params["sp"],
+        "Ambient": int(light_direction is None),
+    }
     if light_direction is not None:
         values["LightDirection"] = light_direction
     for socket_name, value in values.items():
@@ -95,8 +106,15 @@ def osl_material(name, params, light_direction=None):
 
 
 def node_material(name, params, key_light):
-    return pw.make_porous_material(name, base_color=params["kd"], ks=params["ks"], roughness=params["m"],
-                                   porosity=params["alpha"], pore_depth_ratio=params["sp"], key_light=key_light)
+    return pw.make_porous_material(
+        name,
+        base_color=params["kd"],
+        ks=params["ks"],
+        roughness=params["m"],
+        porosity=params["alpha"],
+        pore_depth_ratio=params["sp"],
+        key_light=key_light,
+    )
 
 
 def sun_scene(surface, size, samples):
@@ -139,9 +157,11 @@ def speed(size, rounds):
     scene, obj = sun_scene("PLANE", size, SAMPLES[0])
     sun = next(o for o in scene.objects if o.type == "LIGHT")
     params = MATERIALS["diffuse"]
-    variants = {"node group, SVM": (node_material("Nodes", params, sun), False),
-                "node group, OSL": (node_material("Nodes OSL", params, sun), True),
-                "OSL script": (osl_material("OSL", params, SUN.towards), True)}
+    variants = {
+        "node group, SVM": (node_material("Nodes", params, sun), False),
+        "node group, OSL": (node_material("Nodes OSL", params, sun), True),
+        "OSL script": (osl_material("OSL", params, SUN.towards), True),
+    }
     materials = {name: material for name, (material, _) in variants.items()}
     osl_of = {id(material): osl for material, osl in variants.values()}
 
@@ -164,13 +184,17 @@ def verdict(costs):
     """Whether the OSL script wins clearly enough to ship, with the numbers that decide it."""
     script, nodes_osl = costs["OSL script"], costs["node group, OSL"]
     low, high = script["ratio range"]
-    numbers = (f"the OSL script costs {script['ratio']:.2f}× the node group (SVM) per sample (median; rounds "
-               f"{low:.2f}–{high:.2f}), and switching the scene to OSL makes the node group itself "
-               f"{nodes_osl['ratio']:.2f}×")
+    numbers = (
+        f"the OSL script costs {script['ratio']:.2f}× the node group (SVM) per sample (median; rounds "
+        f"{low:.2f}–{high:.2f}), and switching the scene to OSL makes the node group itself "
+        f"{nodes_osl['ratio']:.2f}×"
+    )
     if high <= 1.0 - SHIP_MARGIN:
         return f"The OSL script wins by more than {SHIP_MARGIN:.0%} in every round: {numbers}."
-    return (f"Not shipped: {numbers}; a win must be over {SHIP_MARGIN:.0%} in every round to be worth tying a "
-            f"material to the OSL shading system (CPU only). The shader stays in benchmarks/osl/porous.osl.")
+    return (
+        f"Not shipped: {numbers}; a win must be over {SHIP_MARGIN:.0%} in every round to be worth tying a "
+        f"material to the OSL shading system (CPU only). The shader stays in benchmarks/osl/porous.osl."
+    )
 
 
 def main():
@@ -180,14 +204,20 @@ def main():
     args = parser.parse_args()
     agree = scenes.markdown_table(["material", "light mode", "RMSE", "max"], agreement())
     costs = speed(args.size, args.rounds)
-    fast = scenes.markdown_table(["variant", "fixed s / render", "ms / sample", "× node group (SVM), range"],
-                                 [[name, f"{cost['fixed s']:.2f}", f"{cost['ms/sample']:.1f}", timing.ratio_cell(cost)]
-                                  for name, cost in costs.items()])
-    print(f"### OSL variant of the porous group (Cycles CPU)\n\nAgreement: OSL script against the node group, "
-          f"lit sphere, one sun at 45°, 64 px, one sample (relative to the node render's RMS):\n\n{agree}\n\n"
-          f"Speed: {args.size} px plane under the sun, diffuse stone; cost of one sample from {SAMPLES[0]} and "
-          f"{SAMPLES[1]} samples, median of {args.rounds} interleaved rounds (range of the per-round ratios):\n\n"
-          f"{fast}\n\n{verdict(costs)}")
+    fast = scenes.markdown_table(
+        ["variant", "fixed s / render", "ms / sample", "× node group (SVM), range"],
+        [
+            [name, f"{cost['fixed s']:.2f}", f"{cost['ms/sample']:.1f}", timing.ratio_cell(cost)]
+            for name, cost in costs.items()
+        ],
+    )
+    print(
+        f"### OSL variant of the porous group (Cycles CPU)\n\nAgreement: OSL script against the node group, "
+        f"lit sphere, one sun at 45°, 64 px, one sample (relative to the node render's RMS):\n\n{agree}\n\n"
+        f"Speed: {args.size} px plane under the sun, diffuse stone; cost of one sample from {SAMPLES[0]} and "
+        f"{SAMPLES[1]} samples, median of {args.rounds} interleaved rounds (range of the per-round ratios):\n\n"
+        f"{fast}\n\n{verdict(costs)}"
+    )
 
 
 if __name__ == "__main__":

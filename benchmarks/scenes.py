@@ -1,4 +1,4 @@
-"""The reference's analytic scenes (porous_weathering.reference) built in Blender, one to one.
+"""The reference's analytic scenes (benchmarks/reference.py) built in Blender, one to one.
 
 A scene is described once, as reference objects (a surface kind, lights, a sky), and this
 module makes its Blender twin, so a render and the reference always show the same thing.
@@ -8,7 +8,8 @@ import math
 
 import bpy
 
-from porous_weathering import reference, studio
+from benchmarks import reference
+from porous_weathering import studio
 
 #: Tessellation of the rendered sphere: fine enough that the smooth-shaded mesh's normals
 #: differ from the true sphere's by less than the errors measured (0.03% RMSE, Lambert).
@@ -58,8 +59,9 @@ def add_v_groove(scene, slope_degrees, name="VGroove"):
 def add_light(scene, light):
     if isinstance(light, reference.Sun):
         return studio.add_sun(scene, light.towards, strength=light.strength)
-    lamp = studio.add_point_light(scene, light.location, power=light.power,
-                                  kind="AREA" if isinstance(light, reference.AreaLight) else "POINT")
+    lamp = studio.add_point_light(
+        scene, light.location, power=light.power, kind="AREA" if isinstance(light, reference.AreaLight) else "POINT"
+    )
     if isinstance(light, reference.AreaLight):
         lamp.data.shape = "SQUARE"
         lamp.data.size = light.size
@@ -99,8 +101,8 @@ def set_sky(scene, sky):
 
 def write_error_image(path, image, expected, mask, gain=10.0):
     """|image - expected| times ``gain``, relative to the expected RMS, as a PNG (white = 1/gain)."""
-    import OpenImageIO as oiio
     import numpy as np
+    import OpenImageIO as oiio
 
     scale = np.sqrt(np.mean(expected[mask] ** 2))
     error = np.where(mask[..., None], np.abs(image[..., :3] - expected) / scale * gain, 0.0)

@@ -21,9 +21,9 @@ import bpy  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402
 from benchmarks import plots, scenes, timing  # noqa: E402
+from benchmarks import reference as ref  # noqa: E402
 from benchmarks.accuracy import MATERIALS, percent, sun_towards  # noqa: E402
 from porous_weathering import compat, model, render  # noqa: E402
-from porous_weathering import reference as ref  # noqa: E402
 
 PARAMS = MATERIALS["diffuse"]
 SUN = ref.Sun(sun_towards(45.0), 3.0)
@@ -63,8 +63,10 @@ def materials(sun):
     return {
         BASELINE: (pw.make_base_material("Base", **stone(False)), ref.Porous(**{**PARAMS, "alpha": 0.0})),
         "Principled BSDF": (principled(), None),
-        "porous key light": (pw.make_porous_material("Key", **stone(), key_light=sun),
-                             ref.Porous(**PARAMS, light_mode=SUN.towards)),
+        "porous key light": (
+            pw.make_porous_material("Key", **stone(), key_light=sun),
+            ref.Porous(**PARAMS, light_mode=SUN.towards),
+        ),
         "porous ambient": (pw.make_porous_material("Ambient", **stone()), ref.Porous(**PARAMS, light_mode=ref.AMBIENT)),
         **{mode: (weathered((mode,), sun), None) for mode in model.MODES},
         "all three modes": (weathered(model.MODES, sun), None),
@@ -77,6 +79,7 @@ def configure(engine, size):
             render.use_cycles(scene, size=size, samples=samples)
         else:
             render.use_eevee(scene, size=size, samples=samples)
+
     return set_up
 
 
@@ -91,11 +94,15 @@ def measure(engine, size, rounds):
     full = scenes.reference_surface("SPHERE", size)
     every = (slice(None, None, ERROR_STRIDE),) * 2
     surface = ref.Surface(full.position[every], full.normal[every], full.covered[every])
-    expected = {name: ref.render(surface, reference, (SUN,), SKY, samples=REFERENCE_SAMPLES)
-                for name, (_, reference) in candidates.items() if reference is not None}
+    expected = {
+        name: ref.render(surface, reference, (SUN,), SKY, samples=REFERENCE_SAMPLES)
+        for name, (_, reference) in candidates.items()
+        if reference is not None
+    }
     samples = SAMPLES[engine]
-    times, images = timing.interleaved_rounds(scene, obj, {name: m for name, (m, _) in candidates.items()},
-                                              configure(engine, size), samples, rounds)
+    times, images = timing.interleaved_rounds(
+        scene, obj, {name: m for name, (m, _) in candidates.items()}, configure(engine, size), samples, rounds
+    )
     results = {}
     for name, cost in timing.costs(times, candidates, samples, BASELINE).items():
         errors = [None] * len(samples)
@@ -109,8 +116,17 @@ def measure(engine, size, rounds):
 
 
 def table_rows(engine, results):
-    return [[engine.title(), name, f"{cost['fixed s']:.2f}", f"{cost['ms/sample']:.2f}", timing.ratio_cell(cost),
-             *(percent(e) if e is not None else "—" for e in errors)] for name, (cost, errors, _) in results.items()]
+    return [
+        [
+            engine.title(),
+            name,
+            f"{cost['fixed s']:.2f}",
+            f"{cost['ms/sample']:.2f}",
+            timing.ratio_cell(cost),
+            *(percent(e) if e is not None else "—" for e in errors),
+        ]
+        for name, (cost, errors, _) in results.items()
+    ]
 
 
 def verdict(engine, results):
@@ -118,19 +134,35 @@ def verdict(engine, results):
     lines = []
     for name, (cost, _, _) in results.items():
         if name not in (BASELINE, "Principled BSDF"):
-            met = "met" if cost["ratio range"][1] <= TARGET else "met by the median only" \
-                if cost["ratio"] <= TARGET else "not met"
-            lines.append(f"- {engine.title()}, {name}: {cost['ratio']:.2f}× Diffuse+Glossy per sample "
-                         f"(target ≤ {TARGET}×: {met})")
+            met = (
+                "met"
+                if cost["ratio range"][1] <= TARGET
+                else "met by the median only"
+                if cost["ratio"] <= TARGET
+                else "not met"
+            )
+            lines.append(
+                f"- {engine.title()}, {name}: {cost['ratio']:.2f}× Diffuse+Glossy per sample "
+                f"(target ≤ {TARGET}×: {met})"
+            )
     return "\n".join(lines)
 
 
 def plot_time_against_error(path, results):
     """Cycles: RMSE against the median wall time of a render, at each sample count."""
-    series = {name: (seconds, [100 * e for e in errors])
-              for name, (_, errors, seconds) in results.items() if errors[0] is not None}
-    plots.line_plot(path, series, "render time (s, median, fixed cost included)", "RMSE (%)",
-                    f"Cycles, {SAMPLES['CYCLES']} samples: time against error", log="xy")
+    series = {
+        name: (seconds, [100 * e for e in errors])
+        for name, (_, errors, seconds) in results.items()
+        if errors[0] is not None
+    }
+    plots.line_plot(
+        path,
+        series,
+        "render time (s, median, fixed cost included)",
+        "RMSE (%)",
+        f"Cycles, {SAMPLES['CYCLES']} samples: time against error",
+        log="xy",
+    )
 
 
 def main():
@@ -142,17 +174,27 @@ def main():
     sections = []
     for engine, (low, high) in SAMPLES.items():
         results = measure(engine, args.size, args.rounds)
-        header = ["engine", "material", "fixed s / render", "ms / sample", "× Diffuse+Glossy per sample (range)",
-                  f"RMSE at {low} spp", f"RMSE at {high} spp"]
+        header = [
+            "engine",
+            "material",
+            "fixed s / render",
+            "ms / sample",
+            "× Diffuse+Glossy per sample (range)",
+            f"RMSE at {low} spp",
+            f"RMSE at {high} spp",
+        ]
         sections.append(scenes.markdown_table(header, table_rows(engine, results)) + "\n\n" + verdict(engine, results))
         if engine == "CYCLES":
             plot_time_against_error(args.images / "speed_time_vs_error.png", results)
     sections.append("![Cycles time against error](img/speed_time_vs_error.png)")
-    print(f"### Render time against error ({args.size} px sphere, sun 45° + overcast sky)\n\n"
-          f"Cost of one sample = slope between {SAMPLES['CYCLES']} samples (Cycles) or {SAMPLES['EEVEE']} (EEVEE); "
-          f"fixed = the rest of a render. Median of {args.rounds} interleaved rounds; the range is that of the "
-          f"per-round ratios (the 2-core machine is shared with other jobs). RMSE against the reference of the "
-          f"material's own light mode ({REFERENCE_SAMPLES} sky samples, on every {ERROR_STRIDE}th pixel and row).\n\n" + "\n\n".join(sections))
+    print(
+        f"### Render time against error ({args.size} px sphere, sun 45° + overcast sky)\n\n"
+        f"Cost of one sample = slope between {SAMPLES['CYCLES']} samples (Cycles) or {SAMPLES['EEVEE']} (EEVEE); "
+        f"fixed = the rest of a render. Median of {args.rounds} interleaved rounds; the range is that of the "
+        f"per-round ratios (the 2-core machine is shared with other jobs). RMSE against the reference of the "
+        f"material's own light mode ({REFERENCE_SAMPLES} sky samples, on every {ERROR_STRIDE}th pixel and row).\n\n"
+        + "\n\n".join(sections)
+    )
 
 
 if __name__ == "__main__":

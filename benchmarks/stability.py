@@ -31,8 +31,13 @@ from porous_weathering.shader_math import Graph, dot  # noqa: E402
 
 #: (k_d, k_s) pairs: k_a -> 0, k_a = 1, k_a -> 0 in one channel and -> 1 in another,
 #: k_s + k_d > 1 (invalid: clamped), a typical stone.
-ALBEDOS = (((0.9, 0.9, 0.9), 0.1), ((0.0, 0.0, 0.0), 0.0), ((1e-4, 0.5, 0.9999), 0.0),
-           ((0.9, 0.9, 0.9), 0.5), ((0.62, 0.55, 0.45), 0.05))
+ALBEDOS = (
+    ((0.9, 0.9, 0.9), 0.1),
+    ((0.0, 0.0, 0.0), 0.0),
+    ((1e-4, 0.5, 0.9999), 0.0),
+    ((0.9, 0.9, 0.9), 0.5),
+    ((0.62, 0.55, 0.45), 0.05),
+)
 POROUS_VALUES = {
     "m": (0.0, 1e-4, 0.4, 1.5, 10.0),
     "alpha": (0.0, 1e-4, 0.5, 1.0),
@@ -72,8 +77,11 @@ def draw_cases(modes, count, seed=0):
     """``count`` combinations of hard values: {name: float32-exact float64 array}; row 0 is
     every input at its first value, then a fixed-seed draw."""
     rng = np.random.default_rng(seed)
-    choices = {**POROUS_VALUES, **{name: STATE_VALUES[name] for name in model.inputs_of(modes)}} if modes \
+    choices = (
+        {**POROUS_VALUES, **{name: STATE_VALUES[name] for name in model.inputs_of(modes)}}
+        if modes
         else dict(POROUS_VALUES)
+    )
     picks = {name: rng.integers(len(values), size=count) for name, values in choices.items()}
     albedo = rng.integers(len(ALBEDOS), size=count)
     cases = {name: np.asarray(values, dtype=np.float64)[picks[name]] for name, values in choices.items()}
@@ -105,8 +113,15 @@ def tilted_grid(scene, n_dot_v, size):
     rows, columns = np.divmod(np.arange(count), size)
     x0, y0 = columns - size / 2.0, size / 2.0 - rows - 1.0
     rise = np.tan(np.arccos(np.clip(n_dot_v, 1e-6, 1.0)))  # z gained per unit of y
-    corners = np.stack([np.stack([x0, y0, -rise / 2], 1), np.stack([x0 + 1, y0, -rise / 2], 1),
-                        np.stack([x0 + 1, y0 + 1, rise / 2], 1), np.stack([x0, y0 + 1, rise / 2], 1)], 1)
+    corners = np.stack(
+        [
+            np.stack([x0, y0, -rise / 2], 1),
+            np.stack([x0 + 1, y0, -rise / 2], 1),
+            np.stack([x0 + 1, y0 + 1, rise / 2], 1),
+            np.stack([x0, y0 + 1, rise / 2], 1),
+        ],
+        1,
+    )
     mesh = bpy.data.meshes.new("Cases")
     mesh.from_pydata(corners.reshape(-1, 3).tolist(), [], np.arange(4 * count).reshape(-1, 4).tolist())
     obj = studio.link(scene, bpy.data.objects.new("Cases", mesh))
@@ -198,9 +213,12 @@ def compare(label, size, seed=0):
         "model non-finite": int((~np.isfinite(np.column_stack([kd, ks, water]))).any(1).sum()),
         "model out of [0, 1]": int(((kd < 0) | (kd > 1)).any(1).sum() + ((ks < 0) | (ks > 1)).sum()),
         "nodes non-finite": int((flag < 0.5).sum()),
-        "max |Δ| k_d": errors[:, 0].max(), "max |Δ| k_s": errors[:, 1].max(), "max |Δ| k_water": errors[:, 2].max(),
+        "max |Δ| k_d": errors[:, 0].max(),
+        "max |Δ| k_s": errors[:, 1].max(),
+        "max |Δ| k_water": errors[:, 2].max(),
         "worst case": describe(cases, worst, modes),
-        "errors": errors, "cases_": cases,
+        "errors": errors,
+        "cases_": cases,
     }
 
 
@@ -226,8 +244,14 @@ def model_sweep(count=200_000, seed=1):
             cases[name] = np.where(poison, rng.choice([np.nan, np.inf, -np.inf], count), cases[name])
         kd, ks, water = model_outputs(cases, modes, light_mode)
         outputs = np.column_stack([kd, ks, water])
-        rows.append([label, count, int((~np.isfinite(outputs)).any(1).sum()),
-                     int(((outputs < 0) | (outputs > 1 + 1e-12)).any(1).sum())])
+        rows.append(
+            [
+                label,
+                count,
+                int((~np.isfinite(outputs)).any(1).sum()),
+                int(((outputs < 0) | (outputs > 1 + 1e-12)).any(1).sum()),
+            ]
+        )
     return rows
 
 
@@ -237,19 +261,42 @@ def tables(size):
     rows = []
     for label in GROUPS:
         result = compare(label, size)
-        rows.append([label, result["cases"], result["model non-finite"], result["nodes non-finite"],
-                     f"{result['max |Δ| k_d']:.2g}", f"{result['max |Δ| k_s']:.2g}",
-                     f"{result['max |Δ| k_water']:.2g}", result["worst case"]])
-    rendered = markdown_table(["group", "cases", "model non-finite", "nodes non-finite", "max |Δ| k_d",
-                               "max |Δ| k_s", "max |Δ| k_water", "worst case"], rows)
-    swept = markdown_table(["group", "cases (2% NaN/±inf in m, s_p, α)", "non-finite", "outside [0, 1]"],
-                           model_sweep())
-    return (f"### Numerical stability: hard cases, numpy model (float64) against the node groups "
-            f"(Cycles, float32)\n\n{size * size} fixed-seed combinations of hard values per group, one pixel "
-            "each: a flat face whose tilt sets N.V, its inputs read from face attributes. Values: "
-            + "; ".join(f"{name} ∈ {values}" for name, values in POROUS_VALUES.items())
-            + f"; (k_d, k_s) ∈ {ALBEDOS}; masks and t at 0, 1, −0.5, 1.5 or 2 and 0.5.\n\n" + rendered
-            + "\n\nThe numpy model alone, on many more combinations:\n\n" + swept)
+        rows.append(
+            [
+                label,
+                result["cases"],
+                result["model non-finite"],
+                result["nodes non-finite"],
+                f"{result['max |Δ| k_d']:.2g}",
+                f"{result['max |Δ| k_s']:.2g}",
+                f"{result['max |Δ| k_water']:.2g}",
+                result["worst case"],
+            ]
+        )
+    rendered = markdown_table(
+        [
+            "group",
+            "cases",
+            "model non-finite",
+            "nodes non-finite",
+            "max |Δ| k_d",
+            "max |Δ| k_s",
+            "max |Δ| k_water",
+            "worst case",
+        ],
+        rows,
+    )
+    swept = markdown_table(["group", "cases (2% NaN/±inf in m, s_p, α)", "non-finite", "outside [0, 1]"], model_sweep())
+    return (
+        f"### Numerical stability: hard cases, numpy model (float64) against the node groups "
+        f"(Cycles, float32)\n\n{size * size} fixed-seed combinations of hard values per group, one pixel "
+        "each: a flat face whose tilt sets N.V, its inputs read from face attributes. Values: "
+        + "; ".join(f"{name} ∈ {values}" for name, values in POROUS_VALUES.items())
+        + f"; (k_d, k_s) ∈ {ALBEDOS}; masks and t at 0, 1, −0.5, 1.5 or 2 and 0.5.\n\n"
+        + rendered
+        + "\n\nThe numpy model alone, on many more combinations:\n\n"
+        + swept
+    )
 
 
 def main():

@@ -61,8 +61,12 @@ def costs(times, names, sample_counts, baseline):
         per_sample = slopes(name)
         ratios = [s / b if b > 0 else float("nan") for s, b in zip(per_sample, base)]
         fixed = [t - s * low for t, s in zip(times[name, low], per_sample)]
-        result[name] = {"fixed s": statistics.median(fixed), "ms/sample": 1000 * statistics.median(per_sample),
-                        "ratio": statistics.median(ratios), "ratio range": (min(ratios), max(ratios))}
+        result[name] = {
+            "fixed s": statistics.median(fixed),
+            "ms/sample": 1000 * statistics.median(per_sample),
+            "ratio": statistics.median(ratios),
+            "ratio range": (min(ratios), max(ratios)),
+        }
     return result
 
 

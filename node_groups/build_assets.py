@@ -6,7 +6,8 @@
 Every node group in ASSETS (the porous BRDF and the soiling, wet-surface and efflorescence
 groups, each in the three light modes) is built by the package's own builders into an empty
 file, marked as an asset with a catalog, a description and a rendered preview (weathering
-groups fully weathered), and saved beside its blender_assets.cats.txt. The same code gives the same groups: tests/test_assets.py rebuilds
+groups fully weathered), and saved beside its blender_assets.cats.txt. The same code gives the same
+groups: tests/test_assets.py rebuilds
 the file and compares it with the committed one.
 """
 
@@ -14,15 +15,16 @@ import argparse
 import pathlib
 import sys
 import uuid
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import bpy
 
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from porous_weathering import compat, model, nodes, render, studio  # noqa: E402
+from porous_weathering import compat, nodes, render, studio  # noqa: E402
+from porous_weathering import modes as weathering_modes  # noqa: E402
 
 FILENAME = "porous_weathering_assets.blend"
 CATALOGS_FILENAME = "blender_assets.cats.txt"
@@ -49,24 +51,24 @@ LIGHTS = {
     nodes.POINT: "lit by a key point, spot or area light: wire its position to Light Position",
     nodes.AMBIENT: "for environment lighting: pore shadowing averaged over the sky",
 }
-#: Each weathering mode: its catalog, what it does, and the masks of a fully weathered preview.
-WEATHERING = {
-    model.SOILING: ("Soiling", "Soiling (white, grey and black areas) from a rain map and an edge map",
-                    dict(time=1.0, rain_map=0.0, edge_map=1.0)),
-    model.WET: ("Wet Surfaces", "Wet surface: water fills the pores where the rain map is highest first",
-                dict(time=1.0, rain_map=1.0)),
-    model.EFFLORESCENCE: ("Efflorescence", "Efflorescence: salt fills the pores where the location map is "
-                                           "highest first", dict(time=1.0, efflorescence_map=1.0)),
-}
-
-#: Every node group of the library: the porous BRDF, then each weathering mode, in each light mode.
+#: Every node group of the library: the porous BRDF, then each registered weathering mode (its
+#: catalog, summary and fully weathered preview come from its record in modes/), in each light mode.
 ASSETS = tuple(
-    Asset(lambda light=light: nodes.porous_group(light), "Porous Weathering/Porous BRDF",
-          f"Porous BRDF (Merillou et al. 2000) {text}") for light, text in LIGHTS.items()
+    Asset(
+        lambda light=light: nodes.porous_group(light),
+        "Porous Weathering/Porous BRDF",
+        f"Porous BRDF (Merillou et al. 2000) {text}",
+    )
+    for light, text in LIGHTS.items()
 ) + tuple(
-    Asset(lambda mode=mode, light=light: nodes.weathered_group((mode,), light), f"Porous Weathering/{catalog}",
-          f"{summary}, on the porous BRDF, {text}; Time ages it from new (0) to weathered (1)", preview)
-    for mode, (catalog, summary, preview) in WEATHERING.items() for light, text in LIGHTS.items()
+    Asset(
+        lambda mode=mode.name, light=light: nodes.weathered_group((mode,), light),
+        f"Porous Weathering/{mode.catalog}",
+        f"{mode.asset_summary}, on the porous BRDF, {text}; Time ages it from new (0) to weathered (1)",
+        mode.preview,
+    )
+    for mode in map(weathering_modes.get, weathering_modes.names())
+    for light, text in LIGHTS.items()
 )
 
 
@@ -84,8 +86,7 @@ def catalog_paths():
 
 
 def write_catalogs(path):
-    lines = ["# Asset catalogs of the Porous Weathering node groups, written by build_assets.py.",
-             "VERSION 1", ""]
+    lines = ["# Asset catalogs of the Porous Weathering node groups, written by build_assets.py.", "VERSION 1", ""]
     lines += [f"{catalog_id(p)}:{p}:{p.replace('/', '-')}" for p in catalog_paths()]
     path.write_text("\n".join(lines) + "\n")
 
@@ -94,8 +95,11 @@ def render_preview(group, inputs):
     """A small Cycles render of a sphere shaded by ``group`` (its first shader output), with the
     weathering ``inputs`` set."""
     scene = bpy.context.scene
-    shader_outputs = [s for s in group.interface.items_tree
-                      if s.item_type == "SOCKET" and s.in_out == "OUTPUT" and s.socket_type == "NodeSocketShader"]
+    shader_outputs = [
+        s
+        for s in group.interface.items_tree
+        if s.item_type == "SOCKET" and s.in_out == "OUTPUT" and s.socket_type == "NodeSocketShader"
+    ]
     if not shader_outputs:
         return None
     material = compat.new_material("Preview")
@@ -107,7 +111,7 @@ def render_preview(group, inputs):
         if name in node.inputs:
             node.inputs[name].default_value = value
     for name, value in inputs.items():
-        node.inputs[nodes.socket_name(name)].default_value = value
+        node.inputs[weathering_modes.inputs()[name].socket].default_value = value
     output = tree.nodes.new("ShaderNodeOutputMaterial")
     tree.links.new(node.outputs[shader_outputs[0].name], output.inputs["Surface"])
     sphere = studio.add_sphere(scene, segments=32, rings=16)
@@ -153,8 +157,14 @@ def build(out_dir=HERE):
         if pixels is not None:
             set_preview(group, pixels)
     # Only the node groups stay in the file.
-    for collection in (bpy.data.objects, bpy.data.cameras, bpy.data.lights, bpy.data.meshes,
-                       bpy.data.worlds, bpy.data.images):
+    for collection in (
+        bpy.data.objects,
+        bpy.data.cameras,
+        bpy.data.lights,
+        bpy.data.meshes,
+        bpy.data.worlds,
+        bpy.data.images,
+    ):
         for item in list(collection):
             collection.remove(item)
     write_catalogs(out_dir / CATALOGS_FILENAME)

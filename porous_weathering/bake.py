@@ -16,56 +16,169 @@ whose stored hash matches is reported "unchanged" and not baked again.
 
 import hashlib
 import json
-import math
 import os
-import sys
-from dataclasses import asdict, dataclass, field, replace
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Any
 
 import bpy
 import numpy as np
 
-from . import distributed, imageio, rain, uv
+from . import imageio, maps, uv
+from .imageio import HASH_KEY, MAP_KEY, UV_MAP_KEY  # noqa: F401  (public: docs/api.md)
+from .mesh_arrays import write_corner_attribute  # noqa: F401  (public)
+from .options import Entry, check, check_value, declared, entries, option, to_argv
 
-MAPS = ("rain", "edges")
 TARGETS = ("image", "attribute")
-ATTRIBUTES = {"rain": rain.RAIN_ATTRIBUTE, "edges": "pw_edges"}
-HASH_KEY = "pw:inputs"
-#: The EXR header field naming the UV map an image map was baked on (weathered materials read
-#: the image through it, weathering.image_uv_map).
-UV_MAP_KEY = "pw:uv_map"
 DEFAULT_RESOLUTION = 512
 #: Texels filled around every UV island (and packed between xatlas charts).
 MARGIN = 4
 #: Bumped when a change of the bake itself makes old maps stale.
 BAKE_VERSION = 1
-#: Scene units over which the curvature of an attribute edge map is smoothed: a brick's arris.
-DEFAULT_EDGE_RADIUS = 0.05
+DEFAULT_EDGE_RADIUS = maps.edges.DEFAULT_EDGE_RADIUS
+
+
+def __getattr__(name):
+    """MAPS and ATTRIBUTES, read from the map registry when asked."""
+    if name == "MAPS":
+        return maps.names()
+    if name == "ATTRIBUTES":
+        return {kind.name: kind.attribute for kind in maps.all_kinds()}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class BakeCancelled(Exception):
     """The caller asked to stop; the maps finished before that are complete and kept."""
 
 
-@dataclass(frozen=True)
-class BakeOptions:
-    maps: tuple = MAPS  # every map unless asked for fewer
-    target: str = "image"
-    resolution: int = DEFAULT_RESOLUTION
-    rain_settings: rain.RainSettings = field(default_factory=rain.RainSettings)
-    out_dir: str = "."
-    occluders: object = None  # a bpy Collection, or None for every other object of the scene
-    edge_radius: float = DEFAULT_EDGE_RADIUS
+def _map_list(text):
+    import argparse
 
-    def __post_init__(self):
-        unknown = set(self.maps) - set(MAPS)
-        if not self.maps or unknown:
-            raise ValueError(f"maps must be some of {', '.join(MAPS)}, not {', '.join(self.maps) or 'none'}")
-        if self.target not in TARGETS:
-            raise ValueError(f"target must be one of {', '.join(TARGETS)}, not {self.target!r}")
-        if not (self.resolution == int(self.resolution) and 8 <= self.resolution <= 16384):
-            raise ValueError(f"resolution must be a whole number of texels from 8 to 16384, not {self.resolution}")
-        if not (math.isfinite(self.edge_radius) and self.edge_radius > 0.0):
-            raise ValueError(f"edge radius must be a positive number of scene units, not {self.edge_radius}")
+    chosen = tuple(name.strip() for name in text.split(",") if name.strip())
+    if not chosen or set(chosen) - set(maps.names()):
+        raise argparse.ArgumentTypeError(f"expected a comma-separated list of {', '.join(maps.names())}, got {text!r}")
+    return chosen
+
+
+@dataclass(frozen=True, init=False)
+class BakeOptions:
+    """What to bake: the general options below, and each map's settings (``settings``, by map
+    name; also given and read as its ``options_field``, e.g. ``rain_settings``, or an alias
+    such as ``edge_radius``).  Frozen; checked on creation: ValueError naming the bad field."""
+
+    maps: tuple = option(
+        (),
+        label="Maps",
+        flag="--maps",
+        parse=_map_list,
+        metavar="rain,edges",
+        ui=False,
+        tooltip="Comma-separated maps to bake (default: every map)",
+    )
+    target: str = option(
+        "image",
+        label="Target",
+        flag="--target",
+        choices=TARGETS,
+        tooltip="image: EXR files on a lightmap UV map; attribute: per-corner colour attributes "
+        "stored in the .blend (scans without UVs)",
+    )
+    resolution: int = option(
+        DEFAULT_RESOLUTION,
+        label="Resolution",
+        flag="--resolution",
+        low=8,
+        high=16384,
+        whole=True,
+        unit="texels",
+        metavar="N",
+        tooltip="Width and height of the image maps",
+    )
+    out_dir: str = option(
+        ".",
+        label="Folder",
+        flag="--out",
+        kind="path",
+        ui_default="//maps/",
+        metavar="DIR",
+        tooltip="Folder of the image maps (// is the .blend's folder)",
+    )
+    occluders: Any = option(
+        None,
+        label="Occluders",
+        flag="--occluders",
+        kind="collection",
+        metavar="COLLECTION",
+        tooltip="Collection whose objects (children included) shelter the baked objects from "
+        "rain; empty: every other object of the scene",
+    )
+    settings: Mapping[str, Any] = field(default_factory=dict)  #: map name -> its settings
+
+    def __init__(self, **given):
+        general = {name: given.pop(name, default) for name, _, default in declared(BakeOptions)}
+        settings = dict(given.pop("settings", None) or {})
+        for kind in maps.all_kinds():
+            settings[kind.name] = given.pop(kind.options_field, None) or settings.get(kind.name) or kind.settings()
+            aliased = {name: given.pop(alias) for alias, name in kind.aliases.items() if alias in given}
+            if aliased:
+                settings[kind.name] = replace(settings[kind.name], **aliased)
+        if given:
+            raise TypeError(f"BakeOptions has no options {', '.join(sorted(given))}")
+        general["maps"] = tuple(general["maps"]) if general["maps"] else maps.names()
+        unknown = set(general["maps"]) - set(maps.names())
+        if unknown:
+            raise ValueError(f"maps must be some of {', '.join(maps.names())}, not {', '.join(general['maps'])}")
+        for name, opt, _ in declared(BakeOptions):
+            if name != "maps":
+                check_value(opt.label.lower(), opt, general[name])
+            object.__setattr__(self, name, general[name])
+        for kind_settings in settings.values():  # a map's settings dataclass need not check itself
+            check(kind_settings)
+        object.__setattr__(self, "settings", MappingProxyType(settings))
+
+    def __getattr__(self, name):
+        settings = self.__dict__.get("settings", {})
+        for kind in maps.all_kinds():
+            if name == kind.options_field and kind.name in settings:
+                return settings[kind.name]
+            if name in kind.aliases and kind.name in settings:
+                return getattr(settings[kind.name], kind.aliases[name])
+        raise AttributeError(f"BakeOptions has no option {name!r}")
+
+    def occluder_collection(self):
+        """The collection whose objects shelter the baked ones, or None for every other object."""
+        return occluder_collection(self.occluders)
+
+    def to_argv(self, without=("maps",)) -> list[str]:
+        """The ``bake`` command-line words that give these options but ``without`` (for the
+        Dask workers, whose tasks name their maps themselves)."""
+        return to_argv([entry for entry in option_entries() if entry.dest not in without], self.value)
+
+    def value(self, entry: Entry):
+        """The value of one option (a general one, or a field of a map's settings)."""
+        return getattr(self.settings[entry.owner] if entry.owner else self, entry.name)
+
+
+def option_entries() -> list[Entry]:
+    """Every bake option as the front ends see it: the general ones, then each map's settings."""
+    return entries(BakeOptions) + [item for kind in maps.all_kinds() for item in entries(kind.settings, kind.name)]
+
+
+def options_from_values(values: Mapping[str, Any]) -> BakeOptions:
+    """BakeOptions from front-end values keyed by Entry.dest (argparse's namespace, the
+    operator's properties); entries without a value keep their defaults."""
+    general, settings = {}, {}
+    for entry in option_entries():
+        if entry.dest not in values:
+            continue
+        if entry.owner is None:
+            general[entry.name] = values[entry.dest]
+        else:
+            settings.setdefault(entry.owner, {})[entry.name] = values[entry.dest]
+    return BakeOptions(
+        **general, settings={name: maps.get(name).settings(**fields_) for name, fields_ in settings.items()}
+    )
 
 
 @dataclass(frozen=True)
@@ -87,14 +200,15 @@ class Step:
     outcome: Outcome = None
 
 
-def image_path(out_dir, object_name, map_name):
+def image_path(out_dir: str, object_name: str, map_name: str) -> str:
     safe = object_name.replace(os.sep, "_").replace(os.altsep or os.sep, "_")
     return os.path.join(out_dir, f"{safe}.{map_name}.exr")
 
 
-def check_targets(objects, options=BakeOptions()):
+def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | None = None) -> None:
     """Raise ValueError naming the first object that cannot be baked with ``options``, before
     anything is written."""
+    options = options or BakeOptions()
     if not objects:
         raise ValueError("no objects to bake")
     owners = {}
@@ -105,24 +219,29 @@ def check_targets(objects, options=BakeOptions()):
             raise ValueError(f"object '{obj.name}' has a mesh without faces: nothing to bake on")
         library = obj.library or obj.data.library
         if library is not None:  # UV maps and attributes added to library data are lost on save
-            raise ValueError(f"object '{obj.name}' is linked from the library {library.filepath}: "
-                             "make it local before baking")
+            raise ValueError(
+                f"object '{obj.name}' is linked from the library {library.filepath}: make it local before baking"
+            )
         if options.target == "attribute":
             owners.setdefault(obj.data.name, []).append(obj.name)
-            if "edges" in options.maps:
+            if maps.EDGES.name in options.maps:
                 _check_vertices_kept(obj)
     shared = next((names for names in owners.values() if len(names) > 1), None)
     if shared:  # one mesh holds one attribute: each object would overwrite the others' map
-        raise ValueError(f"objects {', '.join(repr(n) for n in shared)} share one mesh, which can hold only "
-                         "one colour-attribute map: bake them to images, or make their meshes single-user")
+        raise ValueError(
+            f"objects {', '.join(repr(n) for n in shared)} share one mesh, which can hold only "
+            "one colour-attribute map: bake them to images, or make their meshes single-user"
+        )
 
 
 def _check_vertices_kept(obj):
     """The edge attribute is per vertex of the mesh: modifiers must not change the vertex count."""
     evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
     if len(evaluated.data.vertices) != len(obj.data.vertices):
-        raise ValueError(f"object '{obj.name}': its modifiers change the vertex count, so the edge attribute "
-                         "cannot follow its mesh; apply the modifiers or bake edges to an image")
+        raise ValueError(
+            f"object '{obj.name}': its modifiers change the vertex count, so the edge attribute "
+            "cannot follow its mesh; apply the modifiers or bake edges to an image"
+        )
 
 
 def check_writable_folder(folder):
@@ -135,14 +254,21 @@ def check_writable_folder(folder):
         raise OSError(f"the output folder {folder} is not writable")
 
 
-def bake_maps(objects, options=BakeOptions(), *, dry_run=False, progress=None, cancelled=None):
+def bake_maps(
+    objects: Sequence["bpy.types.Object"],
+    options: BakeOptions | None = None,
+    *,
+    dry_run: bool = False,
+    progress: Callable[[float, str], None] | None = None,
+    cancelled: Callable[[], bool] | None = None,
+) -> list["Outcome"]:
     """Bake ``options.maps`` of ``objects``; returns the list of Outcomes.
 
     ``progress(fraction, message)`` is called before and after each step; ``cancelled()``
     is asked before each step and stops the bake with BakeCancelled when true.
     """
     outcomes = []
-    for step in iter_bake(objects, options, dry_run=dry_run):
+    for step in iter_bake(objects, options or BakeOptions(), dry_run=dry_run):
         if step.outcome is None:
             if cancelled is not None and cancelled():
                 raise BakeCancelled(f"bake cancelled before {step.object}: {step.map}")
@@ -155,12 +281,16 @@ def bake_maps(objects, options=BakeOptions(), *, dry_run=False, progress=None, c
     return outcomes
 
 
-def iter_bake(objects, options=BakeOptions(), *, dry_run=False):
+def iter_bake(
+    objects: Sequence["bpy.types.Object"], options: BakeOptions | None = None, *, dry_run: bool = False
+) -> Iterator["Step"]:
     """The Steps of the bake, as a generator (see the module docstring). The objects and the
     output folder are checked at once, so a refusal comes before anything starts. Closing the
     generator early (cancel) undoes the lightmap UV map of the object in progress if none of
     its maps was written."""
+    options = options or BakeOptions()
     check_targets(objects, options)
+    options.occluder_collection()  # refuses an unknown collection name up front
     if options.target == "image" and not dry_run:
         check_writable_folder(options.out_dir)
     return _steps(objects, options, dry_run)
@@ -197,18 +327,21 @@ def _uv_map_for(mesh, options):
     if existing is not None:
         return existing, None
     if uv.LIGHTMAP_UV in mesh.uv_layers:
-        raise ValueError(f"mesh '{mesh.name}': its UV map '{uv.LIGHTMAP_UV}' overlaps or leaves [0, 1]; "
-                         f"remove or rename it to let the bake make a new one")
+        raise ValueError(
+            f"mesh '{mesh.name}': its UV map '{uv.LIGHTMAP_UV}' overlaps or leaves [0, 1]; "
+            f"remove or rename it to let the bake make a new one"
+        )
     return uv.LIGHTMAP_UV, uv.lightmap_uvs(mesh, options.resolution, padding=MARGIN)
 
 
 def _bake_one(obj, map_name, options, uv_map, inputs, dry_run):
+    kind = maps.get(map_name)
     mesh = obj.data
     if options.target == "image":
         where = image_path(options.out_dir, obj.name, map_name)
         stored = imageio.read_metadata(where).get(HASH_KEY)
     else:
-        where = ATTRIBUTES[map_name]
+        where = kind.attribute
         stored = mesh.get(f"{where}_inputs") if where in mesh.color_attributes else None
     if stored == inputs:
         return Outcome(obj.name, map_name, "unchanged", where)
@@ -216,38 +349,12 @@ def _bake_one(obj, map_name, options, uv_map, inputs, dry_run):
         return Outcome(obj.name, map_name, "planned", where)
 
     if options.target == "image":
-        pixels = _bake_image(obj, map_name, options, uv_map)
-        imageio.write_image(where, pixels, metadata={HASH_KEY: inputs, "pw:map": map_name, UV_MAP_KEY: uv_map})
-    elif map_name == "rain":
-        occluders = rain.default_occluders(obj, options.occluders)
-        write_corner_attribute(mesh, where, rain.bake_rain_corners(obj, options.rain_settings, occluders))
+        pixels = kind.bake_image(obj, uv_map, options, MARGIN)
+        imageio.write_image(where, pixels, metadata={HASH_KEY: inputs, MAP_KEY: map_name, UV_MAP_KEY: uv_map})
     else:
-        _edges().write_curvature_attribute(obj, options.edge_radius)
-    if options.target == "attribute":
+        kind.bake_attribute(obj, options)
         mesh[f"{where}_inputs"] = inputs
     return Outcome(obj.name, map_name, "written", where)
-
-
-def _bake_image(obj, map_name, options, uv_map):
-    if map_name == "rain":
-        occluders = rain.default_occluders(obj, options.occluders)
-        return rain.bake_rain_image(obj, uv_map, options.resolution, options.rain_settings, occluders, margin=MARGIN)
-    return _edges().edge_mask_image(obj, uv_map, options.resolution, margin=MARGIN)
-
-
-def _edges():
-    from . import edges  # only an edge bake needs it
-
-    return edges
-
-
-def write_corner_attribute(mesh, name, values):
-    """Replace the colour attribute ``name`` of ``mesh`` by grey per-corner ``values``."""
-    rgba = np.ones((len(mesh.loops), 4), dtype=np.float32)
-    rgba[:, :3] = np.asarray(values, dtype=np.float32)[:, None]
-    if name in mesh.color_attributes:
-        mesh.color_attributes.remove(mesh.color_attributes[name])
-    mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", rgba.reshape(-1))
 
 
 # --- the input hash -------------------------------------------------------------------------
@@ -289,154 +396,31 @@ def _geometry_digest(evaluated):
 def _inputs_hash(obj, map_name, options, uvs, digests):
     inputs = {"version": BAKE_VERSION, "map": map_name, "target": options.target, "object": digests(obj)}
     if options.target == "image":
-        inputs.update(resolution=options.resolution, margin=MARGIN,
-                      uvs=hashlib.sha256(np.ascontiguousarray(uvs, dtype=np.float32).tobytes()).hexdigest())
-    if map_name == "edges" and options.target == "attribute":
-        inputs.update(edge_radius=options.edge_radius)
-    if map_name == "rain":
-        occluders = rain.default_occluders(obj, options.occluders)
-        inputs.update(rain=asdict(options.rain_settings), occluders=sorted((o.name, digests(o)) for o in occluders))
+        inputs.update(
+            resolution=options.resolution,
+            margin=MARGIN,
+            uvs=hashlib.sha256(np.ascontiguousarray(uvs, dtype=np.float32).tobytes()).hexdigest(),
+        )
+    inputs.update(maps.get(map_name).hash_inputs(obj, options, digests))
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
 
-# --- the command line (porous_weathering/cli.py) -------------------------------------------
-
-
-def configure_parser(parser):
-    parser.description = (
-        "Bake rain-exposure and edge/cavity maps of the mesh objects of .blend files. Image maps are "
-        "written as OUT/<object>.rain.exr and OUT/<object>.edges.exr (float, linear); attribute maps are "
-        "the colour attributes pw_rain and pw_edges. Maps whose inputs did not change since they were "
-        "written are skipped. Exit code 0 only when every requested map was written (or is up to date).")
-    parser.add_argument("files", nargs="+", metavar="FILE.blend", help=".blend files to bake")
-    parser.add_argument("--objects", nargs="+", metavar="NAME", default=(),
-                        help="bake only these objects (default: every mesh object of the file)")
-    parser.add_argument("--collection", metavar="NAME",
-                        help="bake only the mesh objects of this collection (children included)")
-    parser.add_argument("--maps", default=",".join(MAPS), type=_map_list, metavar="rain,edges",
-                        help="comma-separated maps to bake: rain, edges (default: both)")
-    parser.add_argument("--target", choices=TARGETS, default="image",
-                        help="image: EXR files on a lightmap UV map; attribute: per-corner colour attributes "
-                             "stored in the .blend (needs --save) (default: image)")
-    parser.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION, metavar="N",
-                        help=f"image maps are N x N texels (default: {DEFAULT_RESOLUTION})")
-    parser.add_argument("--samples", type=int, default=rain.DEFAULT_SAMPLES, metavar="N",
-                        help=f"rain samples per texel or corner (default: {rain.DEFAULT_SAMPLES}; docs/maps.md)")
-    parser.add_argument("--rain-cone", type=float, default=rain.RainSettings.cone, metavar="DEG",
-                        help=f"half-angle of the cone of rain directions (default: {rain.RainSettings.cone:g})")
-    parser.add_argument("--wind-azimuth", type=float, default=0.0, metavar="DEG",
-                        help="side the rain is driven from, degrees from +X towards +Y (default: 0)")
-    parser.add_argument("--wind-tilt", type=float, default=0.0, metavar="DEG",
-                        help="lean of the mean rain direction from the vertical (default: 0, vertical rain)")
-    parser.add_argument("--edge-radius", type=float, default=DEFAULT_EDGE_RADIUS, metavar="M",
-                        help="scene units over which the curvature of attribute edge maps (--maps edges --target "
-                             f"attribute) is smoothed (default: {DEFAULT_EDGE_RADIUS:g}; docs/maps.md)")
-    parser.add_argument("--occluders", metavar="COLLECTION",
-                        help="only the objects of this collection (children included) shelter the baked objects "
-                             "from rain (default: every other object of the scene)")
-    parser.add_argument("--out", default=".", metavar="DIR", help="folder of the image maps (default: .)")
-    parser.add_argument("--save", action="store_true",
-                        help="store the maps in the .blend (attributes, or images linked by relative path, "
-                             "and the lightmap UV map) and save it")
-    parser.add_argument("--dry-run", action="store_true", help="check the inputs and list what would be baked; "
-                                                               "write nothing")
-    distributed.add_arguments(parser)
-
-
-def _map_list(text):
-    import argparse
-
-    maps = tuple(name.strip() for name in text.split(",") if name.strip())
-    if not maps or set(maps) - set(MAPS):
-        raise argparse.ArgumentTypeError(f"expected a comma-separated list of {', '.join(MAPS)}, got {text!r}")
-    return maps
-
-
-def run(args):
-    """The ``bake`` command; returns the exit code (0: every requested map was written)."""
-    try:
-        options = BakeOptions(maps=args.maps, target=args.target, resolution=args.resolution,
-                              out_dir=os.path.abspath(args.out), edge_radius=args.edge_radius,
-                              rain_settings=rain.RainSettings(cone=args.rain_cone, wind_azimuth=args.wind_azimuth,
-                                                     wind_tilt=args.wind_tilt, samples=args.samples))
-        if args.target == "attribute" and not (args.save or args.dry_run):
-            raise ValueError("--target attribute stores the maps in the .blend: add --save")
-        missing = [path for path in args.files if not os.path.isfile(path)]
-        if missing:
-            raise FileNotFoundError(f"no such .blend file: {', '.join(missing)}")
-        if args.target == "image" and not args.dry_run:
-            check_writable_folder(options.out_dir)
-    except (ValueError, OSError) as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 2
-    if args.workers or args.scheduler:
-        return distributed.run(args, options)
-
-    failures = 0
-    written_paths = set()
-    for path in args.files:
-        try:
-            failures += _bake_file(os.path.abspath(path), args, options, written_paths)
-        except KeyboardInterrupt:
-            print(f"\ninterrupted: maps finished so far are complete; {path} was not saved", file=sys.stderr)
-            return 130
-        except (ValueError, OSError, RuntimeError) as error:
-            print(f"\nerror: {path}: {error}", file=sys.stderr)
-            failures += 1
-    return 0 if failures == 0 else 1
-
-
-def _bake_file(path, args, options, written_paths):
-    """Bake one file; returns the number of failures."""
-    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
-    objects = _chosen_objects(args)
-    options = replace(options, occluders=occluder_collection(args.occluders))
-    if options.target == "image":
-        clashes = {image_path(options.out_dir, o.name, m) for o in objects for m in options.maps} & written_paths
-        if clashes:
-            raise ValueError(f"another file already wrote {', '.join(sorted(clashes))}: bake it into another --out")
-    bar = ProgressBar(os.path.basename(path))
-    outcomes = bake_maps(objects, options, dry_run=args.dry_run, progress=bar)
-    bar.finish()
-    for outcome in outcomes:
-        print(f"{outcome.status:9} {outcome.object}.{outcome.map} -> {outcome.where}")
-        written_paths.add(outcome.where)
-    if args.save and not args.dry_run:
-        if options.target == "image":
-            link_images(objects, options)
-        bpy.ops.wm.save_mainfile(filepath=path)  # Blender writes FILE.blend@ and renames it: atomic
-        print(f"saved     {path}")
-    return 0
-
-
-def _chosen_objects(args):
-    if args.objects:
-        missing = [name for name in args.objects if name not in bpy.data.objects]
-        if missing:
-            raise ValueError(f"no object named {', '.join(missing)}")
-        return [bpy.data.objects[name] for name in args.objects]
-    if args.collection:
-        if args.collection not in bpy.data.collections:
-            raise ValueError(f"no collection named {args.collection}")
-        candidates = bpy.data.collections[args.collection].all_objects
-    else:
-        candidates = bpy.context.scene.objects
-    objects = sorted((o for o in candidates if o.type == "MESH"), key=lambda o: o.name)
-    if not objects:
-        raise ValueError("no mesh objects to bake")
-    return objects
+# --- linking the maps into the .blend ----------------------------------------------------------
 
 
 def occluder_collection(name):
-    """The collection whose objects are the rain occluders, or None (every other object) for no name."""
+    """The collection whose objects are the rain occluders (given, or named), or None (every
+    other object) for none."""
     if not name:
         return None
+    if isinstance(name, bpy.types.Collection):
+        return name
     if name not in bpy.data.collections:
         raise ValueError(f"no collection named '{name}' to take the occluders from")
     return bpy.data.collections[name]
 
 
-def link_images(objects, options):
+def link_images(objects: Sequence["bpy.types.Object"], options: BakeOptions) -> None:
     """Point each object at its image maps: an Image per map (relative path, Non-Color) named in
     the object's custom property ``pw_<map>_image``."""
     for obj in objects:
@@ -450,20 +434,3 @@ def link_images(objects, options):
             image.use_fake_user = True  # an image nothing uses yet is not saved otherwise
             image.reload()
             obj[f"pw_{map_name}_image"] = image.name
-
-
-class ProgressBar:
-    """A one-line text progress bar on stderr: ``progress(fraction, message)``."""
-
-    WIDTH = 30
-
-    def __init__(self, label, stream=sys.stderr):
-        self.label, self.stream = label, stream
-
-    def __call__(self, fraction, message):
-        filled = int(round(fraction * self.WIDTH))
-        self.stream.write(f"\r{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {fraction:4.0%} {message:40.40}")
-        self.stream.flush()
-
-    def finish(self):
-        self.stream.write("\n")

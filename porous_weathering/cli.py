@@ -12,14 +12,16 @@ import sys
 
 #: command -> (module, relative to this package, so it works installed as bl_ext.*; help)
 COMMANDS = {
-    "bake": (".bake", "bake rain-exposure and edge/cavity maps of .blend files"),
+    "bake": (".bake_command", "bake rain-exposure and edge/cavity maps of .blend files"),
     "demo": (".demo", "render the bundled sample scene and write pictures"),
 }
 
 
 def build_parser():
-    parser = argparse.ArgumentParser(prog="python -m porous_weathering",
-                                     description="Porous Weathering: porous materials and their weathering in Blender.")
+    parser = argparse.ArgumentParser(
+        prog="python -m porous_weathering",
+        description="Porous Weathering: porous materials and their weathering in Blender.",
+    )
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, (module_name, help_text) in COMMANDS.items():
         sub = commands.add_parser(name, help=help_text, description=help_text)

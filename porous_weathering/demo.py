@@ -23,7 +23,8 @@ from dataclasses import dataclass, field
 
 import bpy
 
-from . import bake, efflorescence_map, material, model, presets, rain, render, studio, weathering
+from . import bake, efflorescence_map, maps, material, model, presets, rain, render, studio, weathering
+from .progress import ProgressBar
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SAMPLES_DIR = os.path.join(ROOT, "sample_blends")
@@ -68,14 +69,25 @@ class Recipe:
 RAIN_AND_EDGES = dict(rain_map="rain", edge_map="edges")
 RECIPES = {
     # Efflorescence follows the rain map on the façade: salts crystallise where rain soaks in.
-    FACADE: Recipe(None, SOFT_LIMESTONE, {model.SOILING: RAIN_AND_EDGES, model.WET: dict(rain_map="rain"),
-                                          model.EFFLORESCENCE: dict(efflorescence_map="rain")},
-                   inputs=CITY_SOILING),
-    "brick_wall": Recipe(("Bricks",), presets.PRESETS["BRICK"].material_params(),
-                         {model.WET: dict(rain_map="rain"), model.EFFLORESCENCE: dict(efflorescence_map="joints")}),
+    FACADE: Recipe(
+        None,
+        SOFT_LIMESTONE,
+        {
+            model.SOILING: RAIN_AND_EDGES,
+            model.WET: dict(rain_map="rain"),
+            model.EFFLORESCENCE: dict(efflorescence_map="rain"),
+        },
+        inputs=CITY_SOILING,
+    ),
+    "brick_wall": Recipe(
+        ("Bricks",),
+        presets.PRESETS["BRICK"].material_params(),
+        {model.WET: dict(rain_map="rain"), model.EFFLORESCENCE: dict(efflorescence_map="joints")},
+    ),
     # Vertical rain: the hollows and the undersides of the ridges are the sheltered places.
-    "sculpted_stone": Recipe(("Sculpted Stone",), SOFT_LIMESTONE, {model.SOILING: RAIN_AND_EDGES}, rain={},
-                             inputs=CITY_SOILING),
+    "sculpted_stone": Recipe(
+        ("Sculpted Stone",), SOFT_LIMESTONE, {model.SOILING: RAIN_AND_EDGES}, rain={}, inputs=CITY_SOILING
+    ),
 }
 #: The sample scene that shows each mode in docs/images/<mode>_before_after.png.
 DOCS_BEFORE_AFTER = {model.SOILING: "sculpted_stone", model.WET: "brick_wall", model.EFFLORESCENCE: "brick_wall"}
@@ -91,19 +103,25 @@ class Sample:
         self.name, self.recipe = name, RECIPES[name]
         self.scene = bpy.context.scene
         self.sun = next(obj for obj in self.scene.objects if obj.type == "LIGHT")
-        self.objects = [obj for obj in self.scene.objects if obj.type == "MESH" and (
-            obj.name in self.recipe.objects if self.recipe.objects else obj.name != "Ground")]
+        self.objects = [
+            obj
+            for obj in self.scene.objects
+            if obj.type == "MESH" and (obj.name in self.recipe.objects if self.recipe.objects else obj.name != "Ground")
+        ]
         self.sources = self._make_maps(bake_samples, map_dir, progress)
         self._materials = {}
 
     def _make_maps(self, bake_samples, map_dir, progress):
         used = {source for masks in self.recipe.masks.values() for source in masks.values()}
-        baked = tuple(map_name for map_name in bake.MAPS if map_name in used)
-        sources = {map_name: bake.ATTRIBUTES[map_name] for map_name in baked}
+        baked = tuple(map_name for map_name in maps.names() if map_name in used)
+        sources = {map_name: maps.get(map_name).attribute for map_name in baked}
         if baked:
-            options = bake.BakeOptions(maps=baked, target="attribute", rain_settings=rain.RainSettings(
-                samples=bake_samples, **self.recipe.rain))
-            bar = bake.ProgressBar(f"baking the maps of {self.name}") if progress else None
+            options = bake.BakeOptions(
+                maps=baked,
+                target="attribute",
+                rain_settings=rain.RainSettings(samples=bake_samples, **self.recipe.rain),
+            )
+            bar = ProgressBar(f"baking the maps of {self.name}") if progress else None
             bake.bake_maps(self.objects, options, progress=bar)
             if bar:
                 bar.finish()
@@ -118,7 +136,8 @@ class Sample:
             masks = {mask: self.sources[map_name] for mask, map_name in self.recipe.masks[mode].items()}
             inputs = {name: value for name, value in self.recipe.inputs.items() if name in model.inputs_of(mode)}
             self._materials[mode] = weathering.make_weathered_material(
-                f"{self.name} {mode}", modes=(mode,), key_light=self.sun, **self.recipe.stone, **masks, **inputs)
+                f"{self.name} {mode}", modes=(mode,), key_light=self.sun, **self.recipe.stone, **masks, **inputs
+            )
         return self._materials[mode]
 
     def show(self, mode, age):
@@ -146,9 +165,12 @@ class Sample:
 
 def configure_parser(parser):
     parser.add_argument("--out", default="out", help="folder the pictures are written to (default: out)")
-    parser.add_argument("--docs", action="store_true",
-                        help=f"regenerate the documentation's pictures in {os.path.relpath(DOCS_IMAGES, ROOT)}/ "
-                             "instead (--out is ignored)")
+    parser.add_argument(
+        "--docs",
+        action="store_true",
+        help=f"regenerate the documentation's pictures in {os.path.relpath(DOCS_IMAGES, ROOT)}/ "
+        "instead (--out is ignored)",
+    )
     parser.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel (default: 16)")
     parser.add_argument("--size", type=int, default=240, help="picture height in pixels (default: 240)")
     parser.add_argument("--bake-samples", type=int, default=32, help="rain samples per face corner (default: 32)")
@@ -181,8 +203,9 @@ def docs_pictures(args):
             sample = Sample(name, bake_samples=args.bake_samples, map_dir=work, progress=True)
             sample.use_cycles(args.size, args.samples)
             for mode in modes:
-                pictures = [sample.render(mode, age, os.path.join(work, f"{name}_{mode}_{age}.png"))
-                            for age in (0.0, 1.0)]
+                pictures = [
+                    sample.render(mode, age, os.path.join(work, f"{name}_{mode}_{age}.png")) for age in (0.0, 1.0)
+                ]
                 written.append(side_by_side(pictures, 2, os.path.join(DOCS_IMAGES, f"{mode}_before_after.png")))
     return written
 
@@ -195,8 +218,10 @@ def render_porous_vs_base(path, size=256, samples=64):
     world = bpy.data.worlds.new("Sky")
     world.color = (0.02, 0.025, 0.03)
     scene.world = world
-    for x, mat in ((-1.1, material.make_base_material("Base", **STONE)),
-                   (1.1, material.make_porous_material("Porous", **STONE, **POROUS, key_light=sun))):
+    for x, mat in (
+        (-1.1, material.make_base_material("Base", **STONE)),
+        (1.1, material.make_porous_material("Porous", **STONE, **POROUS, key_light=sun)),
+    ):
         sphere = studio.add_sphere(scene, name=mat.name)
         sphere.location.x = x
         studio.assign(sphere, mat)
@@ -212,7 +237,7 @@ def render_aging(out, size, samples, bake_samples):
     facade.use_cycles(size, samples)
     modes = list(facade.recipe.masks)
     pictures = []
-    progress = bake.ProgressBar("rendering the aging sequence")
+    progress = ProgressBar("rendering the aging sequence")
     for row, mode in enumerate(modes):
         for column, age in enumerate(AGES):
             progress((row * len(AGES) + column) / (len(modes) * len(AGES)), f"{mode}, t = {age:.2f}")

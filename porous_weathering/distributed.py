@@ -18,7 +18,7 @@ A worker that dies mid-task is replaced, and the scheduler runs the task elsewhe
 the OOM killer) is retried through ``retries=``. Each attempt logs an event on the scheduler,
 from which the CLI reports retries.
 
-Workers import this module to run its tasks without bpy: it must not import bake.py at the top.
+Workers import this module to run its tasks without bpy: it imports nothing that imports bpy.
 """
 
 import argparse
@@ -32,6 +32,8 @@ import sys
 import time
 from collections import Counter, defaultdict
 from dataclasses import dataclass, replace
+
+from .progress import ProgressBar
 
 #: Where ``python -m porous_weathering`` is found by the bake processes of a worker.
 PACKAGE_PARENT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -48,12 +50,18 @@ _PR_SET_PDEATHSIG = 1
 def add_arguments(parser):
     """The options of ``bake`` that hand the work to Dask (the default is the serial run)."""
     where = parser.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=_positive_int, metavar="N",
-                       help="bake on a local Dask cluster of N worker processes, one (file, object, map) "
-                            "per task (docs/batch.md)")
-    where.add_argument("--scheduler", metavar="ADDRESS",
-                       help="bake on the workers of a running Dask scheduler, e.g. tcp://host:8786; "
-                            "files and --out must be reachable by every worker at the same path")
+    where.add_argument(
+        "--workers",
+        type=_positive_int,
+        metavar="N",
+        help="bake on a local Dask cluster of N worker processes, one (file, object, map) per task (docs/batch.md)",
+    )
+    where.add_argument(
+        "--scheduler",
+        metavar="ADDRESS",
+        help="bake on the workers of a running Dask scheduler, e.g. tcp://host:8786; "
+        "files and --out must be reachable by every worker at the same path",
+    )
 
 
 def _positive_int(text):
@@ -86,8 +94,10 @@ def plan_file(path, selection, options):
     if process.returncode != 0:
         return [Result(path, "", "", "failed", error=_error_message(process.stderr))]
     seconds = time.monotonic() - started
-    return [Result(path, obj, map_name, status, where, seconds=seconds)
-            for status, obj, map_name, where in parse_outcomes(process.stdout)]
+    return [
+        Result(path, obj, map_name, status, where, seconds=seconds)
+        for status, obj, map_name, where in parse_outcomes(process.stdout)
+    ]
 
 
 def bake_map(path, object_name, map_name, options):
@@ -126,11 +136,17 @@ def parse_outcomes(stdout):
 def _run_bake_command(argv):
     _log_attempt()
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, (PACKAGE_PARENT, os.environ.get("PYTHONPATH")))))
-    process = subprocess.run([sys.executable, "-m", "porous_weathering", "bake", *argv],
-                             capture_output=True, text=True, env=env, preexec_fn=_die_with_parent)
+    process = subprocess.run(
+        [sys.executable, "-m", "porous_weathering", "bake", *argv],
+        capture_output=True,
+        text=True,
+        env=env,
+        preexec_fn=_die_with_parent,
+    )
     if process.returncode < 0:  # a crash or the OOM killer, not a bad input: worth another attempt
-        raise ChildProcessError(f"bake process killed by signal {-process.returncode}: "
-                                f"{_error_message(process.stderr)}")
+        raise ChildProcessError(
+            f"bake process killed by signal {-process.returncode}: {_error_message(process.stderr)}"
+        )
     return process
 
 
@@ -156,15 +172,21 @@ def _error_message(stderr):
 # --- the command line, in the client process -------------------------------------------------
 
 
-def run(args, options):
-    """``bake`` on Dask; returns the exit code (0: every requested map was written or is up to date)."""
-    if options.target == "attribute":
-        print("error: attribute maps live in the .blend, which one process must write: use --target image "
-              "with --workers/--scheduler, or bake attributes without them", file=sys.stderr)
+def run(args, target, map_names, shared):
+    """``bake`` on Dask; returns the exit code (0: every requested map was written or is up to date).
+
+    ``shared`` are the command-line words of the bake options every bake process of this run
+    gets (``BakeOptions.to_argv``); files, objects and maps come per task."""
+    if target == "attribute":
+        print(
+            "error: attribute maps live in the .blend, which one process must write: use --target image "
+            "with --workers/--scheduler, or bake attributes without them",
+            file=sys.stderr,
+        )
         return 2
     try:
         with _connect(args) as client:
-            return _run_on(client, args, options)
+            return _run_on(client, args, map_names, shared)
     except SchedulerUnreachable as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
@@ -187,8 +209,17 @@ def _connect(args):
             yield client
         return
     # One thread per worker: a bake process already uses every core of the machine.
-    with LocalCluster(n_workers=args.workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+    with (
+        LocalCluster(
+            n_workers=args.workers,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as cluster,
+        Client(cluster) as client,
+    ):
         yield client
 
 
@@ -199,40 +230,48 @@ class _Task:
     lost: Result  # what to report when the task failed for good (e.g. its workers kept dying)
 
 
-def _run_on(client, args, options):
-    from .bake import ProgressBar  # the client has bpy; the workers do not need it
-
-    shared = _shared_options(args, options)
+def _run_on(client, args, map_names, shared):
     files = [os.path.abspath(path) for path in args.files]
-    selection = ([f"--collection={args.collection}"] if args.collection else
-                 ["--objects", *args.objects] if args.objects else [])
+    selection = (
+        [f"--collection={args.collection}"] if args.collection else ["--objects", *args.objects] if args.objects else []
+    )
 
-    plans = _gather(client, ProgressBar("plan"),
-                    [_Task(plan_file, (path, [*selection, "--maps", ",".join(options.maps)], shared),
-                           [Result(path, "", "", "failed")]) for path in files])
+    plans = _gather(
+        client,
+        ProgressBar("plan"),
+        [
+            _Task(
+                plan_file, (path, [*selection, "--maps", ",".join(map_names)], shared), [Result(path, "", "", "failed")]
+            )
+            for path in files
+        ],
+    )
     planned = _refuse_clashes([result for plan in plans for result in plan])
     if args.dry_run:
         return _report(planned)
-    baked = _gather(client, ProgressBar("bake"),
-                    [_Task(bake_map, (r.file, r.object, r.map, shared), replace(r, status="failed"))
-                     for r in planned if r.status == "planned"])
+    baked = _gather(
+        client,
+        ProgressBar("bake"),
+        [
+            _Task(bake_map, (r.file, r.object, r.map, shared), replace(r, status="failed"))
+            for r in planned
+            if r.status == "planned"
+        ],
+    )
     results = [r for r in planned if r.status != "planned"] + baked
     if args.save:
         failed_files = {r.file for r in results if r.status == "failed"}
         objects = {path: sorted({r.object for r in results if r.file == path}) for path in files}
-        results += _gather(client, ProgressBar("save"),
-                           [_Task(save_file, (path, objects[path], shared), Result(path, "", "", "failed"))
-                            for path in files if path not in failed_files])
+        results += _gather(
+            client,
+            ProgressBar("save"),
+            [
+                _Task(save_file, (path, objects[path], shared), Result(path, "", "", "failed"))
+                for path in files
+                if path not in failed_files
+            ],
+        )
     return _report(results)
-
-
-def _shared_options(args, options):
-    """The options every bake process of this run gets (files, objects and maps come per task)."""
-    return ["--target", options.target, "--out", options.out_dir,
-            "--resolution", str(options.resolution), "--samples", str(args.samples),
-            "--rain-cone", repr(args.rain_cone), "--wind-azimuth", repr(args.wind_azimuth),
-            "--wind-tilt", repr(args.wind_tilt), "--edge-radius", repr(options.edge_radius),
-            *(["--occluders", args.occluders] if args.occluders else [])]
 
 
 def _gather(client, bar, tasks):
@@ -273,8 +312,11 @@ def _refuse_clashes(planned):
     for result in planned:
         owner = claimed.setdefault(result.where, result.file) if result.where else result.file
         if owner != result.file:
-            result = replace(result, status="failed",
-                             error=f"{os.path.basename(owner)} also writes {result.where}: bake it into another --out")
+            result = replace(
+                result,
+                status="failed",
+                error=f"{os.path.basename(owner)} also writes {result.where}: bake it into another --out",
+            )
         checked.append(result)
     return checked
 
@@ -287,8 +329,10 @@ def _report(results):
         print(f"{r.status:9} {len(r.workers):>5} {r.seconds:>7.1f}  {name}" + (f" -> {r.where}" if r.where else ""))
     for r in results:
         if len(r.workers) > 1:
-            print(f"retried   {os.path.basename(r.file)}: {r.object}.{r.map} ran on {', '.join(r.workers)} "
-                  f"(a worker was lost or its bake process was killed)")
+            print(
+                f"retried   {os.path.basename(r.file)}: {r.object}.{r.map} ran on {', '.join(r.workers)} "
+                f"(a worker was lost or its bake process was killed)"
+            )
     failed = [r for r in results if r.status == "failed"]
     for r in failed:
         print(f"error: {r.file}" + (f": {r.object}.{r.map}" if r.object else "") + f": {r.error}", file=sys.stderr)

@@ -12,11 +12,13 @@
 """
 
 import math
+from dataclasses import dataclass
 
 import bpy
 import numpy as np
 
-from . import mesh_arrays, scratch_scene, studio
+from . import mesh_arrays, scratch_scene
+from .options import check, option
 
 #: The paper's Table 1: S_h responds to changes along the rows (v), S_v along the columns (u).
 SOBEL_H = np.array([[-1, -2, -1], [0, 0, 0], [1, 2, 1]], dtype=np.float32)
@@ -39,6 +41,31 @@ BLOCK = 1 << 14
 
 #: The largest box of grid cells numbered directly (one bool and one int32 per cell).
 DIRECT_CELLS_MAX = 1 << 25
+
+#: Scene units over which the curvature of an attribute edge map is smoothed: a brick's arris.
+DEFAULT_EDGE_RADIUS = 0.05
+
+
+@dataclass(frozen=True)
+class EdgeSettings:
+    """How the edge/cavity mask is made (the curvature of attribute targets; image targets
+    take the Sobel filter of the normal map, which has no setting)."""
+
+    radius: float = option(
+        DEFAULT_EDGE_RADIUS,
+        label="Edge Radius",
+        flag="--edge-radius",
+        low=0.0,
+        low_open=True,
+        finite=True,
+        unit="scene units",
+        metavar="M",
+        tooltip="Distance over which the curvature of attribute edge maps is smoothed (docs/maps.md)",
+    )
+
+    def __post_init__(self):
+        check(self)
+
 
 #: Default of ``curvature_mask``'s ``saturation``: the dimensionless curvature H * radius
 #: at which C reaches 1.  A sharp 90-degree edge gives 0.5 to 0.75 (docs/maps.md).
@@ -98,7 +125,7 @@ def correlate3x3(image, kernel):
     for row in range(3):
         for column in range(3):
             if kernel[row, column]:
-                result += kernel[row, column] * padded[row:row + height, column:column + width]
+                result += kernel[row, column] * padded[row : row + height, column : column + width]
     return result
 
 
@@ -112,7 +139,7 @@ def bake_world_normals(obj, uv_map_name, resolution):
     object in a temporary scene: the user's scene, materials and selection are untouched.
     """
     image = bpy.data.images.new("PW Normal Bake", resolution, resolution, alpha=True, float_buffer=True)
-    probe = studio.normal_probe()
+    probe = scratch_scene.normal_probe()
     scene = bpy.data.scenes.new("PW Normal Bake")
     copy = None
     try:
@@ -128,8 +155,15 @@ def bake_world_normals(obj, uv_map_name, resolution):
         for margin in (0, 1):
             image.pixels.foreach_set(np.zeros(resolution * resolution * 4, dtype=np.float32))
             with bpy.context.temp_override(**context):
-                bpy.ops.object.bake(type="EMIT", target="IMAGE_TEXTURES", uv_layer=uv_map_name, margin=margin,
-                                    margin_type="ADJACENT_FACES", use_clear=False, use_selected_to_active=False)
+                bpy.ops.object.bake(
+                    type="EMIT",
+                    target="IMAGE_TEXTURES",
+                    uv_layer=uv_map_name,
+                    margin=margin,
+                    margin_type="ADJACENT_FACES",
+                    use_clear=False,
+                    use_selected_to_active=False,
+                )
             image.pixels.foreach_get(pixels[margin].ravel())
         pixels = pixels[:, ::-1]  # Blender stores the bottom row first
         return pixels[1, ..., :3].copy(), pixels[0, ..., 3] > 0
@@ -177,6 +211,7 @@ def curvature(obj, radius, depsgraph=None):
 def _vertex_curvature(mesh, matrix_world):
     """World positions, unit normals (0 on loose vertices), integrated mean curvature and
     area per vertex, all float64, from the faces' area vectors (Newell) and edges' angles."""
+
     def attribute(name, dtype, width=1):
         return mesh_arrays.attribute(mesh, name, dtype, width)
 
@@ -227,7 +262,7 @@ def _face_sums(points, loop_vertex, loop_edge, loop_bounds, side, edge_count):
     for faces in _blocks(face_count, faces_per_block):
         loops = slice(loop_bounds[faces.start], loop_bounds[faces.stop])
         starts = loop_bounds[faces] - loops.start
-        counts = np.diff(loop_bounds[faces.start:faces.stop + 1])
+        counts = np.diff(loop_bounds[faces.start : faces.stop + 1])
         vertices = loop_vertex[loops]
         corners = points[vertices]
         following = np.arange(1, len(corners) + 1)  # the next corner around the face
@@ -339,7 +374,7 @@ def _corner_buckets(corner_cells, fraction, normals):
     trilinear = axis_weights[:, dx, 0] * axis_weights[:, dy, 1] * axis_weights[:, dz, 2]
     direction_bin = 2 * np.arange(3) + (normals < 0)
     buckets = 6 * corner_cells[:, :, None] + direction_bin[:, None, :]
-    weights = trilinear[:, :, None] * (normals ** 2)[:, None, :]
+    weights = trilinear[:, :, None] * (normals**2)[:, None, :]
     return buckets.reshape(len(fraction), -1), weights.reshape(len(fraction), -1)
 
 
@@ -359,12 +394,15 @@ def write_edge_attribute(obj, mask, name=EDGE_ATTRIBUTE):
     """Store ``mask`` (one value per vertex of ``obj``'s mesh) as the grey colour attribute
     ``name`` (FLOAT_COLOR, per point), replacing any old one only once the new one is whole."""
     if obj.type != "MESH":
-        raise ValueError(f"object '{obj.name}' is not a mesh (its type is {obj.type}): "
-                         "an edge attribute needs mesh vertices")
+        raise ValueError(
+            f"object '{obj.name}' is not a mesh (its type is {obj.type}): an edge attribute needs mesh vertices"
+        )
     mask = np.asarray(mask, dtype=np.float32)
     if mask.shape != (len(obj.data.vertices),):
-        raise ValueError(f"object '{obj.name}': {mask.shape[0] if mask.ndim else 0} mask values for "
-                         f"{len(obj.data.vertices)} mesh vertices (modifiers that add vertices must be applied first)")
+        raise ValueError(
+            f"object '{obj.name}': {mask.shape[0] if mask.ndim else 0} mask values for "
+            f"{len(obj.data.vertices)} mesh vertices (modifiers that add vertices must be applied first)"
+        )
     colours = np.ones((len(mask), 4), dtype=np.float32)
     colours[:, :3] = np.clip(np.nan_to_num(mask), 0.0, 1.0)[:, None]
     attributes = obj.data.color_attributes

@@ -73,8 +73,12 @@ def normalise(height, clip_percent=0.0):
     """``height`` stretched to [0, 1] between its ``clip_percent`` and 100 - ``clip_percent``
     percentiles, NaN taken as the lowest value; a flat field becomes all 0."""
     height = np.asarray(height, dtype=np.float64)
-    height = np.nan_to_num(height, nan=np.nanmin(height) if np.isfinite(height).any() else 0.0,
-                           posinf=np.finfo(np.float32).max, neginf=np.finfo(np.float32).min)
+    height = np.nan_to_num(
+        height,
+        nan=np.nanmin(height) if np.isfinite(height).any() else 0.0,
+        posinf=np.finfo(np.float32).max,
+        neginf=np.finfo(np.float32).min,
+    )
     low, high = np.percentile(height, (clip_percent, 100.0 - clip_percent))
     if high <= low:
         return np.zeros(height.shape, dtype=np.float32)

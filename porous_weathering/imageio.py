@@ -11,6 +11,12 @@ import tempfile
 
 import numpy as np
 
+#: Header fields of a baked map: the hash of its inputs, the map's name, and the UV map it was
+#: baked on (weathered materials read the image through it, weathering.image_uv_map).
+HASH_KEY = "pw:inputs"
+MAP_KEY = "pw:map"
+UV_MAP_KEY = "pw:uv_map"
+
 #: file extension -> (OpenImageIO pixel type name, header attributes)
 FORMATS = {
     ".exr": {"float": ("float", {"compression": "zip"}), "half": ("half", {"compression": "zip"})},

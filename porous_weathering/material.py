@@ -1,6 +1,7 @@
 """Materials built on the porous node groups, and the key-light wiring (SPEC 3)."""
 
 import os
+from collections.abc import Sequence
 
 import bpy
 import numpy as np
@@ -8,12 +9,23 @@ import numpy as np
 from . import compat, model, nodes
 from .shader_math import Graph
 
+#: k_d as a colour (RGB or RGBA), an image, or an image file's path.
+ColorSource = Sequence[float] | bpy.types.Image | str | os.PathLike
+
 #: Light object types and the light mode each is wired as.
 LIGHT_MODE_OF_TYPE = {"SUN": nodes.SUN, "POINT": nodes.POINT, "SPOT": nodes.POINT, "AREA": nodes.POINT}
 
 
-def make_porous_material(name, *, base_color=(0.8, 0.8, 0.8), ks=0.1, roughness=0.4,
-                         porosity=0.2, pore_depth_ratio=2.0, key_light=None):
+def make_porous_material(
+    name: str,
+    *,
+    base_color: ColorSource = (0.8, 0.8, 0.8),
+    ks: float = 0.1,
+    roughness: float = 0.4,
+    porosity: float = 0.2,
+    pore_depth_ratio: float = 2.0,
+    key_light: "bpy.types.Object | str | None" = None,
+) -> "bpy.types.Material":
     """A new material that renders the porous BRDF post-process (SPEC 2) in EEVEE and Cycles.
 
     ``base_color`` is k_d: an RGB(A) colour, a ``bpy.types.Image`` or an image file path.
@@ -42,7 +54,9 @@ def make_porous_material(name, *, base_color=(0.8, 0.8, 0.8), ks=0.1, roughness=
     return material
 
 
-def make_base_material(name, *, base_color=(0.8, 0.8, 0.8), ks=0.1, roughness=0.4):
+def make_base_material(
+    name: str, *, base_color: ColorSource = (0.8, 0.8, 0.8), ks: float = 0.1, roughness: float = 0.4
+) -> "bpy.types.Material":
     """The same Diffuse + Glossy (GGX) material without porosity: the paper's 'Phong' base."""
     base_color, values = porous_parameters(base_color, ks, roughness, 0.0, 0.0)
     material = compat.new_material(name)
@@ -151,8 +165,12 @@ def wire_key_light(graph, group_node, light):
     if LIGHT_MODE_OF_TYPE[light.data.type] == nodes.SUN:
         rotation = _driven_vector(graph, light, ("ROT_X", "ROT_Y", "ROT_Z"), "Key Light Rotation")
         # A sun shines along its local -Z: the direction towards it is its local +Z.
-        direction = graph.node("ShaderNodeVectorRotate", {"Vector": (0.0, 0.0, 1.0), "Rotation": rotation},
-                               rotation_type="EULER_XYZ", depth=1)
+        direction = graph.node(
+            "ShaderNodeVectorRotate",
+            {"Vector": (0.0, 0.0, 1.0), "Rotation": rotation},
+            rotation_type="EULER_XYZ",
+            depth=1,
+        )
         graph.connect(direction.outputs["Vector"], group_node.inputs["Light Direction"])
     else:
         position = _driven_vector(graph, light, ("LOC_X", "LOC_Y", "LOC_Z"), "Key Light Position")
@@ -194,7 +212,7 @@ def principled_textures(material):
     return found
 
 
-def make_porous_from_material(source, name=None, **params):
+def make_porous_from_material(source: "bpy.types.Material", name: str | None = None, **params) -> "bpy.types.Material":
     """A porous material that keeps ``source``'s base colour and roughness images.
 
     ``params`` are make_porous_material's (base_color, ks, roughness, porosity,

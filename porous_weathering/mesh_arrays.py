@@ -38,3 +38,12 @@ def is_inside_out(mesh):
     following[np.append(starts[1:], len(corners)) - 1] = starts
     area_vectors = np.add.reduceat(np.cross(corners, corners[following]), starts) / 2.0  # Newell
     return encloses_negative_volume(np.bincount(loop_edge, minlength=len(mesh.edges)), corners[starts], area_vectors)
+
+
+def write_corner_attribute(mesh, name, values):
+    """Replace the colour attribute ``name`` of ``mesh`` by grey per-corner ``values``."""
+    rgba = np.ones((len(mesh.loops), 4), dtype=np.float32)
+    rgba[:, :3] = np.asarray(values, dtype=np.float32)[:, None]
+    if name in mesh.color_attributes:
+        mesh.color_attributes.remove(mesh.color_attributes[name])
+    mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", rgba.reshape(-1))

@@ -1,8 +1,10 @@
-"""The porous BRDF post-process of SPEC.md, sections 1-3, in plain vectorised numpy.
+"""The porous BRDF post-process of SPEC.md and its weathering, in plain vectorised numpy.
 
-This module is the project's one ground truth: the node-group builder (``nodes.py``)
-mirrors it line by line and the tests check rendered pixels against it.  It never
-imports bpy.
+This module is the project's one ground truth.  The maths itself is written once, in
+``porous.py`` (eqs. 2-6) and ``modes/`` (the weathering modes), and evaluated here on numpy
+arrays; ``nodes.py`` builds the shader-node groups from the same lines.  What this module
+adds is the checking of inputs: NaN and out-of-range values are clamped with a
+PorousInputWarning naming the input.  It never imports bpy.
 
 Every function broadcasts its arguments.  A colour quantity (k_d, k_a, A_p, k_d,poro)
 carries its RGB channels on the last axis; scalar quantities broadcast against it.
@@ -12,19 +14,17 @@ import warnings
 
 import numpy as np
 
-#: Guards the denominator of g() at m = 0 and grazing x = 0 (SPEC 2: g = 0 there).
-EPSILON = 1e-6
+from . import modes as _modes
+from . import porous
+from .backends import NumpyOps, numpy_ops
+from .modes.soiling import DEPOSIT_HALF_ROUGHNESS  # noqa: F401  (public: docs/weathering.md)
+from .porous import AMBIENT_NODES, AMBIENT_THETA_I, AMBIENT_WEIGHTS, EPSILON  # noqa: F401  (public)
 
 #: Stands in for +inf in inputs that have no upper bound (m, s_p), so results stay finite.
 LARGE = 1e6
 
-#: Three-point Gauss-Legendre rule on [0, 1], used for the ambient mean of g
-#: (docs/model.md: its largest error against the exact mean is 1.6e-3).
-AMBIENT_NODES = (0.1127016653792583, 0.5, 0.8872983346207417)
-AMBIENT_WEIGHTS = (0.2777777777777778, 0.4444444444444444, 0.2777777777777778)
-
-#: Cosine-weighted hemisphere mean of the incidence angle theta_i: pi / 4.
-AMBIENT_THETA_I = np.pi / 4
+#: Scalar maths: no colour channel to broadcast against.
+_SCALAR = NumpyOps(colour=False)
 
 
 class PorousInputWarning(UserWarning):
@@ -61,49 +61,44 @@ def valid_albedo(kd, ks):
     """(k_d, k_s) with k_d clamped so that k_a = 1 - k_s - k_d >= 0 (SPEC 1)."""
     kd = sanitize("k_d", kd, 0.0, 1.0)
     ks = sanitize("k_s", ks, 0.0, 1.0)
-    limit = 1.0 - per_channel(ks, kd)
-    if np.any(kd > limit):
+    if np.any(kd > 1.0 - per_channel(ks, kd)):
         _warn("k_s + k_d > 1: k_d clamped to 1 - k_s so that the absorbed fraction k_a is 0")
-    return np.minimum(kd, limit), ks
-
-
-def shadowing_k(m):
-    """k = 2 m^2 / pi, eq. (4)."""
-    return 2.0 * m * m / np.pi
-
-
-def shadowing_g(x, k):
-    """One factor of G_p, eq. (4): x / (x(1-k) + k), 0 at x = 0 even when k = 0."""
-    x = np.clip(x, 0.0, 1.0)
-    return x / np.maximum(x * (1.0 - k) + k, EPSILON)
-
-
-def ambient_g(k):
-    """Cosine-weighted hemisphere mean of g(N.S): 2 * integral_0^1 g(mu, k) mu dmu (SPEC 3)."""
-    return sum(2.0 * w * mu * shadowing_g(mu, k) for mu, w in zip(AMBIENT_NODES, AMBIENT_WEIGHTS))
-
-
-def bounce_count(sp, theta_i, theta_r):
-    """n_b, eq. (6): mean number of bounces inside a pore, never negative."""
-    return np.maximum(0.0, sp * (3.7 - 2.0 * ((theta_i + theta_r) / 2.0 - 2.0 * np.pi / (sp + 6.0))))
-
-
-def pore_absorption(ka, nb):
-    """A_p, eq. (5) in its stable form 1 - (1 - k_a)^n_b (no 0/0 at k_a = 0)."""
-    return 1.0 - np.power(1.0 - ka, nb)
+    return porous.valid_albedo(numpy_ops(kd), kd, ks)
 
 
 def per_channel(x, kd):
     """Scalar x made to broadcast against the colour k_d (whose last axis is RGB, if any)."""
-    return np.asarray(x)[..., None] if np.ndim(kd) else x
+    return numpy_ops(kd).channel(x)
+
+
+def shadowing_k(m):
+    """k = 2 m^2 / pi, eq. (4)."""
+    return porous.shadowing_k(m)
+
+
+def shadowing_g(x, k):
+    """One factor of G_p, eq. (4): x / (x(1-k) + k), 0 at x = 0 even when k = 0."""
+    return porous.shadowing_g(_SCALAR, x, k)
+
+
+def ambient_g(k):
+    """Cosine-weighted hemisphere mean of g(N.S): 2 * integral_0^1 g(mu, k) mu dmu (SPEC 3)."""
+    return porous.ambient_g(_SCALAR, k)
+
+
+def bounce_count(sp, theta_i, theta_r):
+    """n_b, eq. (6): mean number of bounces inside a pore, never negative."""
+    return porous.bounce_count(_SCALAR, sp, theta_i, theta_r)
+
+
+def pore_absorption(ka, nb):
+    """A_p, eq. (5) in its stable form 1 - (1 - k_a)^n_b (no 0/0 at k_a = 0)."""
+    return porous.pore_absorption(_SCALAR, ka, nb)
 
 
 def porous_weights(kd, ks, alpha, gp, ap):
     """(k_d,poro, k_s,poro), eqs. (2) and (3)."""
-    pore = per_channel(alpha * gp, kd)
-    kd_poro = kd * (1.0 - pore * ap) + per_channel(ks, kd) * pore * (1.0 - ap)
-    ks_poro = ks * (1.0 - alpha * gp)
-    return kd_poro, ks_poro
+    return porous.porous_weights(numpy_ops(kd), kd, ks, alpha, gp, ap)
 
 
 def pore_geometry(m, n_dot_l, n_dot_v):
@@ -112,15 +107,8 @@ def pore_geometry(m, n_dot_l, n_dot_v):
     In the ambient mode (SPEC 3) g(N.S) and theta_i are replaced by their cosine-weighted
     hemisphere means.
     """
-    m = sanitize("m", m)
-    n_dot_v = clamp_cosine("n_dot_v", n_dot_v)
-    k = shadowing_k(m)
-    if n_dot_l is None:
-        g_light, theta_i = ambient_g(k), AMBIENT_THETA_I
-    else:
-        n_dot_l = clamp_cosine("n_dot_l", n_dot_l)
-        g_light, theta_i = shadowing_g(n_dot_l, k), np.arccos(n_dot_l)
-    return g_light * shadowing_g(n_dot_v, k), theta_i, np.arccos(n_dot_v)
+    n_dot_l = None if n_dot_l is None else clamp_cosine("n_dot_l", n_dot_l)
+    return porous.pore_geometry(_SCALAR, sanitize("m", m), n_dot_l, clamp_cosine("n_dot_v", n_dot_v))
 
 
 def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
@@ -128,11 +116,10 @@ def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
 
     A_p is a colour when k_d is one.
     """
-    sp = sanitize("s_p", sp)
-    gp, theta_i, theta_r = pore_geometry(m, n_dot_l, n_dot_v)
-    nb = bounce_count(sp, theta_i, theta_r)
-    ap = pore_absorption(1.0 - per_channel(ks, kd) - kd, per_channel(nb, kd))
-    return gp, ap
+    n_dot_l = None if n_dot_l is None else clamp_cosine("n_dot_l", n_dot_l)
+    return porous.pore_terms(
+        numpy_ops(kd), kd, ks, sanitize("m", m), sanitize("s_p", sp), n_dot_l, clamp_cosine("n_dot_v", n_dot_v)
+    )
 
 
 def porous_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v):
@@ -145,8 +132,10 @@ def porous_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v):
     """
     kd, ks = valid_albedo(kd, ks)
     alpha = sanitize("alpha", alpha, 0.0, 1.0)
-    gp, ap = pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v)
-    return porous_weights(kd, ks, alpha, gp, ap)
+    n_dot_l = None if n_dot_l is None else clamp_cosine("n_dot_l", n_dot_l)
+    return porous.porous_coefficients(
+        numpy_ops(kd), kd, ks, sanitize("m", m), alpha, sanitize("s_p", sp), n_dot_l, clamp_cosine("n_dot_v", n_dot_v)
+    )
 
 
 def porous_coefficients_ambient(kd, ks, m, alpha, sp, n_dot_v):
@@ -155,48 +144,38 @@ def porous_coefficients_ambient(kd, ks, m, alpha, sp, n_dot_v):
 
 
 # === Weathering (SPEC 4) ================================================================
-# The paper's three applications on top of the porous post-process above.  Every state is
-# the clean porous weights blended towards a weathered one by a per-point fill fraction, so
-# time = 0 is the clean material exactly.  docs/weathering.md explains each decision.
+# The paper's three applications on top of the porous post-process, one module each in
+# modes/ (the registry).  docs/weathering.md explains each decision.
 
 SOILING, WET, EFFLORESCENCE = "soiling", "wet", "efflorescence"
-MODES = (SOILING, WET, EFFLORESCENCE)
 
-#: Every weathering input: name -> (default, low, high, the modes that use it).
-#: Colours are RGB; the three maps are per-point mask values.
-WEATHERING_INPUTS = {
-    "time": (0.0, 0.0, 1.0, MODES),
-    "front_width": (0.25, 0.01, 1.0, MODES),
-    "rain_map": (0.0, 0.0, 1.0, (SOILING, WET)),
-    "rain_threshold": (0.5, 0.0, 1.0, (SOILING,)),
-    "edge_map": (0.0, 0.0, 1.0, (SOILING,)),
-    "soiling_level": (1.0, 0.0, 1.0, (SOILING,)),
-    "pollution_color": ((0.03, 0.03, 0.03), 0.0, 1.0, (SOILING,)),
-    "deposit_color": ((0.30, 0.29, 0.27), 0.0, 1.0, (SOILING,)),
-    "wet_level": (1.0, 0.0, 1.0, (WET,)),
-    "water_specular": (1.0, 0.0, 1.0, (WET,)),
-    "efflorescence_map": (0.0, 0.0, 1.0, (EFFLORESCENCE,)),
-    "efflorescence_level": (1.0, 0.0, 1.0, (EFFLORESCENCE,)),
-    "salt_color": ((0.8, 0.8, 0.8), 0.0, 1.0, (EFFLORESCENCE,)),
-}
 
-#: Roughness m at which the grey deposit covers half of what it can (grooves trap particles).
-DEPOSIT_HALF_ROUGHNESS = 0.5
+def __getattr__(name):
+    """MODES and WEATHERING_INPUTS, read from the mode registry when asked (so a mode
+    registered later is listed too)."""
+    if name == "MODES":
+        return _modes.names()
+    if name == "WEATHERING_INPUTS":  # name -> (default, low, high, the modes that use it)
+        return {
+            item.name: (
+                item.default,
+                item.low,
+                item.high,
+                tuple(mode for mode in _modes.names() if item in _modes.get(mode).inputs),
+            )
+            for item in _modes.inputs().values()
+        }
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def weathering_modes(modes):
-    """``modes`` (one name or several) as a tuple in MODES order; ValueError for unknown names."""
-    modes = (modes,) if isinstance(modes, str) else tuple(modes)
-    unknown = set(modes) - set(MODES)
-    if unknown:
-        raise ValueError(f"unknown weathering modes {sorted(unknown)}; known: {MODES}")
-    return tuple(mode for mode in MODES if mode in modes)
+    """``modes`` (one name or several) as a tuple in registry order; ValueError for unknown names."""
+    return _modes.checked(modes)
 
 
 def inputs_of(modes):
-    """The names of the weathering inputs that ``modes`` use, in WEATHERING_INPUTS order."""
-    modes = weathering_modes(modes)
-    return [name for name, (*_, users) in WEATHERING_INPUTS.items() if set(users) & set(modes)]
+    """The names of the weathering inputs that ``modes`` use, in socket order."""
+    return [item.name for item in _modes.inputs_of(modes)]
 
 
 def weathering_state(modes, state):
@@ -204,108 +183,53 @@ def weathering_state(modes, state):
 
     An unknown name is a TypeError; a known one that ``modes`` do not use warns and is ignored.
     """
-    unknown = set(state) - set(WEATHERING_INPUTS)
+    known = _modes.inputs()
+    unknown = set(state) - set(known)
     if unknown:
-        raise TypeError(f"unknown weathering inputs {sorted(unknown)}; known: {list(WEATHERING_INPUTS)}")
-    used = inputs_of(modes)
-    unused = sorted(set(state) - set(used))
+        raise TypeError(f"unknown weathering inputs {sorted(unknown)}; known: {list(known)}")
+    used = _modes.inputs_of(modes)
+    unused = sorted(set(state) - {item.name for item in used})
     if unused:
         _warn(f"weathering inputs {unused} are not used by modes {weathering_modes(modes)}; ignored")
-    return {name: sanitize(name, state.get(name, WEATHERING_INPUTS[name][0]), *WEATHERING_INPUTS[name][1:3])
-            for name in used}
+    return {item.name: sanitize(item.name, state.get(item.name, item.default), item.low, item.high) for item in used}
 
 
 def fill_curve(progress):
     """The three-phase pore fill of Fig. 3 (smoothstep): slow, fast, then saturated at 1."""
-    x = np.clip(progress, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
+    return _modes.base.fill_curve(_SCALAR, progress)
 
 
 def pore_fill(mask, time, level, width):
     """Fill fraction of the pores: a front sweeps the mask down from 1 as time grows
     (threshold 1 - level * time); behind it a point fills over ``width`` of mask."""
-    return fill_curve((mask - (1.0 - level * time)) / width)
+    return _modes.base.pore_fill(_SCALAR, mask, time, level, width)
 
 
-def blend(clean, weathered, fill):
-    """``clean`` at fill 0 (exactly), ``weathered`` at fill 1."""
-    return clean + fill * (weathered - clean)
-
-
-def filled_absorption(kd, ka, sp, fill, theta_i, theta_r):
-    """A_p of pores a fraction ``fill`` full: s_p,eff = s_p (1 - fill) (SPEC 4)."""
-    nb = bounce_count(sp * (1.0 - fill), theta_i, theta_r)
-    return pore_absorption(ka, per_channel(nb, kd))
-
-
-def polluted_diffuse(kd, pollution_color, pore, ap):
-    """k_d,polluted, eq. (7): carbon in the pores replaces the light they return."""
-    return kd * (1.0 - pore) + pollution_color * pore * (1.0 - ap)
-
-
-def wet_weights(kd, water_specular, pore, ap):
-    """(k_d,wet, water-lobe weight): eq. (9), and eq. (8) less its k_s (1 - alpha G_p) part,
-    which is k_s,poro and stays on the stone's own glossy lobe."""
-    return kd * (1.0 - pore), water_specular * pore * (1.0 - ap)
-
-
-def efflorescence_diffuse(kd, salt_color, pore, ap, ks_poro):
-    """k_d,efflo, eq. (11), capped at 1 - k_s,poro: eq. (11) alone reflects more light than
-    arrives on bright stone (k_d + k_s near 1), which must not happen."""
-    return np.minimum(kd * (1.0 - pore * ap) + salt_color * pore * (1.0 - ap), 1.0 - ks_poro)
-
-
-def sheltered_fraction(rain_map, rain_threshold, width):
-    """0 in the white (rain-washed) area E >= threshold, rising to 1 over ``width`` below it."""
-    return np.clip((rain_threshold - rain_map) / width, 0.0, 1.0)
-
-
-def deposit_coverage(sheltered, m, time, level):
-    """Grey-area deposit (this project's model): grows with time, more on rougher stone."""
-    return sheltered * m / (m + DEPOSIT_HALF_ROUGHNESS) * (level * time)
-
-
-def weathered_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes=MODES, **state):
+def weathered_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes=None, **state):
     """(k_d, k_s, k_water): the weights of the diffuse lobe, the glossy lobe (roughness m)
     and the near-mirror water lobe of a weathered point.
 
-    ``kd`` is an RGB colour (a scalar is taken as grey); ``modes`` picks among SOILING, WET
-    and EFFLORESCENCE; ``state`` holds WEATHERING_INPUTS (defaults for those left out).  At
-    time 0 the result is porous_coefficients() exactly, with k_water = 0.  Pore-filling modes
-    apply first (carbon, salt, water), then the grey deposit over them.
+    ``kd`` is an RGB colour (a scalar is taken as grey); ``modes`` picks among the registered
+    modes (None: all of them); ``state`` holds their inputs (WEATHERING_INPUTS; defaults for
+    those left out).  At time 0 the result is porous_coefficients() exactly, with k_water = 0.
+    Pore-filling modes apply first (carbon, salt, water), then the grey deposit over them.
     """
-    modes = weathering_modes(modes)
-    s = weathering_state(modes, state)
+    modes = weathering_modes(_modes.names() if modes is None else modes)
+    state = weathering_state(modes, state)
     kd = np.asarray(kd, dtype=np.float64)
     kd, ks = valid_albedo(kd * np.ones(3) if kd.ndim == 0 else kd, ks)
-    m = sanitize("m", m)
     alpha = sanitize("alpha", alpha, 0.0, 1.0)
-    sp = sanitize("s_p", sp)
-    gp, theta_i, theta_r = pore_geometry(m, n_dot_l, n_dot_v)
-    ka = 1.0 - per_channel(ks, kd) - kd
-    kd_w, ks_w = porous_weights(kd, ks, alpha, gp, filled_absorption(kd, ka, sp, 0.0, theta_i, theta_r))
-    pore = per_channel(alpha * gp, kd)
-    water_w = np.zeros_like(kd_w)
-    if SOILING in modes:
-        sheltered = sheltered_fraction(s["rain_map"], s["rain_threshold"], s["front_width"])
-        carbon = sheltered * pore_fill(s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
-        ap = filled_absorption(kd, ka, sp, carbon, theta_i, theta_r)
-        kd_w = blend(kd_w, polluted_diffuse(kd, s["pollution_color"], pore, ap), per_channel(carbon, kd))
-    if EFFLORESCENCE in modes:
-        salt = pore_fill(s["efflorescence_map"], s["time"], s["efflorescence_level"], s["front_width"])
-        ap = filled_absorption(kd, ka, sp, salt, theta_i, theta_r)
-        salty = efflorescence_diffuse(kd, s["salt_color"], pore, ap, per_channel(ks_w, kd))
-        kd_w = blend(kd_w, salty, per_channel(salt, kd))
-    if WET in modes:
-        water = pore_fill(s["rain_map"], s["time"], s["wet_level"], s["front_width"])
-        ap = filled_absorption(kd, ka, sp, water, theta_i, theta_r)
-        kd_wet, water_lobe = wet_weights(kd, per_channel(s["water_specular"], kd), pore, ap)
-        kd_w = blend(kd_w, kd_wet, per_channel(water, kd))
-        water_w = per_channel(water, kd) * water_lobe
-    if SOILING in modes:  # the deposit lies on top of whatever fills the pores
-        coverage = deposit_coverage(sheltered, m, s["time"], s["soiling_level"])
-        kd_w = blend(kd_w, s["deposit_color"], per_channel(coverage, kd))
-        ks_w = ks_w * (1.0 - coverage)
-        if WET in modes:
-            water_w = water_w * per_channel(1.0 - coverage, kd)
-    return kd_w, ks_w, water_w
+    n_dot_l = None if n_dot_l is None else clamp_cosine("n_dot_l", n_dot_l)
+    kd_w, ks_w, water_w = _modes.weathered_weights(
+        numpy_ops(kd),
+        kd,
+        ks,
+        sanitize("m", m),
+        alpha,
+        sanitize("s_p", sp),
+        n_dot_l,
+        clamp_cosine("n_dot_v", n_dot_v),
+        modes,
+        state,
+    )
+    return kd_w, ks_w, np.zeros_like(kd_w) + (0.0 if water_w is None else water_w)

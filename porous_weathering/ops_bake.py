@@ -1,43 +1,18 @@
 """The bake operator: a thin modal wrapper over ``bake.iter_bake`` (one step per timer tick,
-progress in the window manager's progress bar, Esc cancels between steps)."""
+progress in the window manager's progress bar, Esc cancels between steps).  Its properties
+are generated from the bake's option declarations and the map registry."""
 
 import bpy
 
-from . import bake, rain
+from . import bake, maps, options
 
 
-class PW_OT_bake_maps(bpy.types.Operator):
-    """Bake rain-exposure and edge/cavity maps of the selected meshes (Esc cancels between maps)"""
+class BakeMapsOperator:
+    """Bake the weathering maps (rain exposure, edge/cavity mask, ...) of the selected meshes (Esc cancels)"""
 
     bl_idname = "porous_weathering.bake_maps"
     bl_label = "Bake Weathering Maps"
     bl_options = {"REGISTER", "UNDO"}
-
-    maps: bpy.props.EnumProperty(
-        name="Maps", options={"ENUM_FLAG"}, default={"rain", "edges"},
-        description="Which maps to bake: the weathering modes read rain exposure and the edge/cavity mask",
-        items=[("rain", "Rain Exposure", "Cosine-weighted fraction of the rain cone that reaches the surface"),
-               ("edges", "Edges", "Edge/cavity mask: Sobel of the normal map (image) or mesh curvature (attribute)")])
-    target: bpy.props.EnumProperty(
-        name="Target", default="image",
-        description="Where the maps go: image files on a lightmap UV map, or colour attributes on the mesh (scans "
-                    "without UVs)",
-        items=[("image", "Image", "Float EXR files on a lightmap UV map"),
-               ("attribute", "Colour Attribute", "Colour attributes pw_rain / pw_edges on the mesh")])
-    resolution: bpy.props.IntProperty(name="Resolution", default=bake.DEFAULT_RESOLUTION, min=8, max=16384,
-                                      description="Width and height of the image maps, in texels")
-    samples: bpy.props.IntProperty(name="Samples", default=rain.DEFAULT_SAMPLES, min=1,
-                                   description="Rain samples per texel or corner")
-    rain_cone: bpy.props.FloatProperty(name="Rain Cone", default=rain.RainSettings.cone, min=0.5, max=89.0,
-                                       description="Half-angle of the cone of rain directions, degrees")
-    wind_azimuth: bpy.props.FloatProperty(name="Wind Azimuth", default=0.0,
-                                          description="Side the rain is driven from, degrees from +X towards +Y")
-    wind_tilt: bpy.props.FloatProperty(name="Wind Tilt", default=0.0, min=0.0, max=90.0,
-                                       description="Lean of the mean rain direction from the vertical, degrees")
-    occluders: bpy.props.StringProperty(
-        name="Occluders", description="Collection whose objects shelter the surfaces; empty: every other object")
-    out_dir: bpy.props.StringProperty(name="Folder", subtype="DIR_PATH", default="//maps/",
-                                      description="Folder of the image maps (// is the .blend's folder)")
 
     _steps = None
     _timer = None
@@ -54,17 +29,16 @@ class PW_OT_bake_maps(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            options = bake.BakeOptions(
-                maps=tuple(sorted(self.maps, key=bake.MAPS.index)), target=self.target, resolution=self.resolution,
-                out_dir=bpy.path.abspath(self.out_dir), occluders=self._occluder_collection(),
-                rain_settings=rain.RainSettings(cone=self.rain_cone, wind_azimuth=self.wind_azimuth,
-                                                wind_tilt=self.wind_tilt, samples=self.samples))
+            values = {entry.dest: getattr(self, entry.dest) for entry in bake.option_entries() if entry.option.ui}
+            values["maps"] = tuple(name for name in maps.names() if name in self.maps)
+            values["out_dir"] = bpy.path.abspath(self.out_dir)
+            chosen = bake.options_from_values(values)
             objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
-            self._steps = bake.iter_bake(objects, options)  # refuses bad objects or folders here
+            self._steps = bake.iter_bake(objects, chosen)  # refuses bad objects or folders here
         except (ValueError, OSError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        self._objects, self._options = objects, options
+        self._objects, self._options = objects, chosen
         self._outcomes = []
         context.window_manager.progress_begin(0, 1)
         if bpy.app.background or context.window is None:  # no event loop: run to the end
@@ -113,18 +87,37 @@ class PW_OT_bake_maps(bpy.types.Operator):
             bake.link_images(self._objects, self._options)
         return result
 
-    def _occluder_collection(self):
-        return bake.occluder_collection(self.occluders)
+
+def operator_class():
+    """The bake operator, with one property per bake option and a map set of every registered
+    map (generated at registration, so a map registered before it is offered too)."""
+    map_items = [(kind.name, kind.label, kind.description) for kind in maps.all_kinds()]
+    properties = {
+        "maps": bpy.props.EnumProperty(
+            name="Maps",
+            options={"ENUM_FLAG"},
+            default=set(maps.names()),
+            items=map_items,
+            description="Which maps to bake: the weathering modes read them (rain exposure, edge/cavity mask, ...)",
+        ),
+        **options.operator_properties(bpy.props, bake.option_entries()),
+    }
+    return type(
+        "PW_OT_bake_maps",
+        (BakeMapsOperator, bpy.types.Operator),
+        {"__annotations__": properties, "__doc__": BakeMapsOperator.__doc__},
+    )
 
 
-CLASSES = (PW_OT_bake_maps,)
+_registered = None
 
 
 def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
+    """Register the bake operator alone (the add-on registers it through ui.register)."""
+    global _registered
+    _registered = operator_class()
+    bpy.utils.register_class(_registered)
 
 
 def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+    bpy.utils.unregister_class(_registered)

@@ -6,6 +6,10 @@ picks.  docs/presets.md gives the source of every range and the reasoning behind
 """
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import bpy
 
 
 @dataclass(frozen=True)
@@ -21,12 +25,17 @@ class Preset:
 
     def material_params(self):
         """The keyword arguments of make_porous_material (and make_weathered_material) it gives."""
-        return dict(base_color=self.linear_base_color(), ks=self.ks, roughness=self.roughness,
-                    porosity=self.porosity, pore_depth_ratio=self.pore_depth_ratio)
+        return dict(
+            base_color=self.linear_base_color(),
+            ks=self.ks,
+            roughness=self.roughness,
+            porosity=self.porosity,
+            pore_depth_ratio=self.pore_depth_ratio,
+        )
 
     def linear_base_color(self):
         """k_d: the sRGB hex colour decoded to linear RGBA, which is what shaders take."""
-        return (*(_srgb_to_linear(int(self.base_color[i:i + 2], 16) / 255) for i in (1, 3, 5)), 1.0)
+        return (*(_srgb_to_linear(int(self.base_color[i : i + 2], 16) / 255) for i in (1, 3, 5)), 1.0)
 
 
 def _srgb_to_linear(c):
@@ -34,24 +43,73 @@ def _srgb_to_linear(c):
 
 
 PRESETS = {
-    "SANDSTONE": Preset("Sandstone", 0.15, (0.05, 0.25), 2.0, "#C4AA82", 0.04, 0.7,
-                        "Buff quartz sandstone: medium porosity, grainy and matt"),
-    "LIMESTONE": Preset("Limestone", 0.18, (0.05, 0.30), 2.5, "#D6CDB8", 0.04, 0.6,
-                        "Pale oolitic building limestone; soft stones such as Lecce or Caen are more porous"),
-    "MARBLE": Preset("Marble", 0.01, (0.002, 0.02), 1.0, "#EBE9E4", 0.10, 0.2,
-                     "Honed white marble: almost no open pores, slightly glossy"),
-    "BRICK": Preset("Fired-Clay Brick", 0.30, (0.15, 0.40), 3.0, "#A0523C", 0.03, 0.8,
-                    "Red fired-clay brick: highly porous, deep capillary pores"),
-    "TERRACOTTA": Preset("Terracotta", 0.22, (0.15, 0.30), 2.5, "#C86E46", 0.05, 0.6,
-                         "Unglazed terracotta: finer and smoother than brick"),
-    "PLASTER": Preset("Lime Plaster", 0.30, (0.20, 0.40), 2.0, "#E1DCCD", 0.03, 0.8,
-                      "Lime plaster or render: very porous, chalky white"),
-    "CONCRETE": Preset("Concrete", 0.12, (0.10, 0.20), 1.5, "#969691", 0.05, 0.7,
-                       "Ordinary Portland-cement concrete, grey and matt"),
+    "SANDSTONE": Preset(
+        "Sandstone",
+        0.15,
+        (0.05, 0.25),
+        2.0,
+        "#C4AA82",
+        0.04,
+        0.7,
+        "Buff quartz sandstone: medium porosity, grainy and matt",
+    ),
+    "LIMESTONE": Preset(
+        "Limestone",
+        0.18,
+        (0.05, 0.30),
+        2.5,
+        "#D6CDB8",
+        0.04,
+        0.6,
+        "Pale oolitic building limestone; soft stones such as Lecce or Caen are more porous",
+    ),
+    "MARBLE": Preset(
+        "Marble",
+        0.01,
+        (0.002, 0.02),
+        1.0,
+        "#EBE9E4",
+        0.10,
+        0.2,
+        "Honed white marble: almost no open pores, slightly glossy",
+    ),
+    "BRICK": Preset(
+        "Fired-Clay Brick",
+        0.30,
+        (0.15, 0.40),
+        3.0,
+        "#A0523C",
+        0.03,
+        0.8,
+        "Red fired-clay brick: highly porous, deep capillary pores",
+    ),
+    "TERRACOTTA": Preset(
+        "Terracotta",
+        0.22,
+        (0.15, 0.30),
+        2.5,
+        "#C86E46",
+        0.05,
+        0.6,
+        "Unglazed terracotta: finer and smoother than brick",
+    ),
+    "PLASTER": Preset(
+        "Lime Plaster",
+        0.30,
+        (0.20, 0.40),
+        2.0,
+        "#E1DCCD",
+        0.03,
+        0.8,
+        "Lime plaster or render: very porous, chalky white",
+    ),
+    "CONCRETE": Preset(
+        "Concrete", 0.12, (0.10, 0.20), 1.5, "#969691", 0.05, 0.7, "Ordinary Portland-cement concrete, grey and matt"
+    ),
 }
 
 
-def make_preset_material(preset_name, name=None, key_light=None):
+def make_preset_material(preset_name: str, name: str | None = None, key_light=None) -> "bpy.types.Material":
     """A new porous material (see ``make_porous_material``) with the values of a preset.
 
     ``preset_name`` is a key of PRESETS (e.g. "LIMESTONE"); ``name`` defaults to the

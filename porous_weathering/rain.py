@@ -23,8 +23,9 @@ import bpy
 import numpy as np
 
 from . import compat, mesh_arrays, scratch_scene
+from .options import check, option
+from .scratch_scene import aim_sun
 from .shader_math import Graph, dot
-from .studio import aim_sun
 
 #: The colour attribute a rain bake writes (per face corner).
 RAIN_ATTRIBUTE = "pw_rain"
@@ -38,24 +39,56 @@ class RainSettings:
     ``wind_tilt`` degrees from the vertical towards azimuth ``wind_azimuth`` (degrees from +X
     towards +Y: the side the rain is driven from, i.e. the windward side)."""
 
-    cone: float = 15.0
-    wind_azimuth: float = 0.0
-    wind_tilt: float = 0.0
-    samples: int = DEFAULT_SAMPLES
-    seed: int = 0
-    sky: str = "sun"  # "sun" (a sun lamp) or "world" (a world-texture cone): docs/maps.md
+    cone: float = option(
+        15.0,
+        label="Rain Cone",
+        flag="--rain-cone",
+        low=0.0,
+        high=89.0,
+        low_open=True,
+        unit="degrees",
+        metavar="DEG",
+        tooltip="Half-angle of the cone of rain directions",
+    )
+    wind_azimuth: float = option(
+        0.0,
+        label="Wind Azimuth",
+        flag="--wind-azimuth",
+        finite=True,
+        unit="degrees",
+        metavar="DEG",
+        tooltip="Side the rain is driven from, measured from +X towards +Y",
+    )
+    wind_tilt: float = option(
+        0.0,
+        label="Wind Tilt",
+        flag="--wind-tilt",
+        low=0.0,
+        high=90.0,
+        unit="degrees",
+        metavar="DEG",
+        tooltip="Lean of the mean rain direction from the vertical (0: vertical rain)",
+    )
+    samples: int = option(
+        DEFAULT_SAMPLES,
+        label="Samples",
+        flag="--samples",
+        low=1,
+        whole=True,
+        metavar="N",
+        tooltip="Rain samples per texel or corner (docs/maps.md)",
+    )
+    seed: int = option(0, label="Seed", whole=True, ui=False, tooltip="Cycles seed of the rain bake")
+    sky: str = option(
+        "sun",
+        label="Sky",
+        choices=("sun", "world"),
+        ui=False,
+        tooltip="The rain cone as a sun lamp or a world texture (docs/maps.md)",
+    )
 
     def __post_init__(self):
-        if not 0.0 < self.cone <= 89.0:
-            raise ValueError(f"rain cone half-angle must be in (0, 89] degrees, not {self.cone}")
-        if not math.isfinite(self.wind_azimuth):
-            raise ValueError(f"wind azimuth must be a finite number of degrees, not {self.wind_azimuth}")
-        if not 0.0 <= self.wind_tilt <= 90.0:
-            raise ValueError(f"wind tilt must be in [0, 90] degrees, not {self.wind_tilt}")
-        if self.samples < 1:
-            raise ValueError(f"samples must be at least 1, not {self.samples}")
-        if self.sky not in ("sun", "world"):
-            raise ValueError(f"sky must be 'sun' or 'world', not {self.sky!r}")
+        check(self)
 
     def towards_rain(self):
         """Unit vector D from a surface towards where the rain comes from (+Z without wind)."""
@@ -116,8 +149,15 @@ def _bake(copy, target, margin):
     if inside_out:
         copy.data.flip_normals()
     with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
-        bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, target=target, margin=margin,
-                            margin_type="EXTEND", use_clear=True, use_selected_to_active=False)
+        bpy.ops.object.bake(
+            type="DIFFUSE",
+            pass_filter={"DIRECT"},
+            target=target,
+            margin=margin,
+            margin_type="EXTEND",
+            use_clear=True,
+            use_selected_to_active=False,
+        )
     if inside_out:
         copy.data.flip_normals()
 

@@ -65,12 +65,16 @@ def render_array(scene=None, path=None):
 
 def render_picture(scene, path, view_transform="AgX"):
     """Render ``scene`` to a PNG picture at ``path`` through a display view transform."""
-    return write_still(scene, path, {
-        (scene.render.image_settings, "file_format"): "PNG",
-        (scene.render.image_settings, "color_depth"): "8",
-        (scene.view_settings, "view_transform"): view_transform,
-        (scene.render, "film_transparent"): False,
-    })
+    return write_still(
+        scene,
+        path,
+        {
+            (scene.render.image_settings, "file_format"): "PNG",
+            (scene.render.image_settings, "color_depth"): "8",
+            (scene.view_settings, "view_transform"): view_transform,
+            (scene.render, "film_transparent"): False,
+        },
+    )
 
 
 def write_still(scene, path, overrides=None):

@@ -1,5 +1,11 @@
 """Copies of the user's objects in temporary scenes, where the bakes work: the user's
-scene, meshes, materials and selection are never touched."""
+scene, meshes, materials and selection are never touched; and the probe materials and
+light aiming those scenes use."""
+
+from mathutils import Vector
+
+from . import compat
+from .shader_math import Graph
 
 #: Object types that have surfaces, materials and therefore something to bake or shade.
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
@@ -36,5 +42,42 @@ def only_selected(obj):
     view_layer = scene.view_layers[0]
     obj.select_set(True, view_layer=view_layer)
     view_layer.objects.active = obj
-    return dict(scene=scene, view_layer=view_layer, object=obj, active_object=obj,
-                selected_objects=[obj], selected_editable_objects=[obj])
+    return dict(
+        scene=scene,
+        view_layer=view_layer,
+        object=obj,
+        active_object=obj,
+        selected_objects=[obj],
+        selected_editable_objects=[obj],
+    )
+
+
+def aim_sun(sun, towards):
+    """Rotate a sun so that the unit vector towards it is ``towards`` (its local +Z)."""
+    towards = Vector(towards)
+    if not towards.length > 0.0:
+        raise ValueError(f"cannot aim the sun '{sun.name}' along a zero-length (or NaN) direction")
+    sun.rotation_mode = "XYZ"
+    sun.rotation_euler = towards.normalized().to_track_quat("Z", "Y").to_euler("XYZ")
+
+
+def emission_probe(name, build):
+    """A material that emits ``build(graph, geometry)`` (a colour Expr or socket) exactly.
+
+    Cycles renders an Emission closure of strength 1 as its colour, so the pixels of a
+    probe render are the shading quantity itself at each pixel's centre.
+    """
+    material = compat.new_material(name)
+    tree = material.node_tree
+    tree.nodes.clear()
+    graph = Graph(tree)
+    geometry = graph.node("ShaderNodeNewGeometry", depth=0)
+    colour = build(graph, geometry)
+    emission = graph.node("ShaderNodeEmission", {"Color": colour, "Strength": 1.0})
+    graph.node("ShaderNodeOutputMaterial", {"Surface": emission.outputs[0]})
+    return material
+
+
+def normal_probe():
+    """Emits the world-space shading normal, encoded as N / 2 + 1/2."""
+    return emission_probe("Normal Probe", lambda graph, geometry: graph.wrap(geometry.outputs["Normal"]) * 0.5 + 0.5)

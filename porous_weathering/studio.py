@@ -3,10 +3,8 @@ light, seen by an orthographic camera looking down -Z, and emission probes that 
 shading quantities out as pixels."""
 
 import bpy
-from mathutils import Vector
 
-from . import compat
-from .shader_math import Graph
+from .scratch_scene import aim_sun, emission_probe, normal_probe  # noqa: F401  (part of the kit)
 
 #: The camera looks down -Z, so the unit vector towards the viewer is +Z everywhere.
 VIEW_DIRECTION = (0.0, 0.0, 1.0)
@@ -51,15 +49,6 @@ def add_sun(scene, towards=(0.0, 0.0, 1.0), strength=3.0, name="Sun"):
     return sun
 
 
-def aim_sun(sun, towards):
-    """Rotate a sun so that the unit vector towards it is ``towards`` (its local +Z)."""
-    towards = Vector(towards)
-    if not towards.length > 0.0:
-        raise ValueError(f"cannot aim the sun '{sun.name}' along a zero-length (or NaN) direction")
-    sun.rotation_mode = "XYZ"
-    sun.rotation_euler = towards.normalized().to_track_quat("Z", "Y").to_euler("XYZ")
-
-
 def add_point_light(scene, location, power=1000.0, name="Lamp", kind="POINT"):
     light = bpy.data.lights.new(name, kind)
     light.energy = power
@@ -85,30 +74,8 @@ def assign(obj, material):
     obj.data.materials.append(material)
 
 
-def emission_probe(name, build):
-    """A material that emits ``build(graph, geometry)`` (a colour Expr or socket) exactly.
-
-    Cycles renders an Emission closure of strength 1 as its colour, so the pixels of a
-    probe render are the shading quantity itself at each pixel's centre.
-    """
-    material = compat.new_material(name)
-    tree = material.node_tree
-    tree.nodes.clear()
-    graph = Graph(tree)
-    geometry = graph.node("ShaderNodeNewGeometry", depth=0)
-    colour = build(graph, geometry)
-    emission = graph.node("ShaderNodeEmission", {"Color": colour, "Strength": 1.0})
-    graph.node("ShaderNodeOutputMaterial", {"Surface": emission.outputs[0]})
-    return material
-
-
-def normal_probe():
-    """Emits the world-space shading normal, encoded as N / 2 + 1/2."""
-    return emission_probe("Normal Probe",
-                           lambda graph, geometry: graph.wrap(geometry.outputs["Normal"]) * 0.5 + 0.5)
-
-
 def position_probe(scale=0.1):
     """Emits the world-space position times ``scale``, plus 1/2."""
-    return emission_probe("Position Probe",
-                          lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) * scale + 0.5)
+    return emission_probe(
+        "Position Probe", lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) * scale + 0.5
+    )

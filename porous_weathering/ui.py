@@ -4,7 +4,8 @@ import warnings
 
 import bpy
 
-from . import bake, material, model, ops_bake, presets, scratch_scene, weathering
+from . import maps, material, model, ops_bake, presets, scratch_scene, weathering
+from . import modes as weathering_modes
 
 
 class NeedsMaterialObject:
@@ -31,14 +32,16 @@ class PW_OT_add_porous_material(NeedsMaterialObject, bpy.types.Operator):
         description="Light whose direction the pore shadowing follows; empty for ambient (environment) lighting",
     )
 
-
     def execute(self, context):
         obj = context.active_object
         linked = next((block for block in (obj, obj.data) if block.library is not None), None)
         if linked is not None:  # a material slot added to linked data is gone once the file is saved
             what = f"object '{obj.name}'" + ("" if linked is obj else f": its data '{linked.name}'")
-            self.report({"ERROR"}, f"{what} is linked from the library {linked.library.filepath}, where a new "
-                                   "material would not be saved; make it local first")
+            self.report(
+                {"ERROR"},
+                f"{what} is linked from the library {linked.library.filepath}, where a new "
+                "material would not be saved; make it local first",
+            )
             return {"CANCELLED"}
         try:
             mat = material.make_porous_material(f"{obj.name} Porous", key_light=self.key_light or None)
@@ -57,13 +60,6 @@ class PW_OT_add_porous_material(NeedsMaterialObject, bpy.types.Operator):
 
 # --- the artist's panel --------------------------------------------------------------------
 
-MODE_LABELS = {
-    model.SOILING: ("Soiling", "Atmospheric soiling: rain-washed white, sheltered grey and carbon-black areas"),
-    model.WET: ("Wet", "Rain fills the pores with water where the rain map is highest first"),
-    model.EFFLORESCENCE: ("Efflorescence", "Salt fills the pores where the location map is highest first"),
-}
-#: The maps each weathering mode reads (SPEC 4).
-MODE_MAPS = {model.SOILING: ("rain", "edges"), model.WET: ("rain",), model.EFFLORESCENCE: ()}
 FROM_MATERIAL = "FROM_MATERIAL"
 
 
@@ -71,52 +67,76 @@ def _is_light(_settings, obj):
     return obj.type == "LIGHT"
 
 
-class PW_Settings(bpy.types.PropertyGroup):
+class SettingsBase:
     """Porous Weathering choices of a scene: what the panel's Make button builds"""
 
-    source: bpy.props.EnumProperty(
-        name="Stone",
-        description="Porous stone to start from",
-        items=[(key, preset.label, preset.description) for key, preset in presets.PRESETS.items()]
-        + [(FROM_MATERIAL, "Object's Own Material",
-            "Keep the base colour and roughness images of the object's current material")],
-        default="LIMESTONE")
-    key_light: bpy.props.PointerProperty(
-        name="Key Light", type=bpy.types.Object, poll=_is_light,
-        description="Light whose direction the pores follow exactly; empty: ambient mode, for scenes lit by a sky")
-    soiling: bpy.props.BoolProperty(name=MODE_LABELS[model.SOILING][0], description=MODE_LABELS[model.SOILING][1])
-    wet: bpy.props.BoolProperty(name=MODE_LABELS[model.WET][0], description=MODE_LABELS[model.WET][1])
-    efflorescence: bpy.props.BoolProperty(name=MODE_LABELS[model.EFFLORESCENCE][0],
-                                          description=MODE_LABELS[model.EFFLORESCENCE][1])
-
     def modes(self):
-        return tuple(mode for mode in model.MODES if getattr(self, mode))
+        return tuple(mode for mode in weathering_modes.names() if getattr(self, mode))
+
+
+def settings_class():
+    """The scene's settings: the stone, the key light and one switch per registered mode."""
+    properties = {
+        "source": bpy.props.EnumProperty(
+            name="Stone",
+            description="Porous stone to start from",
+            default="LIMESTONE",
+            items=[(key, preset.label, preset.description) for key, preset in presets.PRESETS.items()]
+            + [
+                (
+                    FROM_MATERIAL,
+                    "Object's Own Material",
+                    "Keep the base colour and roughness images of the object's current material",
+                )
+            ],
+        ),
+        "key_light": bpy.props.PointerProperty(
+            name="Key Light",
+            type=bpy.types.Object,
+            poll=_is_light,
+            description="Light whose direction the pores follow exactly; empty: ambient mode, for scenes lit by a sky",
+        ),
+    }
+    for mode in map(weathering_modes.get, weathering_modes.names()):
+        properties[mode.name] = bpy.props.BoolProperty(name=mode.label, description=mode.description)
+    return type(
+        "PW_Settings",
+        (SettingsBase, bpy.types.PropertyGroup),
+        {"__annotations__": properties, "__doc__": SettingsBase.__doc__},
+    )
 
 
 def baked_maps(obj):
-    """{'rain': source, 'edges': source} of the maps baked for ``obj``: an Image or an attribute name."""
+    """{map name: source} of the maps baked for ``obj``: an Image or a colour attribute name."""
     found = {}
-    for map_name, attribute in bake.ATTRIBUTES.items():
-        image = bpy.data.images.get(obj.get(f"pw_{map_name}_image", ""))
+    for kind in maps.all_kinds():
+        image = bpy.data.images.get(obj.get(f"pw_{kind.name}_image", ""))
         if image is not None:
-            found[map_name] = image
-        elif obj.type == "MESH" and attribute in obj.data.attributes:
-            found[map_name] = attribute
+            found[kind.name] = image
+        elif obj.type == "MESH" and kind.attribute in obj.data.attributes:
+            found[kind.name] = kind.attribute
     return found
 
 
 def missing_maps(obj, modes):
+    """The baked maps that ``modes`` read and ``obj`` lacks, sorted."""
     have = baked_maps(obj)
-    return sorted({name for mode in modes for name in MODE_MAPS[mode] if name not in have})
+    wanted = {item.map for item in weathering_modes.inputs_of(modes) if item.map in maps.names()}
+    return sorted(wanted - set(have))
+
+
+def map_inputs(obj, modes):
+    """{weathering input: source} of ``obj``'s baked maps, for each mask input ``modes`` read."""
+    have = baked_maps(obj)
+    return {item.name: have[item.map] for item in weathering_modes.inputs_of(modes) if item.map in have}
 
 
 class PW_OT_make_material(NeedsMaterialObject, bpy.types.Operator):
-    """Give the active object a porous material from the chosen stone, light and weathering modes, wired to its baked maps"""
+    """Give the active object a porous material from the chosen stone, light and weathering modes, wired to its maps"""
 
     bl_idname = "porous_weathering.make_material"
     bl_label = "Make Porous Material"
     bl_options = {"REGISTER", "UNDO"}
-
 
     def execute(self, context):
         settings = context.scene.porous_weathering
@@ -130,6 +150,12 @@ class PW_OT_make_material(NeedsMaterialObject, bpy.types.Operator):
             return {"CANCELLED"}
         for warning in caught:
             self.report({"WARNING"}, str(warning.message))
+        for map_name in missing_maps(obj, settings.modes()):
+            self.report(
+                {"WARNING"},
+                f"object '{obj.name}' has no {maps.get(map_name).label} map: its input stays "
+                "constant until you bake it (Bake Weathering Maps) and Make again",
+            )
         if obj.material_slots:
             obj.material_slots[obj.active_material_index].material = new
         else:
@@ -150,9 +176,9 @@ def build_material(obj, settings):
         name = f"{obj.name} {preset.label}"
     modes = settings.modes()
     if modes:
-        masks = {f"{map_name}_map": source for map_name, source in baked_maps(obj).items()
-                 if f"{map_name}_map" in model.inputs_of(modes)}
-        new = weathering.make_weathered_material(name, modes=modes, key_light=settings.key_light, **params, **masks)
+        new = weathering.make_weathered_material(
+            name, modes=modes, key_light=settings.key_light, **params, **map_inputs(obj, modes)
+        )
     else:
         new = material.make_porous_material(name, key_light=settings.key_light, **params)
     if "Roughness" in textures:
@@ -202,22 +228,26 @@ def draw_panel(layout, context):
     col.prop(settings, "key_light")
     if settings.key_light is None:
         col.label(text="No key light: ambient mode (sky lighting)", icon="INFO")
-    modes = col.column(heading="Weathering", align=True)
-    for mode in model.MODES:
-        modes.prop(settings, mode)
+    switches = col.column(heading="Weathering", align=True)
+    for mode in weathering_modes.names():
+        switches.prop(settings, mode)
     if obj is not None:
         for map_name in missing_maps(obj, settings.modes()):
-            col.label(text=f"Needs a {map_name} map: bake it below first", icon="ERROR")
+            col.label(text=f"Needs the {maps.get(map_name).label} map: bake it below first", icon="ERROR")
     col.operator(PW_OT_make_material.bl_idname, icon="MATERIAL")
 
     col = layout.column(heading="Maps")
     have = baked_maps(obj) if obj is not None else {}
-    for map_name in bake.MAPS:
-        where = have.get(map_name)
-        text = "not baked" if where is None else ("image " + where.name if hasattr(where, "name") else "attribute " + where)
-        col.label(text=f"{map_name.title()}: {text}")
-    bake_button = col.operator(ops_bake.PW_OT_bake_maps.bl_idname, icon="RENDER_STILL")
-    bake_button.maps = set(bake.MAPS)
+    for kind in maps.all_kinds():
+        where = have.get(kind.name)
+        text = (
+            "not baked"
+            if where is None
+            else ("image " + where.name if hasattr(where, "name") else "attribute " + where)
+        )
+        col.label(text=f"{kind.label}: {text}")
+    bake_button = col.operator(ops_bake.BakeMapsOperator.bl_idname, icon="RENDER_STILL")
+    bake_button.maps = set(maps.names())
 
     col = layout.column(heading="Age")
     socket = _time_socket(_active_material(context))
@@ -255,14 +285,29 @@ class PW_PT_sidebar(PanelBody, bpy.types.Panel):
     bl_category = "Weathering"
 
 
-CLASSES = (PW_Settings, PW_OT_add_porous_material, PW_OT_make_material, PW_OT_keyframe_aging,
-           *ops_bake.CLASSES, PW_PT_material, PW_PT_sidebar)
+def classes():
+    """The add-on's classes, the generated ones made from the registries as they are now."""
+    return (
+        settings_class(),
+        PW_OT_add_porous_material,
+        PW_OT_make_material,
+        PW_OT_keyframe_aging,
+        ops_bake.operator_class(),
+        PW_PT_material,
+        PW_PT_sidebar,
+    )
+
+
+#: The classes registered last (made again by each register(), from the registries as they are).
+CLASSES = classes()
 
 
 def register():
+    global CLASSES
+    CLASSES = classes()
     for cls in CLASSES:
         bpy.utils.register_class(cls)
-    bpy.types.Scene.porous_weathering = bpy.props.PointerProperty(type=PW_Settings)
+    bpy.types.Scene.porous_weathering = bpy.props.PointerProperty(type=CLASSES[0])
 
 
 def unregister():

@@ -122,8 +122,11 @@ def _repack_with_whole_polygons(mesh, positions, corners, vertices, triangle_uvs
     keys = np.concatenate([vertices.reshape(-1, 1).astype(np.float64), input_uvs.reshape(-1, 2)], axis=1)
     _, first, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     atlas = xatlas.Atlas()
-    atlas.add_mesh(positions[vertices.reshape(-1)[first]], inverse.reshape(-1, 3).astype(np.uint32),
-                   uvs=input_uvs.reshape(-1, 2)[first].astype(np.float32))
+    atlas.add_mesh(
+        positions[vertices.reshape(-1)[first]],
+        inverse.reshape(-1, 3).astype(np.uint32),
+        uvs=input_uvs.reshape(-1, 2)[first].astype(np.float32),
+    )
     charts = xatlas.ChartOptions()
     charts.use_input_mesh_uvs = True
     atlas.generate(chart_options=charts, pack_options=pack)

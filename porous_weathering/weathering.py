@@ -3,45 +3,56 @@ efflorescence, composed from only the modes a material uses, aged by one time in
 
 import os
 import warnings
+from collections.abc import Sequence
 
 import bpy
 import numpy as np
 
 from . import compat, imageio, material, model, nodes
-from .bake import UV_MAP_KEY
+from . import modes as weathering_modes
+from .imageio import UV_MAP_KEY
 from .shader_math import Graph
-
-#: The weathering inputs that are per-point masks: a constant, an image or a colour attribute.
-MASKS = ("rain_map", "edge_map", "efflorescence_map")
 
 #: File endings that make a string mask an image path rather than an attribute name.
 IMAGE_EXTENSIONS = {".png", ".exr", ".tif", ".tiff", ".jpg", ".jpeg", ".hdr", ".bmp", ".tga", ".webp"}
 
 
-def make_weathered_material(name, *, modes=(model.SOILING,), base_color=(0.8, 0.8, 0.8), ks=0.1, roughness=0.4,
-                            porosity=0.2, pore_depth_ratio=2.0, key_light=None,
-                            water_roughness=nodes.WATER_ROUGHNESS, **weathering):
+def make_weathered_material(
+    name: str,
+    *,
+    modes: str | Sequence[str] = (model.SOILING,),
+    base_color: material.ColorSource = (0.8, 0.8, 0.8),
+    ks: float = 0.1,
+    roughness: float = 0.4,
+    porosity: float = 0.2,
+    pore_depth_ratio: float = 2.0,
+    key_light: "bpy.types.Object | str | None" = None,
+    water_roughness: float = nodes.WATER_ROUGHNESS,
+    **weathering,
+) -> "bpy.types.Material":
     """A new material: the porous BRDF (as make_porous_material) weathered by ``modes``.
 
-    ``modes`` is any of "soiling", "wet", "efflorescence"; the material has the nodes of
-    those modes only.  ``weathering`` sets model.WEATHERING_INPUTS (``time``, the levels,
-    colours, thresholds); each of the masks ``rain_map``, ``edge_map`` and
-    ``efflorescence_map`` is a number, a ``bpy.types.Image``, an image file path (a
+    ``modes`` is any of the registered modes ("soiling", "wet", "efflorescence"); the material
+    has the nodes of those modes only.  ``weathering`` sets their inputs (``time``, the levels,
+    colours, thresholds); each mask input (``rain_map``, ``edge_map``, ``efflorescence_map``)
+    is a number, a ``bpy.types.Image``, an image file path (a
     string ending in an image extension or containing a path separator) or the name of a
     colour attribute.  Out-of-range values are clamped and a missing image becomes the
     mask's default constant, each with a PorousInputWarning; the material never renders
     NaN or the missing-texture pink.  ``water_roughness`` is the water lobe's roughness.
     """
     modes = model.weathering_modes(modes)
+    masks = [item.name for item in weathering_modes.inputs().values() if item.mask]
     base_color, values = material.porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio)
     light = material.resolve_key_light(key_light)
     light_mode = material.LIGHT_MODE_OF_TYPE[light.data.type] if light else nodes.AMBIENT
-    sources = {mask: mask_source(mask, weathering.pop(mask)) for mask in MASKS if mask in weathering}
+    sources = {mask: mask_source(mask, weathering.pop(mask)) for mask in masks if mask in weathering}
     linked = {mask: source for mask, source in sources.items() if isinstance(source, (bpy.types.Image, str))}
-    constants = {mask: model.WEATHERING_INPUTS[mask][0] if mask in linked else source
-                 for mask, source in sources.items()}
+    constants = {
+        mask: weathering_modes.inputs()[mask].default if mask in linked else source for mask, source in sources.items()
+    }
     state = model.weathering_state(modes, {**weathering, **constants})
-    if model.WET in modes:
+    if weathering_modes.has_water_lobe(modes):
         values["Water Roughness"] = float(model.sanitize("water_roughness", water_roughness, 0.0, 1.0))
     new = compat.new_material(name)
     try:
@@ -72,7 +83,15 @@ def set_input(group_node, input_name, value):
     socket.default_value = (*value.tolist(), 1.0) if value.ndim else float(value)
 
 
-def animate_weathering(material_, frame_start, frame_end, *, input_name="time", start=0.0, end=1.0):
+def animate_weathering(
+    material_: "bpy.types.Material",
+    frame_start: int,
+    frame_end: int,
+    *,
+    input_name: str = "time",
+    start: float = 0.0,
+    end: float = 1.0,
+) -> None:
     """Keyframe a weathering input from ``start`` at ``frame_start`` to ``end`` at ``frame_end``.
 
     The default is the aging animation (time 0 -> 1); ``input_name="wet_level"`` with
@@ -80,7 +99,8 @@ def animate_weathering(material_, frame_start, frame_end, *, input_name="time", 
     """
     group_node = material_.node_tree.nodes["Porous"]
     socket = group_node.inputs[nodes.socket_name(input_name)]
-    low, high = model.WEATHERING_INPUTS[input_name][1:3]
+    item = weathering_modes.inputs()[input_name]
+    low, high = item.low, item.high
     for frame, value in ((frame_start, start), (frame_end, end)):
         socket.default_value = float(model.sanitize(input_name, value, low, high))
         socket.keyframe_insert("default_value", frame=frame)
@@ -92,7 +112,7 @@ def mask_source(mask, value):
     A path that does not lead to a readable image gives the mask's default constant and a
     warning, so the material renders without the missing-texture pink.
     """
-    default = model.WEATHERING_INPUTS[mask][0]
+    default = weathering_modes.inputs()[mask].default
     if isinstance(value, str) and not _looks_like_path(value):
         if not any(value in mesh.attributes for mesh in bpy.data.meshes):
             _warn(f"{mask}: no mesh has an attribute {value!r} yet; it reads 0 where missing")
@@ -151,8 +171,9 @@ def mask_socket(graph, source):
     if isinstance(source, bpy.types.Image):
         uv_map = image_uv_map(source)
         coordinates = {"Vector": graph.node("ShaderNodeUVMap", depth=0, uv_map=uv_map).outputs["UV"]} if uv_map else {}
-        node = graph.node("ShaderNodeTexImage", coordinates, depth=1, image=source, interpolation="Linear",
-                          extension="EXTEND")
+        node = graph.node(
+            "ShaderNodeTexImage", coordinates, depth=1, image=source, interpolation="Linear", extension="EXTEND"
+        )
         return node.outputs["Color"]
     node = graph.node("ShaderNodeAttribute", depth=1, attribute_name=source)
     return node.outputs["Fac"]

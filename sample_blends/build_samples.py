@@ -21,8 +21,8 @@ import math
 import pathlib
 import sys
 
-import bpy
 import bmesh  # importable only once bpy is
+import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
@@ -47,19 +47,30 @@ def mesh_object(scene, name, build):
 
 def box(scene, name, size, center):
     """An axis-aligned box of ``size`` (x, y, z) centred at ``center``."""
+
     def build(bm):
         bmesh.ops.create_cube(bm, size=1.0, calc_uvs=True)
         bmesh.ops.scale(bm, vec=size, verts=bm.verts)
         bmesh.ops.translate(bm, vec=center, verts=bm.verts)
+
     return mesh_object(scene, name, build)
 
 
 def rod(scene, name, radius, length, center, segments=16):
     """A cylinder along X: the round moulding of a cornice or string course."""
+
     def build(bm):
-        bmesh.ops.create_cone(bm, cap_ends=True, segments=segments, radius1=radius, radius2=radius,
-                              depth=length, calc_uvs=True,
-                              matrix=_matrix(center, rotation_y=math.pi / 2))
+        bmesh.ops.create_cone(
+            bm,
+            cap_ends=True,
+            segments=segments,
+            radius1=radius,
+            radius2=radius,
+            depth=length,
+            calc_uvs=True,
+            matrix=_matrix(center, rotation_y=math.pi / 2),
+        )
+
     obj = mesh_object(scene, name, build)
     obj.data.shade_smooth()
     return obj
@@ -115,8 +126,13 @@ def refine(obj, cell):
         low, high = corners[:, axis].min(), corners[:, axis].max()
         count = int(np.ceil((high - low) / cell - 1e-3))  # a float32 0.8 over 0.2 is 4 on every line
         for k in range(1, count):
-            bmesh.ops.bisect_plane(bm, geom=bm.verts[:] + bm.edges[:] + bm.faces[:], dist=1e-5,
-                                   plane_co=normal * (low + k * (high - low) / count), plane_no=normal)
+            bmesh.ops.bisect_plane(
+                bm,
+                geom=bm.verts[:] + bm.edges[:] + bm.faces[:],
+                dist=1e-5,
+                plane_co=normal * (low + k * (high - low) / count),
+                plane_no=normal,
+            )
     bm.to_mesh(obj.data)
     bm.free()
 
@@ -239,8 +255,9 @@ def brick_wall(scene):
         for x, z in ((0.0, 0.0), (pitch / 2, course)):
             geometry = bmesh.ops.create_cube(bm, size=1.0, calc_uvs=True)
             bmesh.ops.scale(bm, vec=BRICK, verts=geometry["verts"])
-            bmesh.ops.translate(bm, vec=(x + BRICK.x / 2, BRICK.y / 2, z + BRICK.z / 2 + JOINT),
-                                verts=geometry["verts"])
+            bmesh.ops.translate(
+                bm, vec=(x + BRICK.x / 2, BRICK.y / 2, z + BRICK.z / 2 + JOINT), verts=geometry["verts"]
+            )
 
     bricks = mesh_object(scene, "Bricks", two_courses)
     bevel(bricks, 0.004)
@@ -274,10 +291,14 @@ def sculpted_stone(scene):
     displace = stone.modifiers.new("Relief", "DISPLACE")
     displace.texture, displace.strength, displace.texture_coords = texture, 0.4, "OBJECT"
     hollows = []
-    for i, (center, radius) in enumerate((((-0.22, -0.3, 0.95), 0.2), ((0.22, -0.25, 0.62), 0.17),
-                                          ((-0.05, -0.32, 0.42), 0.13))):
-        hollow = mesh_object(scene, f"Hollow {i}", lambda bm, r=radius: bmesh.ops.create_uvsphere(
-            bm, u_segments=16, v_segments=8, radius=r))
+    for i, (center, radius) in enumerate(
+        (((-0.22, -0.3, 0.95), 0.2), ((0.22, -0.25, 0.62), 0.17), ((-0.05, -0.32, 0.42), 0.13))
+    ):
+        hollow = mesh_object(
+            scene,
+            f"Hollow {i}",
+            lambda bm, r=radius: bmesh.ops.create_uvsphere(bm, u_segments=16, v_segments=8, radius=r),
+        )
         hollow.location = center
         hollows.append(hollow)
     carve(stone, hollows)
@@ -316,8 +337,9 @@ def build(name, out_dir=HERE):
 
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("names", nargs="*", metavar="NAME",
-                        help=f"scenes to build (default: all of {', '.join(SAMPLES)})")
+    parser.add_argument(
+        "names", nargs="*", metavar="NAME", help=f"scenes to build (default: all of {', '.join(SAMPLES)})"
+    )
     parser.add_argument("--out", type=pathlib.Path, default=HERE, help="output folder (default: sample_blends/)")
     arguments = parser.parse_args()
     if unknown := set(arguments.names) - set(SAMPLES):

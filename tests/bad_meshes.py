@@ -16,8 +16,19 @@ import numpy as np
 from porous_weathering import studio
 
 #: The datablock collections an operation could leave a half-made thing in.
-DATA_KINDS = ("objects", "meshes", "materials", "images", "node_groups", "scenes", "lights", "worlds",
-              "curves", "textures", "libraries")
+DATA_KINDS = (
+    "objects",
+    "meshes",
+    "materials",
+    "images",
+    "node_groups",
+    "scenes",
+    "lights",
+    "worlds",
+    "curves",
+    "textures",
+    "libraries",
+)
 
 
 def mesh_object(scene, name, vertices, edges=(), faces=(), location=(0.0, 0.0, 0.0)):
@@ -47,9 +58,18 @@ def no_faces(scene, _tmp):
 
 def zero_area_faces(scene, _tmp):
     """A quad, a sliver whose three corners lie on a line, and a triangle collapsed to a point."""
-    vertices = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0),  # a good quad
-                (2, 0, 0), (3, 0, 0), (4, 0, 0),  # collinear
-                (5, 5, 5), (5, 5, 5), (5, 5, 5)]  # coincident
+    vertices = [
+        (0, 0, 0),
+        (1, 0, 0),
+        (1, 1, 0),
+        (0, 1, 0),  # a good quad
+        (2, 0, 0),
+        (3, 0, 0),
+        (4, 0, 0),  # collinear
+        (5, 5, 5),
+        (5, 5, 5),
+        (5, 5, 5),
+    ]  # coincident
     return mesh_object(scene, "Slivers", vertices, faces=[(0, 1, 2, 3), (4, 5, 6), (7, 8, 9)])
 
 
@@ -65,8 +85,9 @@ def loose_vertices(scene, _tmp):
     mesh = obj.data
     first = len(mesh.vertices)
     mesh.vertices.add(3)
-    mesh.vertices.foreach_set("co", np.concatenate([np.array([v.co for v in mesh.vertices][:first]).ravel(),
-                                                    [3, 0, 0, 0, 3, 0, 0, 0, 3]]))
+    mesh.vertices.foreach_set(
+        "co", np.concatenate([np.array([v.co for v in mesh.vertices][:first]).ravel(), [3, 0, 0, 0, 3, 0, 0, 0, 3]])
+    )
     mesh.edges.add(1)
     mesh.edges[-1].vertices = (first + 1, first + 2)
     mesh.update()

@@ -6,8 +6,9 @@ import bpy
 import numpy as np
 import pytest
 
-from porous_weathering import assets, model, nodes
 from generators import OLDEST_LINE, load_script
+from porous_weathering import assets, model, nodes
+from porous_weathering import modes as weathering_modes
 
 NODE_GROUPS = pathlib.Path(__file__).resolve().parent.parent / "node_groups"
 
@@ -16,8 +17,7 @@ build_assets = load_script("node_groups/build_assets.py")
 
 def catalogs(path):
     """{catalog UUID: catalog path} of a blender_assets.cats.txt."""
-    rows = [line.split(":") for line in path.read_text().splitlines()
-            if line and not line.startswith(("#", "VERSION"))]
+    rows = [line.split(":") for line in path.read_text().splitlines() if line and not line.startswith(("#", "VERSION"))]
     return {row[0]: row[1] for row in rows}
 
 
@@ -28,11 +28,18 @@ def asset_groups(blend, describe=None):
         target.node_groups = list(source.node_groups)
     summary = {}
     for group in target.node_groups:
-        summary[group.name] = describe(group) if describe else dict(
-            nodes=len(group.nodes), links=len(group.links),
-            sockets=[(item.in_out, item.name) for item in group.interface.items_tree if item.item_type == "SOCKET"],
-            catalog=group.asset_data.catalog_id, description=group.asset_data.description,
-            preview=tuple(group.preview.image_size) if group.preview else (0, 0))
+        summary[group.name] = (
+            describe(group)
+            if describe
+            else dict(
+                nodes=len(group.nodes),
+                links=len(group.links),
+                sockets=[(item.in_out, item.name) for item in group.interface.items_tree if item.item_type == "SOCKET"],
+                catalog=group.asset_data.catalog_id,
+                description=group.asset_data.description,
+                preview=tuple(group.preview.image_size) if group.preview else (0, 0),
+            )
+        )
         bpy.data.node_groups.remove(group)
     return summary
 
@@ -60,13 +67,15 @@ def test_weathering_modes_are_assets_in_every_light_mode_with_weathered_previews
         sphere = clean[:, 3] > 0.5
         for mode in model.MODES:
             name = nodes.weathered_group_name((mode,), light)
-            assert known[groups[name]["catalog"]] == f"Porous Weathering/{build_assets.WEATHERING[mode][0]}"
+            assert known[groups[name]["catalog"]] == f"Porous Weathering/{weathering_modes.get(mode).catalog}"
             assert ("INPUT", "Time") in groups[name]["sockets"]
             # the previews are fully weathered: soot and deposit darken, salt whitens, water
             # darkens the diffuse and adds a mirror lobe
             change = (previews[name] - clean)[sphere, :3]
             assert np.abs(change).mean() > 0.01, name
-            assert {model.SOILING: change.mean() < -0.02, model.EFFLORESCENCE: change.mean() > 0.02}.get(mode, True), name
+            assert {model.SOILING: change.mean() < -0.02, model.EFFLORESCENCE: change.mean() > 0.02}.get(mode, True), (
+                name
+            )
 
 
 def test_committed_file_is_saved_by_the_oldest_line():
@@ -77,10 +86,12 @@ def test_committed_file_is_saved_by_the_oldest_line():
 def test_committed_file_is_what_the_script_builds(tmp_path):
     rebuilt = build_assets.build(tmp_path)
     bpy.ops.wm.read_factory_settings(use_empty=True)
-    assert asset_groups(NODE_GROUPS / build_assets.FILENAME) == asset_groups(rebuilt), \
+    assert asset_groups(NODE_GROUPS / build_assets.FILENAME) == asset_groups(rebuilt), (
         "node_groups/ is stale: run python node_groups/build_assets.py"
-    assert (tmp_path / build_assets.CATALOGS_FILENAME).read_text() == \
-        (NODE_GROUPS / build_assets.CATALOGS_FILENAME).read_text()
+    )
+    assert (tmp_path / build_assets.CATALOGS_FILENAME).read_text() == (
+        NODE_GROUPS / build_assets.CATALOGS_FILENAME
+    ).read_text()
 
 
 @pytest.fixture

@@ -16,8 +16,13 @@ FAST = ["--resolution", "16", "--samples", "4"]
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "porous_weathering", "bake", *map(str, args)],
-                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "porous_weathering", "bake", *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
 
 
 def statuses(result):
@@ -63,15 +68,18 @@ def test_dry_run_writes_nothing(blend, tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["scene.blend"]
 
 
-@pytest.mark.parametrize("args, message", [
-    (["missing.blend"], "no such .blend file"),
-    (["{blend}", "--objects", "Marker"], "'Marker' has no mesh"),
-    (["{blend}", "--objects", "Nobody"], "no object named Nobody"),
-    (["{blend}", "--out", "/proc/forbidden"], "/proc/forbidden"),
-    (["{blend}", "--target", "attribute"], "--save"),
-    (["{blend}", "--edge-radius", "0"], "edge radius must be a positive number"),
-    (["{blend}", "--occluders", "Nowhere", "--dry-run"], "no collection named 'Nowhere'"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["missing.blend"], "no such .blend file"),
+        (["{blend}", "--objects", "Marker"], "'Marker' has no mesh"),
+        (["{blend}", "--objects", "Nobody"], "no object named Nobody"),
+        (["{blend}", "--out", "/proc/forbidden"], "/proc/forbidden"),
+        (["{blend}", "--target", "attribute"], "--save"),
+        (["{blend}", "--edge-radius", "0"], "edge radius must be a positive number"),
+        (["{blend}", "--occluders", "Nowhere", "--dry-run"], "no collection named 'Nowhere'"),
+    ],
+)
 def test_bad_input_fails_with_a_clear_message(blend, args, message):
     result = run_cli(*[a.format(blend=blend) for a in args])
     assert result.returncode != 0
@@ -85,9 +93,22 @@ def test_bad_maps_option_is_refused(blend):
 
 def test_help_documents_every_option():
     result = run_cli("--help")
-    for option in ("--objects", "--collection", "--maps", "--target", "--resolution", "--samples",
-                   "--rain-cone", "--wind-azimuth", "--wind-tilt", "--edge-radius", "--occluders", "--out", "--save",
-                   "--dry-run"):
+    for option in (
+        "--objects",
+        "--collection",
+        "--maps",
+        "--target",
+        "--resolution",
+        "--samples",
+        "--rain-cone",
+        "--wind-azimuth",
+        "--wind-tilt",
+        "--edge-radius",
+        "--occluders",
+        "--out",
+        "--save",
+        "--dry-run",
+    ):
         assert option in result.stdout
 
 
@@ -102,16 +123,18 @@ def test_occluders_option_chooses_what_shelters(blend, tmp_path):
 
 
 def test_edge_radius_option_sets_the_smoothing_radius(blend):
-    result = run_cli(blend, "--objects", "Cube", "--maps", "edges", "--target", "attribute", "--edge-radius", "0.3",
-                     "--save")
+    result = run_cli(
+        blend, "--objects", "Cube", "--maps", "edges", "--target", "attribute", "--edge-radius", "0.3", "--save"
+    )
     assert result.returncode == 0, result.stderr
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     cube = bpy.data.objects["Cube"]
     colours = np.empty(len(cube.data.vertices) * 4, dtype=np.float32)
     cube.data.color_attributes[bake.ATTRIBUTES["edges"]].data.foreach_get("color", colours)
     expected = edges.curvature_mask(edges.curvature(cube, 0.3), 0.3)
-    assert np.allclose(colours[0::4], expected) and not np.allclose(expected, edges.curvature_mask(
-        edges.curvature(cube, bake.DEFAULT_EDGE_RADIUS), bake.DEFAULT_EDGE_RADIUS))
+    assert np.allclose(colours[0::4], expected) and not np.allclose(
+        expected, edges.curvature_mask(edges.curvature(cube, bake.DEFAULT_EDGE_RADIUS), bake.DEFAULT_EDGE_RADIUS)
+    )
 
 
 def test_save_links_images_and_attributes_into_the_blend(blend, tmp_path):

@@ -35,8 +35,11 @@ def run_cli(*args):
 
 def rows(result, status):
     """The ``file: object.map`` of the summary rows with ``status``."""
-    return [line.split(None, 3)[3].split(" -> ")[0] for line in result.stdout.splitlines()
-            if line.startswith(status + " ") and " -> " in line]
+    return [
+        line.split(None, 3)[3].split(" -> ")[0]
+        for line in result.stdout.splitlines()
+        if line.startswith(status + " ") and " -> " in line
+    ]
 
 
 def maps_of(folder):
@@ -76,8 +79,14 @@ def test_two_workers_bake_the_maps_of_the_serial_run_bit_for_bit(scenes, tmp_pat
 @contextlib.contextmanager
 def running_scheduler():
     """The address of a scheduler with one worker process, on loopback."""
-    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=logging.ERROR) as cluster:
+    with LocalCluster(
+        n_workers=1,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    ) as cluster:
         yield cluster.scheduler_address
 
 
@@ -113,8 +122,13 @@ def kill_the_worker_baking(cli, marker, deadline):
 def test_a_task_whose_worker_dies_is_retried_and_no_map_is_lost(scenes, tmp_path):
     paths, serial = scenes
     out = tmp_path / "maps"
-    cli = subprocess.Popen(bake_command(*paths, "--out", out, "--workers", "2", *BOTH_MAPS),
-                           cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    cli = subprocess.Popen(
+        bake_command(*paths, "--out", out, "--workers", "2", *BOTH_MAPS),
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         killed = kill_the_worker_baking(cli, "--objects=Block1", time.monotonic() + TIMEOUT)
         stdout, stderr = cli.communicate(timeout=TIMEOUT)
@@ -130,12 +144,15 @@ def test_a_task_whose_worker_dies_is_retried_and_no_map_is_lost(scenes, tmp_path
         assert np.array_equal(baked[name], pixels), name
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--workers", "0"], "1 or more"),
-    (["--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "not allowed with"),
-    (["--workers", "1", "--target", "attribute", "--save"], "attribute maps live in the .blend"),
-    (["--scheduler", "tcp://127.0.0.1:9"], "cannot reach the Dask scheduler"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--workers", "0"], "1 or more"),
+        (["--workers", "2", "--scheduler", "tcp://127.0.0.1:8786"], "not allowed with"),
+        (["--workers", "1", "--target", "attribute", "--save"], "attribute maps live in the .blend"),
+        (["--scheduler", "tcp://127.0.0.1:9"], "cannot reach the Dask scheduler"),
+    ],
+)
 def test_bad_cluster_options_fail_with_a_clear_message(scenes, args, message):
     result = run_cli(scenes[0][0], *args)
     assert result.returncode == 2
@@ -151,6 +168,10 @@ def test_a_failed_task_fails_the_run_and_the_others_still_bake(scenes, tmp_path)
 
 
 def test_outcome_lines_of_the_bake_command_are_parsed():
-    stdout = "noise\nwritten   My.Object.rain -> /out/My.Object.rain.exr\nplanned   B.edges -> /o/B.edges.exr\nsaved     x\n"
-    assert distributed.parse_outcomes(stdout) == [("written", "My.Object", "rain", "/out/My.Object.rain.exr"),
-                                                  ("planned", "B", "edges", "/o/B.edges.exr")]
+    stdout = (
+        "noise\nwritten   My.Object.rain -> /out/My.Object.rain.exr\nplanned   B.edges -> /o/B.edges.exr\nsaved     x\n"
+    )
+    assert distributed.parse_outcomes(stdout) == [
+        ("written", "My.Object", "rain", "/out/My.Object.rain.exr"),
+        ("planned", "B", "edges", "/o/B.edges.exr"),
+    ]

@@ -55,8 +55,11 @@ def island_plane(scene):
     """A tilted flat 3 x 3 grid of quads, every quad its own UV island, turned and mirrored."""
     size = 3
     vertices = [(x, y, 0.0) for y in range(size + 1) for x in range(size + 1)]
-    faces = [(y * (size + 1) + x, y * (size + 1) + x + 1, (y + 1) * (size + 1) + x + 1, (y + 1) * (size + 1) + x)
-             for y in range(size) for x in range(size)]
+    faces = [
+        (y * (size + 1) + x, y * (size + 1) + x + 1, (y + 1) * (size + 1) + x + 1, (y + 1) * (size + 1) + x)
+        for y in range(size)
+        for x in range(size)
+    ]
     mesh = bpy.data.meshes.new("Islands")
     mesh.from_pydata(vertices, [], faces)
     uv = mesh.uv_layers.new(name="UVMap")
@@ -198,11 +201,26 @@ def test_inside_corners_of_a_hollow_box_are_concave(fresh_scene):
 
 def test_degenerate_meshes_give_finite_curvature(fresh_scene):
     """Zero-area faces, a loose vertex, an edge shared by three faces and an n-gon."""
-    vertices = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0.5, 0.5, 1), (0.5, 0.5, -1),
-                (2, 0, 0), (3, 0, 0), (5, 5, 5), (-1, 0.5, 0), (-0.5, 0.5, 0)]
-    faces = [(0, 1, 4), (0, 1, 5), (0, 1, 2),  # edge 0-1 is shared by three faces
-             (1, 6, 7),                        # zero area (a straight line)
-             (0, 3, 9, 10)]                    # a concave n-gon
+    vertices = [
+        (0, 0, 0),
+        (1, 0, 0),
+        (1, 1, 0),
+        (0, 1, 0),
+        (0.5, 0.5, 1),
+        (0.5, 0.5, -1),
+        (2, 0, 0),
+        (3, 0, 0),
+        (5, 5, 5),
+        (-1, 0.5, 0),
+        (-0.5, 0.5, 0),
+    ]
+    faces = [
+        (0, 1, 4),
+        (0, 1, 5),
+        (0, 1, 2),  # edge 0-1 is shared by three faces
+        (1, 6, 7),  # zero area (a straight line)
+        (0, 3, 9, 10),
+    ]  # a concave n-gon
     mesh = bpy.data.meshes.new("Broken")
     mesh.from_pydata(vertices, [], faces)
     curvature = edges.curvature(link(fresh_scene, mesh, "Broken"), 0.5)
@@ -223,8 +241,11 @@ def test_curvature_refuses_what_it_cannot_measure(fresh_scene):
         edges.curvature(cube(fresh_scene), 0.0)
 
 
-@pytest.mark.parametrize("block, direct_cells_max", [(7, edges.DIRECT_CELLS_MAX), (edges.BLOCK, 0), (64, 0)],
-                         ids=["small blocks", "sorted numbering", "both"])
+@pytest.mark.parametrize(
+    "block, direct_cells_max",
+    [(7, edges.DIRECT_CELLS_MAX), (edges.BLOCK, 0), (64, 0)],
+    ids=["small blocks", "sorted numbering", "both"],
+)
 def test_curvature_does_not_depend_on_how_the_work_is_split(fresh_scene, monkeypatch, block, direct_cells_max):
     """Blocks of faces, edges and points, and the two ways of numbering grid cells, give the
     same values bit for bit (the test meshes fit one block by default)."""

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import porous_weathering
-from lit_sphere import LitSphere
+from helpers import LitSphere
 from porous_weathering import render, studio, ui
 
 PARAMS = dict(base_color=(0.6, 0.5, 0.4), ks=0.1, roughness=0.5, porosity=0.35, pore_depth_ratio=2.0)
@@ -16,8 +16,11 @@ def registered_classes():
 
 
 def test_register_unregister_twice_leaves_nothing(fresh_scene):
-    before_handlers = {name: len(getattr(bpy.app.handlers, name)) for name in dir(bpy.app.handlers)
-                       if isinstance(getattr(bpy.app.handlers, name), list)}
+    before_handlers = {
+        name: len(getattr(bpy.app.handlers, name))
+        for name in dir(bpy.app.handlers)
+        if isinstance(getattr(bpy.app.handlers, name), list)
+    }
     for _ in range(2):
         porous_weathering.register()
         try:

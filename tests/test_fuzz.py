@@ -37,14 +37,22 @@ def test_valid_parameters_give_finite_weights_within_energy(params, n_dot_l, n_d
     assert np.all(kd_poro + ks_poro <= kd + ks + 1e-9)  # pores never add light (eqs. 2, 3)
 
 
-weathering_state = st.fixed_dictionaries({
-    name: (st.tuples(unit, unit, unit) if np.ndim(default) else st.floats(low, high))
-    for name, (default, low, high, _) in model.WEATHERING_INPUTS.items()})
+weathering_state = st.fixed_dictionaries(
+    {
+        name: (st.tuples(unit, unit, unit) if np.ndim(default) else st.floats(low, high))
+        for name, (default, low, high, _) in model.WEATHERING_INPUTS.items()
+    }
+)
 
 
 @settings(max_examples=200, derandomize=True, deadline=None)
-@given(params=porous_parameters(), n_dot_l=st.one_of(st.none(), cosine), n_dot_v=cosine,
-       modes=st.sets(st.sampled_from(model.MODES), min_size=1), state=weathering_state)
+@given(
+    params=porous_parameters(),
+    n_dot_l=st.one_of(st.none(), cosine),
+    n_dot_v=cosine,
+    modes=st.sets(st.sampled_from(model.MODES), min_size=1),
+    state=weathering_state,
+)
 def test_weathering_of_valid_states_is_finite_and_bounded(params, n_dot_l, n_dot_v, modes, state):
     used = {name: value for name, value in state.items() if name in model.inputs_of(modes)}
     with warnings.catch_warnings():
@@ -88,6 +96,7 @@ class WeightProbe:
                 for socket, value in inputs.items():
                     node.inputs[socket].default_value = value
                 return node.outputs[name]
+
             return self.shot(studio.emission_probe(f"Probe {name}", build))
 
         return output_of("Diffuse Weight")[..., :3], output_of("Specular Weight")[..., 0]
@@ -101,8 +110,7 @@ def test_node_group_weights_agree_with_the_model(fresh_scene):
     @given(params=porous_parameters(), light=st.one_of(st.none(), st.tuples(cosine, cosine, st.floats(0.2, 1.0))))
     def agrees(params, light):
         kd, ks, m, alpha, sp = params
-        inputs = {"Base Color": (*kd, 1.0), "Specular": ks, "Roughness": m, "Porosity": alpha,
-                  "Pore Depth Ratio": sp}
+        inputs = {"Base Color": (*kd, 1.0), "Specular": ks, "Roughness": m, "Porosity": alpha, "Pore Depth Ratio": sp}
         if light is None:
             mode, n_dot_l = nodes.AMBIENT, None
         else:

@@ -9,9 +9,8 @@ import bpy
 import numpy as np
 import pytest
 
+from helpers import STONE, MaskedPlane, assert_matches, expected_image, lobes, model_weights, weathered
 from porous_weathering import bake, imageio, model, studio, uv, weathering
-from test_porous_render import assert_matches
-from test_weathering_render import STONE, MaskedPlane, expected_image, lobes, model_weights, weathered
 
 #: The lightmap maps the plane's x, y in [-1, 1] to u, v in [LOW, HIGH]: inside the ramp's texel
 #: centres, so bilinear filtering of the ramp gives u exactly.
@@ -59,12 +58,15 @@ def test_baked_image_mask_is_read_through_its_uv_map(plane, tmp_path):
 
 def test_weathered_render_shows_the_baked_rain_map(plane, tmp_path):
     """The wet mode's water follows the rain ramp along x, as model.py says for E = lightmap u."""
-    image = plane.render(weathered("Wet", (model.WET,), key_light=plane.sun,
-                                   rain_map=ramp_map(tmp_path / "Plane.rain.exr"), **STATE))
+    image = plane.render(
+        weathered("Wet", (model.WET,), key_light=plane.sun, rain_map=ramp_map(tmp_path / "Plane.rain.exr"), **STATE)
+    )
     covered = image[..., 3] > 0.999
     n_dot_l = np.dot(np.array(plane.sun.matrix_world.to_3x3().col[2]), (0.0, 0.0, 1.0))
-    expected = expected_image(model_weights((model.WET,), n_dot_l, 1.0, rain_map=lightmap_u(plane), **STATE),
-                              lobes(plane.render, STONE["roughness"]))
+    expected = expected_image(
+        model_weights((model.WET,), n_dot_l, 1.0, rain_map=lightmap_u(plane), **STATE),
+        lobes(plane.render, STONE["roughness"]),
+    )
     assert np.ptp(expected[covered][:, 0]) > 0.05, "the rain ramp must show in the render"
     assert_matches(image, expected, covered)
 

@@ -103,8 +103,15 @@ def test_ambient_theta_is_the_cosine_weighted_mean():
 
 
 unit = st.floats(0.0, 1.0)
-params = dict(kd=st.tuples(unit, unit, unit), ks=unit, m=st.floats(0.0, 1.5), alpha=unit,
-              sp=st.floats(0.0, 10.0), nl=unit, nv=unit)
+params = dict(
+    kd=st.tuples(unit, unit, unit),
+    ks=unit,
+    m=st.floats(0.0, 1.5),
+    alpha=unit,
+    sp=st.floats(0.0, 10.0),
+    nl=unit,
+    nv=unit,
+)
 
 
 @settings(max_examples=400, deadline=None)

@@ -37,8 +37,9 @@ def blender_ext():
 
 
 def run_ext(*args):
-    result = subprocess.run([sys.executable, blender_ext(), *args, "--output-type", "JSON"],
-                            capture_output=True, text=True, timeout=300)
+    result = subprocess.run(
+        [sys.executable, blender_ext(), *args, "--output-type", "JSON"], capture_output=True, text=True, timeout=300
+    )
     messages = [json.loads(line) for line in result.stdout.splitlines() if line.strip()]
     errors = [text for kind, text in messages if kind in ("ERROR", "FATAL_ERROR")]
     assert result.returncode == 0 and not errors, f"blender_ext {args[0]} failed: {errors or result.stderr}"
@@ -67,8 +68,11 @@ def test_zip_is_valid_and_holds_only_the_extension(plain_zip):
     assert {name.split("/")[0] for name in names} <= ALLOWED_TOP - {"wheels"}
     assert not [name for name in names if "__pycache__" in name or name.endswith(".pyc")]
     assert {name for name in names if name.startswith("node_groups/")} == ASSET_FILES
-    package = {str(path.relative_to(ROOT)) for path in (ROOT / "porous_weathering").rglob("*.py")
-               if "__pycache__" not in path.parts}
+    package = {
+        str(path.relative_to(ROOT))
+        for path in (ROOT / "porous_weathering").rglob("*.py")
+        if "__pycache__" not in path.parts
+    }
     assert package and package <= names, f"missing from the zip: {sorted(package - names)}"
 
 
@@ -113,13 +117,21 @@ def install(zip_path, user_dir):
     Returns the install folder and what was unpacked from wheels while the extension was enabled.
     """
     user_dir.mkdir(parents=True, exist_ok=True)
-    env = {**os.environ,
-           "BLENDER_USER_CONFIG": str(user_dir / "config"),
-           "BLENDER_USER_SCRIPTS": str(user_dir / "scripts"),
-           "BLENDER_USER_EXTENSIONS": str(user_dir / "extensions"),
-           "BLENDER_USER_DATAFILES": str(user_dir / "datafiles")}
-    result = subprocess.run([sys.executable, "-c", INSTALL, str(zip_path)], env=env, cwd=user_dir,
-                            capture_output=True, text=True, timeout=300)
+    env = {
+        **os.environ,
+        "BLENDER_USER_CONFIG": str(user_dir / "config"),
+        "BLENDER_USER_SCRIPTS": str(user_dir / "scripts"),
+        "BLENDER_USER_EXTENSIONS": str(user_dir / "extensions"),
+        "BLENDER_USER_DATAFILES": str(user_dir / "datafiles"),
+    }
+    result = subprocess.run(
+        [sys.executable, "-c", INSTALL, str(zip_path)],
+        env=env,
+        cwd=user_dir,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     report = json.loads(result.stdout.strip().splitlines()[-1])
     folder = pathlib.Path(report["folder"])

@@ -7,10 +7,9 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from lit_sphere import LitSphere
+from helpers import TOLERANCE, LitSphere, assert_matches
 from porous_weathering import model, render, studio
 from porous_weathering.model import PorousInputWarning
-from test_porous_render import TOLERANCE, assert_matches
 
 BASE = dict(kd=(0.5, 0.45, 0.4), ks=0.15, m=0.4, alpha=0.3, sp=2.0)
 
@@ -25,8 +24,15 @@ HARD_CASES = {
 
 
 def porous(params, key_light):
-    return pw.make_porous_material("Porous", base_color=params["kd"], ks=params["ks"], roughness=params["m"],
-                                   porosity=params["alpha"], pore_depth_ratio=params["sp"], key_light=key_light)
+    return pw.make_porous_material(
+        "Porous",
+        base_color=params["kd"],
+        ks=params["ks"],
+        roughness=params["m"],
+        porosity=params["alpha"],
+        pore_depth_ratio=params["sp"],
+        key_light=key_light,
+    )
 
 
 @pytest.mark.parametrize("case", HARD_CASES, ids=list(HARD_CASES))
@@ -59,10 +65,14 @@ def test_too_bright_albedo_is_clamped_in_the_render(fresh_scene):
     with pytest.warns(PorousInputWarning):
         expected, mask = sphere.expected(**params)
     assert_matches(image, expected, mask)
-    assert tuple(material.node_tree.nodes["Porous"].inputs["Base Color"].default_value)[:3] == pytest.approx((0.7, 0.7, 0.5))
+    assert tuple(material.node_tree.nodes["Porous"].inputs["Base Color"].default_value)[:3] == pytest.approx(
+        (0.7, 0.7, 0.5)
+    )
 
 
-@pytest.mark.parametrize("field, bad", [("alpha", math.nan), ("m", -0.5), ("sp", math.inf), ("ks", -1.0), ("alpha", 7.0)])
+@pytest.mark.parametrize(
+    "field, bad", [("alpha", math.nan), ("m", -0.5), ("sp", math.inf), ("ks", -1.0), ("alpha", 7.0)]
+)
 def test_invalid_parameters_are_reported_and_render_finite(fresh_scene, field, bad):
     sphere = LitSphere(fresh_scene)
     params = {**BASE, field: bad}

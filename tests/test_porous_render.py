@@ -4,27 +4,22 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from lit_sphere import LitSphere
-
-#: Cycles evaluates the node maths in float32 and stores float32 EXR: agreement to 1e-4
-#: of the brightest pixel is far tighter than anything visible (1/255 = 4e-3).
-TOLERANCE = 1e-4
+from helpers import LitSphere, assert_matches
 
 DIFFUSE = dict(kd=(0.62, 0.55, 0.45), ks=0.05, m=0.6, alpha=0.35, sp=2.5)
 GLOSSY = dict(kd=(0.25, 0.22, 0.2), ks=0.6, m=0.25, alpha=0.3, sp=1.5)
 
 
 def porous(params, key_light=None):
-    return pw.make_porous_material("Porous", base_color=params["kd"], ks=params["ks"], roughness=params["m"],
-                                   porosity=params["alpha"], pore_depth_ratio=params["sp"], key_light=key_light)
-
-
-def assert_matches(image, expected, mask, tolerance=TOLERANCE):
-    assert mask.sum() > 200, "the check must cover the lit part of the sphere"
-    assert np.isfinite(image).all()
-    error = np.abs(image[..., :3] - expected)[mask]
-    scale = max(float(expected[mask].max()), 1e-6)
-    assert error.max() <= tolerance * scale, f"max error {error.max():.3g} vs scale {scale:.3g}"
+    return pw.make_porous_material(
+        "Porous",
+        base_color=params["kd"],
+        ks=params["ks"],
+        roughness=params["m"],
+        porosity=params["alpha"],
+        pore_depth_ratio=params["sp"],
+        key_light=key_light,
+    )
 
 
 @pytest.mark.parametrize("params", [DIFFUSE, GLOSSY], ids=["diffuse", "glossy"])

@@ -77,8 +77,11 @@ def overhang_exposure(depth, drop, rain_settings, count=400):
     angle = math.acos(np.clip(towards[2], -1, 1))
     if np.linalg.norm(axis) > 1e-12:  # rotate the cone from +Z to the mean rain direction (Rodrigues)
         k = axis / np.linalg.norm(axis)
-        local = (local * math.cos(angle) + np.cross(k, local) * math.sin(angle)
-                 + k * (local @ k)[..., None] * (1 - math.cos(angle)))
+        local = (
+            local * math.cos(angle)
+            + np.cross(k, local) * math.sin(angle)
+            + k * (local @ k)[..., None] * (1 - math.cos(angle))
+        )
     facing = np.maximum(local[..., 1], 0.0)
     reaches_past_cornice = drop * local[..., 1] > depth * local[..., 2]
     return float((facing * reaches_past_cornice).sum() / (local @ towards).sum())
@@ -108,8 +111,7 @@ def cube_face_means(obj, values):
     per_corner_face = np.empty(len(obj.data.loops), dtype=np.int64)
     for polygon in obj.data.polygons:
         per_corner_face[list(polygon.loop_indices)] = polygon.index
-    return {tuple(np.round(normals[f]).astype(int)): values[per_corner_face == f].mean()
-            for f in range(len(normals))}
+    return {tuple(np.round(normals[f]).astype(int)): values[per_corner_face == f].mean() for f in range(len(normals))}
 
 
 def test_wind_moves_exposure_to_the_windward_face(fresh_scene):
@@ -125,8 +127,10 @@ def test_wind_moves_exposure_to_the_windward_face(fresh_scene):
 
 def test_bake_leaves_the_scene_as_it_was(fresh_scene):
     plane = grid(fresh_scene, "Plane", 2, 2, 1)
-    before = {kind: len(getattr(bpy.data, kind)) for kind in ("objects", "meshes", "materials", "images",
-                                                              "scenes", "lights", "worlds")}
+    before = {
+        kind: len(getattr(bpy.data, kind))
+        for kind in ("objects", "meshes", "materials", "images", "scenes", "lights", "worlds")
+    }
     rain.bake_rain_image(plane, "UVMap", SIZE, settings(sky="world", samples=4))
     rain.bake_rain_corners(plane, settings(samples=4))
     after = {kind: len(getattr(bpy.data, kind)) for kind in before}
@@ -174,8 +178,10 @@ def test_overlapping_user_map_is_not_reused(fresh_scene):
 def test_image_bake_without_uvs_makes_a_dilated_lightmap(fresh_scene, tmp_path):
     plane = grid(fresh_scene, "Bare", 2, 1, 3, uvs=False)
     assert not plane.data.uv_layers
-    [outcome] = bake.bake_maps([plane], bake.BakeOptions(maps=("rain",), resolution=SIZE, out_dir=str(tmp_path),
-                                                         rain_settings=settings(samples=8)))
+    [outcome] = bake.bake_maps(
+        [plane],
+        bake.BakeOptions(maps=("rain",), resolution=SIZE, out_dir=str(tmp_path), rain_settings=settings(samples=8)),
+    )
     assert outcome.status == "written" and [m.name for m in plane.data.uv_layers] == [uv.LIGHTMAP_UV]
     pixels, metadata = imageio.read_image(outcome.where)
     assert metadata["pw:uv_map"] == uv.LIGHTMAP_UV
@@ -224,8 +230,11 @@ def test_cancel_stops_between_steps(fresh_scene, tmp_path):
         return len(asked) > 1
 
     with pytest.raises(bake.BakeCancelled):
-        bake.bake_maps(planes, bake.BakeOptions(maps=("rain",), resolution=SIZE, out_dir=str(tmp_path),
-                                                rain_settings=settings(samples=2)), cancelled=cancelled)
+        bake.bake_maps(
+            planes,
+            bake.BakeOptions(maps=("rain",), resolution=SIZE, out_dir=str(tmp_path), rain_settings=settings(samples=2)),
+            cancelled=cancelled,
+        )
     assert sorted(p.name for p in tmp_path.iterdir()) == ["P0.rain.exr"]
 
 

@@ -1,11 +1,11 @@
-"""The exact reference (porous_weathering.reference): its maths, then against Cycles renders."""
+"""The exact reference (benchmarks/reference.py): its maths, then against Cycles renders."""
 
 import numpy as np
 import pytest
 
 import porous_weathering as pw
+from benchmarks import reference as ref
 from benchmarks import scenes
-from porous_weathering import reference as ref
 from porous_weathering import render, studio
 
 DIFFUSE = dict(kd=(0.62, 0.55, 0.45), ks=0.05, m=0.6, alpha=0.35, sp=2.5)
@@ -40,8 +40,9 @@ def test_sky_estimate_is_within_its_stated_bound():
     cos_l = (np.arange(20000) + 0.5) / 20000
     cos_h = np.sqrt((1.0 + cos_l) / 2.0)
     albedo = 2.0 * np.pi * np.mean(ref.ggx_times_cosine(cos_l, 1.0, cos_h, ref.ggx_alpha2(roughness)))
-    image = ref.render(ref.plane(4), ref.Porous(kd=(0, 0, 0), ks=1.0, m=roughness, alpha=0.0),
-                       sky=ref.Sky(), samples=2048)
+    image = ref.render(
+        ref.plane(4), ref.Porous(kd=(0, 0, 0), ks=1.0, m=roughness, alpha=0.0), sky=ref.Sky(), samples=2048
+    )
     error = np.abs(image.rgb[..., 0] - albedo)
     assert (image.bound > 0).all() and (error <= image.bound).all()
     assert image.bound.max() < 0.03  # a useful bound, not a vacuous one
@@ -86,30 +87,46 @@ def render_against_reference(scene, surface, material, reference_material, light
 
 
 def porous(params, key_light=None):
-    return pw.make_porous_material("Porous", base_color=params["kd"], ks=params["ks"], roughness=params["m"],
-                                   porosity=params["alpha"], pore_depth_ratio=params["sp"], key_light=key_light)
+    return pw.make_porous_material(
+        "Porous",
+        base_color=params["kd"],
+        ks=params["ks"],
+        roughness=params["m"],
+        porosity=params["alpha"],
+        pore_depth_ratio=params["sp"],
+        key_light=key_light,
+    )
 
 
-@pytest.mark.parametrize("kd, ks, roughness", [(1.0, 0.0, 0.5), (0.0, 1.0, 0.25), (0.0, 1.0, 0.5), (0.0, 1.0, 0.8)],
-                         ids=["lambert", "ggx-0.25", "ggx-0.5", "ggx-0.8"])
+@pytest.mark.parametrize(
+    "kd, ks, roughness",
+    [(1.0, 0.0, 0.5), (0.0, 1.0, 0.25), (0.0, 1.0, 0.5), (0.0, 1.0, 0.8)],
+    ids=["lambert", "ggx-0.25", "ggx-0.5", "ggx-0.8"],
+)
 def test_white_lobes_match_cycles(fresh_scene, kd, ks, roughness):
     rmse, _ = render_against_reference(
-        fresh_scene, "SPHERE", lambda scene: pw.make_base_material("Lobe", base_color=(kd,) * 3, ks=ks, roughness=roughness),
-        ref.Porous(kd=(kd,) * 3, ks=ks, m=roughness, alpha=0.0), [SUN])
+        fresh_scene,
+        "SPHERE",
+        lambda scene: pw.make_base_material("Lobe", base_color=(kd,) * 3, ks=ks, roughness=roughness),
+        ref.Porous(kd=(kd,) * 3, ks=ks, m=roughness, alpha=0.0),
+        [SUN],
+    )
     assert rmse < LOBE_TOLERANCE
 
 
 @pytest.mark.parametrize("params", [DIFFUSE, GLOSSY], ids=["diffuse", "glossy"])
 def test_key_light_mode_matches_the_exact_reference(fresh_scene, params):
-    rmse, _ = render_against_reference(fresh_scene, "SPHERE", lambda scene: porous(params, key_light="Sun"),
-                                       ref.Porous(**params), [SUN])
+    rmse, _ = render_against_reference(
+        fresh_scene, "SPHERE", lambda scene: porous(params, key_light="Sun"), ref.Porous(**params), [SUN]
+    )
     assert rmse < KEY_LIGHT_TOLERANCE
 
 
 def test_key_point_light_on_a_plane_matches(fresh_scene):
     lamp = ref.PointLight((0.6, -0.4, 1.2), power=200.0)
-    rmse, _ = render_against_reference(fresh_scene, "PLANE", lambda scene: porous(GLOSSY, key_light="Lamp"),
-                                       ref.Porous(**GLOSSY), [lamp])
+    rmse, _ = render_against_reference(
+        fresh_scene, "PLANE", lambda scene: porous(GLOSSY, key_light="Lamp"), ref.Porous(**GLOSSY), [lamp]
+    )
     assert rmse < KEY_LIGHT_TOLERANCE
 
 
@@ -117,15 +134,23 @@ def test_area_light_on_a_plane_matches(fresh_scene):
     """Base Diffuse + Glossy under an area light: noisy in Cycles, so a looser bound."""
     area = ref.AreaLight((0.3, 0.2, 1.5), size=1.0, power=300.0)
     params = {**GLOSSY, "alpha": 0.0}
-    rmse, _ = render_against_reference(fresh_scene, "PLANE", lambda scene: porous(params), ref.Porous(**params),
-                                       [area], size=16, samples=512)
+    rmse, _ = render_against_reference(
+        fresh_scene, "PLANE", lambda scene: porous(params), ref.Porous(**params), [area], size=16, samples=512
+    )
     assert rmse < 0.02
 
 
 def test_ambient_mode_in_a_uniform_sky_matches_its_prediction(fresh_scene):
     """The ambient material in a uniform sky against the reference of the same (ambient)
     weights: checks the sky integration; the ambient approximation itself is benchmarked."""
-    rmse, _ = render_against_reference(fresh_scene, "SPHERE", lambda scene: porous(DIFFUSE),
-                                       ref.Porous(**DIFFUSE, light_mode=ref.AMBIENT), [], size=16, samples=256,
-                                       sky=ref.Sky())
+    rmse, _ = render_against_reference(
+        fresh_scene,
+        "SPHERE",
+        lambda scene: porous(DIFFUSE),
+        ref.Porous(**DIFFUSE, light_mode=ref.AMBIENT),
+        [],
+        size=16,
+        samples=256,
+        sky=ref.Sky(),
+    )
     assert rmse < 0.01

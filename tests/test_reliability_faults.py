@@ -70,8 +70,10 @@ def test_cancelled_attribute_bake_keeps_the_previous_attribute(fresh_scene):
     place(stones)
     bake.bake_maps(stones, bake.BakeOptions(target="attribute", **FAST))
     mesh = stones[1].data
-    previous = (np.array([c.color[0] for c in mesh.color_attributes[rain.RAIN_ATTRIBUTE].data]),
-                mesh[f"{rain.RAIN_ATTRIBUTE}_inputs"])
+    previous = (
+        np.array([c.color[0] for c in mesh.color_attributes[rain.RAIN_ATTRIBUTE].data]),
+        mesh[f"{rain.RAIN_ATTRIBUTE}_inputs"],
+    )
     before = snapshot(stones)
     changed = bake.BakeOptions(target="attribute", rain_settings=rain.RainSettings(samples=2, cone=30))
     with pytest.raises(bake.BakeCancelled):
@@ -86,12 +88,14 @@ def test_cancel_before_any_map_removes_the_new_lightmap(fresh_scene, tmp_path):
     assert not stone.data.uv_layers
     before = snapshot([stone])
     with pytest.raises(bake.BakeCancelled):
-        bake.bake_maps([stone], bake.BakeOptions(maps=("rain", "edges"), out_dir=str(tmp_path), **FAST),
-                       cancelled=cancel_after(0))
+        bake.bake_maps(
+            [stone], bake.BakeOptions(maps=("rain", "edges"), out_dir=str(tmp_path), **FAST), cancelled=cancel_after(0)
+        )
     assert snapshot([stone]) == before and list(tmp_path.iterdir()) == []
     with pytest.raises(bake.BakeCancelled):  # one map done: the lightmap it lies on stays
-        bake.bake_maps([stone], bake.BakeOptions(maps=("rain", "edges"), out_dir=str(tmp_path), **FAST),
-                       cancelled=cancel_after(1))
+        bake.bake_maps(
+            [stone], bake.BakeOptions(maps=("rain", "edges"), out_dir=str(tmp_path), **FAST), cancelled=cancel_after(1)
+        )
     assert [layer.name for layer in stone.data.uv_layers] == [uv.LIGHTMAP_UV]
     assert [p.name for p in tmp_path.iterdir()] == ["Bare.rain.exr"]
 
@@ -119,7 +123,8 @@ elif mode == "kill-before-rename":
 elif mode == "disk-full":
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a full disk: writes fail with EFBIG, not a signal
     resource.setrlimit(resource.RLIMIT_FSIZE, (64, resource.RLIM_INFINITY))
-options = bake.BakeOptions(maps=("rain",), out_dir=out, resolution=64, rain_settings=rain.RainSettings(samples=2, cone=40))
+options = bake.BakeOptions(maps=("rain",), out_dir=out, resolution=64,
+                           rain_settings=rain.RainSettings(samples=2, cone=40))
 try:
     bake.bake_maps([bpy.data.objects["Stone 0"]], options)
 except OSError as error:
@@ -140,8 +145,13 @@ def baked(fresh_scene, tmp_path):
 
 
 def start_child(blend, out, mode):
-    return subprocess.Popen([sys.executable, "-c", CHILD, str(blend), str(out), mode], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen(
+        [sys.executable, "-c", CHILD, str(blend), str(out), mode],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
 
 
 def assert_previous_map_intact(out, previous):
@@ -151,8 +161,9 @@ def assert_previous_map_intact(out, previous):
     assert pixels.shape == (16, 16, 1) and bake.HASH_KEY in metadata
 
 
-@pytest.mark.parametrize("mode, signal_line", [("kill-in-cycles", "BAKING"),
-                                               ("kill-before-rename", "TEMPORARY WRITTEN")])
+@pytest.mark.parametrize(
+    "mode, signal_line", [("kill-in-cycles", "BAKING"), ("kill-before-rename", "TEMPORARY WRITTEN")]
+)
 def test_killed_bake_leaves_the_previous_map_whole(baked, mode, signal_line):
     blend, out, previous = baked
     child = start_child(blend, out, mode)
@@ -186,6 +197,8 @@ def test_full_disk_fails_clearly_and_keeps_the_previous_map(baked):
 
 
 OPERATORS = [cls for cls in ui.CLASSES if issubclass(cls, bpy.types.Operator)]
+
+
 @pytest.mark.parametrize("operator", OPERATORS, ids=[cls.__name__ for cls in OPERATORS])
 def test_every_operator_is_undoable(operator):
     assert {"REGISTER", "UNDO"} <= operator.bl_options
@@ -222,8 +235,10 @@ def test_undo_after_a_bake(fresh_scene, tmp_path, target):
     cube(fresh_scene, "Bare")  # no UV map: an image bake adds the lightmap
 
     def bake_it():
-        bake.bake_maps([bpy.data.objects["Bare"]], bake.BakeOptions(maps=("rain", "edges"), target=target,
-                                                                    out_dir=str(tmp_path), **FAST))
+        bake.bake_maps(
+            [bpy.data.objects["Bare"]],
+            bake.BakeOptions(maps=("rain", "edges"), target=target, out_dir=str(tmp_path), **FAST),
+        )
 
     before, changed, after = undo_restores(bake_it, ["Bare"])
     assert changed != before and after == before

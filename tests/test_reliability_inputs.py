@@ -50,8 +50,12 @@ def test_material_inputs_at_their_bounds_are_kept_exactly(fresh_scene, keyword):
 @pytest.mark.parametrize("where", ["below", "above", "NaN", "-inf"])
 def test_material_inputs_out_of_range_are_clamped_with_a_named_warning(fresh_scene, keyword, where):
     _, low, high = MATERIAL_INPUTS[keyword]
-    value, expected = {"below": (low - 0.5, low), "above": (high + 0.5, high), "NaN": (NAN, low),
-                       "-inf": (-math.inf, low)}[where]
+    value, expected = {
+        "below": (low - 0.5, low),
+        "above": (high + 0.5, high),
+        "NaN": (NAN, low),
+        "-inf": (-math.inf, low),
+    }[where]
     name = {"ks": "k_s", "roughness": "m", "porosity": "alpha", "pore_depth_ratio": "s_p"}[keyword]
     with pytest.warns(PorousInputWarning, match=f"'{name}'"):
         assert material_input(keyword, value) == pytest.approx(expected)
@@ -61,7 +65,8 @@ def test_base_colour_nan_and_out_of_range_channels_are_clamped(fresh_scene):
     with pytest.warns(PorousInputWarning, match="'k_d'"):
         material = pw.make_porous_material("M", base_color=(NAN, -1.0, 7.0), ks=0.1)
     assert tuple(material.node_tree.nodes["Porous"].inputs["Base Color"].default_value) == pytest.approx(
-        (0.0, 0.0, 0.9, 1.0))
+        (0.0, 0.0, 0.9, 1.0)
+    )
 
 
 @pytest.mark.parametrize("bad", [(0.5, 0.5), 3, "", None])
@@ -84,16 +89,20 @@ def test_weathering_inputs_clamp_below_above_and_nan(name):
         with pytest.warns(PorousInputWarning, match=f"'{name}'"):
             state = model.weathering_state(users, {name: np.full(shape, value)})
         assert np.all(state[name] == expected)
-        kd, ks, water = model.weathered_coefficients((0.5, 0.4, 0.3), 0.1, 0.4, 0.3, 2.0, 0.7, 0.9, users,
-                                                     **{name: np.full(shape, expected)})
+        kd, ks, water = model.weathered_coefficients(
+            (0.5, 0.4, 0.3), 0.1, 0.4, 0.3, 2.0, 0.7, 0.9, users, **{name: np.full(shape, expected)}
+        )
         assert np.isfinite(kd).all() and np.isfinite(ks).all() and np.isfinite(water).all()
 
 
-@pytest.mark.parametrize("field, good, bad", [
-    ("cone", [1e-3, 15.0, 89.0], [0.0, -5.0, 89.5, NAN, math.inf]),
-    ("wind_tilt", [0.0, 45.0, 90.0], [-1.0, 90.5, NAN]),
-    ("samples", [1, 4096], [0, -3]),
-])
+@pytest.mark.parametrize(
+    "field, good, bad",
+    [
+        ("cone", [1e-3, 15.0, 89.0], [0.0, -5.0, 89.5, NAN, math.inf]),
+        ("wind_tilt", [0.0, 45.0, 90.0], [-1.0, 90.5, NAN]),
+        ("samples", [1, 4096], [0, -3]),
+    ],
+)
 def test_rain_settings_range(field, good, bad):
     for value in good:
         towards = rain.RainSettings(**{field: value}).towards_rain()
@@ -133,8 +142,11 @@ def test_bake_resolution_range(resolution, accepted):
             bake.BakeOptions(resolution=resolution)
 
 
-@pytest.mark.parametrize("options", [dict(edge_radius=0.0), dict(edge_radius=-1.0), dict(edge_radius=NAN),
-                                     dict(resolution=16.5)], ids=["radius 0", "radius -1", "radius NaN", "resolution 16.5"])
+@pytest.mark.parametrize(
+    "options",
+    [dict(edge_radius=0.0), dict(edge_radius=-1.0), dict(edge_radius=NAN), dict(resolution=16.5)],
+    ids=["radius 0", "radius -1", "radius NaN", "resolution 16.5"],
+)
 def test_bake_options_refuse_bad_numbers_up_front(options):
     with pytest.raises(ValueError, match="radius|resolution"):
         bake.BakeOptions(**options)
@@ -176,12 +188,18 @@ def bad_images(tmp_path):
     (tmp_path / "corrupt.png").write_bytes(b"\x89PNG\r\n\x1a\n" + b"not really a png" * 8)
     (tmp_path / "notes.exr").write_text("this is a text file, not an image")
     (tmp_path / "truncated.exr").write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
-    return {"missing": tmp_path / "missing.png", "corrupt": tmp_path / "corrupt.png",
-            "wrong format": tmp_path / "notes.exr", "truncated": tmp_path / "truncated.exr", "good": good}
+    return {
+        "missing": tmp_path / "missing.png",
+        "corrupt": tmp_path / "corrupt.png",
+        "wrong format": tmp_path / "notes.exr",
+        "truncated": tmp_path / "truncated.exr",
+        "good": good,
+    }
 
 
-@pytest.mark.parametrize("kind, message", [("missing", "not found"), ("corrupt", "cannot read"),
-                                           ("wrong format", "cannot read")])
+@pytest.mark.parametrize(
+    "kind, message", [("missing", "not found"), ("corrupt", "cannot read"), ("wrong format", "cannot read")]
+)
 def test_bad_base_colour_image_is_named_and_leaves_nothing(fresh_scene, bad_images, kind, message):
     before = data_counts()
     with pytest.raises(ValueError, match=message) as refusal:
@@ -213,8 +231,10 @@ def test_bake_replaces_a_corrupt_old_map_with_a_whole_one(fresh_scene, tmp_path)
     out = tmp_path / "maps"
     out.mkdir()
     (out / "Plane.rain.exr").write_text("a map file overwritten by something else")
-    [outcome] = bake.bake_maps([plane], bake.BakeOptions(maps=("rain",), resolution=16, out_dir=str(out),
-                                                         rain_settings=rain.RainSettings(samples=2)))
+    [outcome] = bake.bake_maps(
+        [plane],
+        bake.BakeOptions(maps=("rain",), resolution=16, out_dir=str(out), rain_settings=rain.RainSettings(samples=2)),
+    )
     assert outcome.status == "written"
     pixels, _ = imageio.read_image(outcome.where)
     assert pixels.mean() == pytest.approx(1.0, abs=0.05)
@@ -243,7 +263,9 @@ def test_read_only_folder_is_refused_when_the_system_says_so(fresh_scene, tmp_pa
     plane = studio.add_plane(fresh_scene, size=2.0)
     os.chmod(out, 0o555)
     try:
-        options = bake.BakeOptions(maps=("rain",), resolution=16, out_dir=str(out), rain_settings=rain.RainSettings(samples=1))
+        options = bake.BakeOptions(
+            maps=("rain",), resolution=16, out_dir=str(out), rain_settings=rain.RainSettings(samples=1)
+        )
         if os.access(out, os.W_OK):  # root
             assert [o.status for o in bake.bake_maps([plane], options)] == ["written"]
         else:
@@ -257,8 +279,9 @@ def test_read_only_folder_is_refused_when_the_system_says_so(fresh_scene, tmp_pa
 def test_object_and_folder_names_with_spaces_slashes_and_non_ascii(fresh_scene, tmp_path):
     plane = studio.add_plane(fresh_scene, size=2.0, name="Façade Nord/Süd 東")
     out = tmp_path / "cartes – été 地图"
-    options = bake.BakeOptions(maps=("rain", "edges"), resolution=16, out_dir=str(out),
-                               rain_settings=rain.RainSettings(samples=1))
+    options = bake.BakeOptions(
+        maps=("rain", "edges"), resolution=16, out_dir=str(out), rain_settings=rain.RainSettings(samples=1)
+    )
     outcomes = bake.bake_maps([plane], options)
     assert sorted(os.listdir(out)) == ["Façade Nord_Süd 東.edges.exr", "Façade Nord_Süd 東.rain.exr"]
     for outcome in outcomes:

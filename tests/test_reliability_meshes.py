@@ -31,10 +31,12 @@ REFUSED = {
 }
 
 
-
 def cases():
-    return [pytest.param(name, operation, id=f"{name}-{operation}")
-            for name in BUILDERS for operation in ("operator", "image", "attribute")]
+    return [
+        pytest.param(name, operation, id=f"{name}-{operation}")
+        for name in BUILDERS
+        for operation in ("operator", "image", "attribute")
+    ]
 
 
 @pytest.fixture
@@ -50,8 +52,9 @@ def run(operation, obj, out_dir):
         bpy.context.view_layer.objects.active = obj
         assert bpy.ops.porous_weathering.add_porous_material() == {"FINISHED"}
         return obj.active_material
-    options = bake.BakeOptions(maps=MAPS, target=operation, resolution=16, out_dir=str(out_dir),
-                               rain_settings=FAST_RAIN)
+    options = bake.BakeOptions(
+        maps=MAPS, target=operation, resolution=16, out_dir=str(out_dir), rain_settings=FAST_RAIN
+    )
     return bake.bake_maps([obj], options)
 
 
@@ -119,8 +122,11 @@ def test_mirrored_cube_bakes_like_the_cube_it_mirrors(fresh_scene):
         assert rain_by_face[(0, 0, 1)] == pytest.approx(1.0, abs=0.05) and rain_by_face[(0, 0, -1)] < 0.01
     # convex corners either way: the mirroring transform does not turn the cube inside out
     assert np.all(edges.curvature(mirrored, 0.05) > 0)
-    assert np.allclose(attribute_values(mirrored.data, edges.EDGE_ATTRIBUTE),
-                       attribute_values(plain.data, edges.EDGE_ATTRIBUTE), atol=1e-5)
+    assert np.allclose(
+        attribute_values(mirrored.data, edges.EDGE_ATTRIBUTE),
+        attribute_values(plain.data, edges.EDGE_ATTRIBUTE),
+        atol=1e-5,
+    )
 
 
 def test_inside_out_cube_is_baked_from_outside(fresh_scene, tmp_path):
@@ -157,8 +163,10 @@ def test_objects_sharing_a_mesh_are_not_baked_over_each_other(fresh_scene, tmp_p
 def test_shared_mesh_gets_one_lightmap_and_a_map_file_per_object(fresh_scene, tmp_path):
     twin_a = BUILDERS["shared mesh"](fresh_scene, tmp_path)
     twin_b = bpy.data.objects["Twin B"]
-    outcomes = bake.bake_maps([twin_a, twin_b], bake.BakeOptions(maps=("rain",), resolution=16, out_dir=str(tmp_path / "maps"),
-                                                                 rain_settings=FAST_RAIN))
+    outcomes = bake.bake_maps(
+        [twin_a, twin_b],
+        bake.BakeOptions(maps=("rain",), resolution=16, out_dir=str(tmp_path / "maps"), rain_settings=FAST_RAIN),
+    )
     assert [o.status for o in outcomes] == ["written", "written"]
     assert sorted(os.listdir(tmp_path / "maps")) == ["Twin A.rain.exr", "Twin B.rain.exr"]
     assert [layer.name for layer in twin_a.data.uv_layers].count("PW Lightmap") == 1

@@ -8,8 +8,8 @@ import bpy
 import numpy as np
 import pytest
 
-from porous_weathering import compat, demo, model, render, studio, weathering
 from generators import OLDEST_LINE, load_script
+from porous_weathering import compat, demo, model, render, studio, weathering
 
 SAMPLES = pathlib.Path(__file__).resolve().parent.parent / "sample_blends"
 
@@ -23,8 +23,10 @@ def meshes(scene):
 def summary(path):
     """What must not change between builds: objects, their sizes and materials, the node groups."""
     bpy.ops.wm.open_mainfile(filepath=str(path))
-    objects = [(obj.name, len(obj.data.vertices), len(obj.data.polygons), [m.name for m in obj.data.materials])
-               for obj in meshes(bpy.context.scene)]
+    objects = [
+        (obj.name, len(obj.data.vertices), len(obj.data.polygons), [m.name for m in obj.data.materials])
+        for obj in meshes(bpy.context.scene)
+    ]
     return objects, sorted((group.name, len(group.nodes)) for group in bpy.data.node_groups)
 
 
@@ -55,8 +57,9 @@ def test_sample_opens_with_porous_materials_and_renders(name):
 def test_samples_are_what_the_script_builds(tmp_path):
     for name in build_samples.SAMPLES:
         rebuilt = build_samples.build(name, tmp_path)
-        assert summary(SAMPLES / f"{name}.blend") == summary(rebuilt), \
+        assert summary(SAMPLES / f"{name}.blend") == summary(rebuilt), (
             f"sample_blends/{name}.blend is stale: run python sample_blends/build_samples.py"
+        )
 
 
 # --- weathered as the main job weathers them ----------------------------------------------
@@ -82,8 +85,10 @@ class Weathered:
         for obj in scene.objects:
             if obj.type == "MESH" and obj not in sample.objects:
                 studio.assign(obj, holdout)
-        self.maps = {mask: self.probe(sample, mask_probe(sample.sources[map_name]))[..., 0]
-                     for mask, map_name in sample.recipe.masks[mode].items()}
+        self.maps = {
+            mask: self.probe(sample, mask_probe(sample.sources[map_name]))[..., 0]
+            for mask, map_name in sample.recipe.masks[mode].items()
+        }
         position = self.probe(sample, studio.position_probe())
         self.covered, self.position = position[..., 3] > 0.999, (position[..., :3] - 0.5) * 10.0
         self.lit = self.covered & (luminance(clean) > 0.02)
@@ -95,9 +100,18 @@ class Weathered:
 
         def diffuse(time):
             weights = model.weathered_coefficients(
-                stone["base_color"][:3], stone["ks"], stone["roughness"], stone["porosity"], stone["pore_depth_ratio"],
-                n_dot_l, n_dot_v, (mode,), **{**self.inputs, "time": time, **self.maps})
+                stone["base_color"][:3],
+                stone["ks"],
+                stone["roughness"],
+                stone["porosity"],
+                stone["pore_depth_ratio"],
+                n_dot_l,
+                n_dot_v,
+                (mode,),
+                **{**self.inputs, "time": time, **self.maps},
+            )
             return luminance(weights[0])
+
         self.expected = diffuse(age) / np.maximum(diffuse(0.0), 1e-6)
 
     @staticmethod
@@ -144,13 +158,18 @@ def soiling_areas(weathered):
     threshold), grey where it is sheltered and flat, black where sheltered on an edge or cavity."""
     threshold, width = weathered.inputs["rain_threshold"], weathered.inputs["front_width"]
     sheltered = (0.0, threshold - width)
-    return {"white": weathered.area(rain_map=(threshold + 0.05, 1.0)),
-            "grey": weathered.area(rain_map=sheltered, edge_map=(0.0, 0.05)),
-            "black": weathered.area(rain_map=sheltered, edge_map=(0.5, 1.0))}
+    return {
+        "white": weathered.area(rain_map=(threshold + 0.05, 1.0)),
+        "grey": weathered.area(rain_map=sheltered, edge_map=(0.0, 0.05)),
+        "black": weathered.area(rain_map=sheltered, edge_map=(0.5, 1.0)),
+    }
 
 
-@pytest.mark.parametrize("name, shaded", [("limestone_facade", ("grey", "black")), ("sculpted_stone", ("black",))],
-                         ids=["limestone_facade", "sculpted_stone"])
+@pytest.mark.parametrize(
+    "name, shaded",
+    [("limestone_facade", ("grey", "black")), ("sculpted_stone", ("black",))],
+    ids=["limestone_facade", "sculpted_stone"],
+)
 def test_soiled_sample_shows_its_areas(name, shaded, tmp_path):
     """The façade shows all three areas; the sculpted stone, all relief, its white tops and the
     black crust in its sheltered hollows and edges."""
@@ -174,8 +193,10 @@ def distance_to_joint(x, z):
 
 
 def test_joint_map_follows_the_bond_the_sample_builds():
-    assert (demo.JOINT_MAP["rows"], demo.JOINT_MAP["bricks_per_row"]) == \
-        (build_samples.COURSES, build_samples.BRICKS_PER_COURSE)
+    assert (demo.JOINT_MAP["rows"], demo.JOINT_MAP["bricks_per_row"]) == (
+        build_samples.COURSES,
+        build_samples.BRICKS_PER_COURSE,
+    )
 
 
 def test_brick_wall_effloresces_along_its_joints(tmp_path):

@@ -32,5 +32,5 @@ def test_hard_cases_cover_every_bound():
 
 
 def test_model_stays_finite_and_in_range_with_nan_and_infinite_inputs():
-    for label, count, non_finite, out_of_range in stability.model_sweep(count=20_000):
+    for label, _count, non_finite, out_of_range in stability.model_sweep(count=20_000):
         assert (non_finite, out_of_range) == (0, 0), label

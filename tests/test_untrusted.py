@@ -17,9 +17,11 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "porous_weathering"
 
 #: Ways Python code can run code it did not ship with (a .blend's text blocks, strings).
-EXECUTES_STORED_CODE = re.compile(r"\b(exec|eval|compile|execfile|__import__)\s*\(|\.as_module\(|\brunpy\b|"
-                                  r"\bpickle\b|\bmarshal\b|bpy\.data\.texts|driver_namespace|use_scripts\s*=\s*True|"
-                                  r"text\.as_string|bpy\.ops\.text\.run_script")
+EXECUTES_STORED_CODE = re.compile(
+    r"\b(exec|eval|compile|execfile|__import__)\s*\(|\.as_module\(|\brunpy\b|"
+    r"\bpickle\b|\bmarshal\b|bpy\.data\.texts|driver_namespace|use_scripts\s*=\s*True|"
+    r"text\.as_string|bpy\.ops\.text\.run_script"
+)
 
 
 def every_material_kind(scene):
@@ -27,8 +29,7 @@ def every_material_kind(scene):
     studio.add_sun(scene, (0.3, 0.2, 0.9))
     for kind in ("POINT", "SPOT", "AREA"):
         studio.add_point_light(scene, (1.0, 1.0, 3.0), name=kind.title(), kind=kind)
-    made = [porous_weathering.make_porous_material("Ambient"),
-            porous_weathering.make_base_material("Base")]
+    made = [porous_weathering.make_porous_material("Ambient"), porous_weathering.make_base_material("Base")]
     made += [porous_weathering.make_porous_material(name, key_light=name) for name in ("Sun", "Point", "Spot", "Area")]
     made += [presets.make_preset_material(name, key_light="Sun") for name in presets.PRESETS]
     return made
@@ -55,8 +56,11 @@ def test_no_material_or_node_group_needs_a_python_driver(fresh_scene):
 
 def test_registered_extension_adds_no_handlers_and_no_driver_functions():
     def handlers():
-        return {name: len(getattr(bpy.app.handlers, name)) for name in dir(bpy.app.handlers)
-                if isinstance(getattr(bpy.app.handlers, name), list)}
+        return {
+            name: len(getattr(bpy.app.handlers, name))
+            for name in dir(bpy.app.handlers)
+            if isinstance(getattr(bpy.app.handlers, name), list)
+        }
 
     before, namespace = handlers(), set(bpy.app.driver_namespace)
     porous_weathering.register()
@@ -71,16 +75,24 @@ def test_registered_extension_adds_no_handlers_and_no_driver_functions():
 def test_package_source_runs_no_stored_code():
     sources = sorted(PACKAGE.rglob("*.py"))
     assert len(sources) > 10
-    offending = [f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
-                 for path in sources
-                 for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
-                 if EXECUTES_STORED_CODE.search(line)]
+    offending = [
+        f"{path.relative_to(ROOT)}:{number}: {line.strip()}"
+        for path in sources
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+        if EXECUTES_STORED_CODE.search(line)
+    ]
     assert offending == []
 
 
 def test_the_code_scan_would_catch_stored_code_being_run():
-    for line in ("exec(text)", "eval (expr)", "bpy.data.texts['x'].as_module()", "mod = __import__(name)",
-                 "bpy.ops.wm.open_mainfile(filepath=p, use_scripts=True)", "bpy.app.driver_namespace['f'] = f"):
+    for line in (
+        "exec(text)",
+        "eval (expr)",
+        "bpy.data.texts['x'].as_module()",
+        "mod = __import__(name)",
+        "bpy.ops.wm.open_mainfile(filepath=p, use_scripts=True)",
+        "bpy.app.driver_namespace['f'] = f",
+    ):
         assert EXECUTES_STORED_CODE.search(line), line
 
 
@@ -122,8 +134,10 @@ def test_hostile_file_is_worked_on_without_running_its_code(fresh_scene, tmp_pat
         assert bpy.ops.porous_weathering.add_porous_material() == {"FINISHED"}
     finally:
         porous_weathering.unregister()
-    bake.bake_maps([stone], bake.BakeOptions(maps=("rain", "edges"), target="attribute",
-                                             rain_settings=rain.RainSettings(samples=1)))
+    bake.bake_maps(
+        [stone],
+        bake.BakeOptions(maps=("rain", "edges"), target="attribute", rain_settings=rain.RainSettings(samples=1)),
+    )
     studio.add_sun(scene, (0.2, 0.1, 0.95))
     studio.add_ortho_camera(scene, scale=1.2)
     render.use_cycles(scene, size=16, samples=1)
@@ -143,7 +157,12 @@ cli.exit_with(["bake", sys.argv[1], "--out", sys.argv[2], "--resolution", "16", 
 
 def test_batch_bake_never_runs_code_stored_in_the_files(fresh_scene, tmp_path):
     path, markers = make_hostile_file(fresh_scene, tmp_path)
-    result = subprocess.run([sys.executable, "-c", RUN_CLI_TRUSTING_PREFERENCES, str(path), str(tmp_path / "maps")],
-                            cwd=ROOT, capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-c", RUN_CLI_TRUSTING_PREFERENCES, str(path), str(tmp_path / "maps")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stderr[-2000:]
     assert [m.exists() for m in markers] == [False, False]

@@ -12,16 +12,15 @@ test fails if the bake or the material ignores the rain map; region colours are 
 with model.py, and the whole image pixel by pixel.
 """
 
-import bpy
 import bmesh  # importable only once bpy is
+import bpy
 import numpy as np
 import pytest
 from mathutils import Vector
 
 import porous_weathering as pw
+from helpers import assert_matches, expected_image
 from porous_weathering import bake, model, rain, render, studio, weathering
-from test_porous_render import assert_matches
-from test_weathering_render import expected_image
 
 #: A porous stone with shallow pores: deep pores are nearly black when clean already (A_p near 1),
 #: so carbon in them would hardly show (docs/weathering.md).
@@ -52,8 +51,10 @@ def profile_points():
 def add_wall(scene):
     """One closed mesh: the profile extruded along X in SPACING steps."""
     bm = bmesh.new()
-    rings = [[bm.verts.new((x, y, z)) for y, z in profile_points()]
-             for x in np.linspace(-LENGTH / 2, LENGTH / 2, int(round(LENGTH / SPACING)) + 1)]
+    rings = [
+        [bm.verts.new((x, y, z)) for y, z in profile_points()]
+        for x in np.linspace(-LENGTH / 2, LENGTH / 2, int(round(LENGTH / SPACING)) + 1)
+    ]
     count = len(rings[0])
     for left, right in zip(rings, rings[1:]):
         for k in range(count):
@@ -81,11 +82,11 @@ class Composite:
         self.wall = add_wall(scene)
         self.sun = studio.add_sun(scene, SUN)
         self.camera = add_camera(scene)
-        bake.bake_maps([self.wall], bake.BakeOptions(maps=bake.MAPS, target="attribute", rain_settings=WIND,
-                                                     edge_radius=0.1))
+        bake.bake_maps(
+            [self.wall], bake.BakeOptions(maps=bake.MAPS, target="attribute", rain_settings=WIND, edge_radius=0.1)
+        )
         render.use_cycles(scene, size=SIZE, samples=1)
-        self.masks = {"rain_map": self.probe(bake.ATTRIBUTES["rain"]),
-                      "edge_map": self.probe(bake.ATTRIBUTES["edges"])}
+        self.masks = {"rain_map": self.probe(bake.ATTRIBUTES["rain"]), "edge_map": self.probe(bake.ATTRIBUTES["edges"])}
         normals = self.render(studio.normal_probe())
         self.covered = normals[..., 3] > 0.999
         self.normals = normals[..., :3] * 2.0 - 1.0
@@ -97,8 +98,9 @@ class Composite:
         return render.render_array(self.scene)
 
     def probe(self, attribute):
-        return self.render(studio.emission_probe(
-            attribute, lambda graph, geometry: weathering.mask_socket(graph, attribute)))[..., 0]
+        return self.render(
+            studio.emission_probe(attribute, lambda graph, geometry: weathering.mask_socket(graph, attribute))
+        )[..., 0]
 
     def cosines(self):
         towards_sun = np.array(self.sun.matrix_world.to_3x3().col[2])
@@ -108,23 +110,44 @@ class Composite:
     def region(self, normal, y=(-9.0, 9.0), z=(-9.0, 9.0)):
         """Covered pixels whose surface faces ``normal`` and lies within the y and z bounds."""
         y_, z_ = self.positions[..., 1], self.positions[..., 2]
-        return (self.covered & (self.normals @ np.array(normal) > 0.99)
-                & (y[0] < y_) & (y_ < y[1]) & (z[0] < z_) & (z_ < z[1]))
+        return (
+            self.covered
+            & (self.normals @ np.array(normal) > 0.99)
+            & (y[0] < y_)
+            & (y_ < y[1])
+            & (z[0] < z_)
+            & (z_ < z[1])
+        )
 
 
 def soiled(composite, **state):
-    material = pw.make_weathered_material("Soiled", modes=(model.SOILING,), key_light=composite.sun,
-                                          rain_map=bake.ATTRIBUTES["rain"], edge_map=bake.ATTRIBUTES["edges"],
-                                          **STONE, **state)
+    material = pw.make_weathered_material(
+        "Soiled",
+        modes=(model.SOILING,),
+        key_light=composite.sun,
+        rain_map=bake.ATTRIBUTES["rain"],
+        edge_map=bake.ATTRIBUTES["edges"],
+        **STONE,
+        **state,
+    )
     return composite.render(material)[..., :3]
 
 
 def model_image(composite, lobe_images, **state):
     n_dot_l, n_dot_v = composite.cosines()
     p = STONE
-    weights = model.weathered_coefficients(p["base_color"], p["ks"], p["roughness"], p["porosity"],
-                                           p["pore_depth_ratio"], n_dot_l, n_dot_v, (model.SOILING,),
-                                           **state, **composite.masks)
+    weights = model.weathered_coefficients(
+        p["base_color"],
+        p["ks"],
+        p["roughness"],
+        p["porosity"],
+        p["pore_depth_ratio"],
+        n_dot_l,
+        n_dot_v,
+        (model.SOILING,),
+        **state,
+        **composite.masks,
+    )
     return expected_image(weights, (*lobe_images, 0.0))
 
 
@@ -134,18 +157,25 @@ def renders():
     areas by geometry, as arrays (every test starts from a fresh scene)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     composite = Composite(bpy.context.scene)
-    lobe_images = [composite.render(pw.make_base_material(name, base_color=kd, ks=ks, roughness=STONE["roughness"]))
-                   [..., :3] for name, kd, ks in (("D", (1, 1, 1), 0.0), ("G", (0, 0, 0), 1.0))]
+    lobe_images = [
+        composite.render(pw.make_base_material(name, base_color=kd, ks=ks, roughness=STONE["roughness"]))[..., :3]
+        for name, kd, ks in (("D", (1, 1, 1), 0.0), ("G", (0, 0, 0), 1.0))
+    ]
     lit = composite.covered & (composite.cosines()[0] > 0.05)
     areas = {
         "white": composite.region((0, -1, 0), z=(0.9, 1.45)),  # the open wall, under driven rain
         "grey": composite.region((0, -1, 0), z=(1.95, 2.2)),  # the wall in the cornice's shelter
         "black": composite.region((0, -1, 0), z=(2.33, 2.4)) | composite.region((0, 0, -1), y=(-0.06, 0.0)),
     }
-    return dict(masks=composite.masks, clean=soiled(composite, time=0.0), late=soiled(composite, **LATE), lit=lit,
-                model_clean=model_image(composite, lobe_images, time=0.0),
-                model_late=model_image(composite, lobe_images, **LATE),
-                areas={name: area & lit for name, area in areas.items()})
+    return dict(
+        masks=composite.masks,
+        clean=soiled(composite, time=0.0),
+        late=soiled(composite, **LATE),
+        lit=lit,
+        model_clean=model_image(composite, lobe_images, time=0.0),
+        model_late=model_image(composite, lobe_images, **LATE),
+        areas={name: area & lit for name, area in areas.items()},
+    )
 
 
 def luminance(rgb):

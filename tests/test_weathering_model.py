@@ -25,21 +25,41 @@ def stones(draw):
     kd = np.array(draw(colour))
     ks = draw(unit) * (1.0 - kd.max())
     n_dot_l = draw(st.one_of(st.none(), unit))
-    return dict(kd=kd, ks=ks, m=draw(st.floats(0.0, 1.5)), alpha=draw(unit), sp=draw(st.floats(0.0, 10.0)),
-                n_dot_l=n_dot_l, n_dot_v=draw(unit))
+    return dict(
+        kd=kd,
+        ks=ks,
+        m=draw(st.floats(0.0, 1.5)),
+        alpha=draw(unit),
+        sp=draw(st.floats(0.0, 10.0)),
+        n_dot_l=n_dot_l,
+        n_dot_v=draw(unit),
+    )
 
 
 @st.composite
 def masks(draw):
-    return dict(rain_map=draw(unit), edge_map=draw(unit), efflorescence_map=draw(unit),
-                front_width=draw(st.floats(0.01, 1.0)), rain_threshold=draw(unit))
+    return dict(
+        rain_map=draw(unit),
+        edge_map=draw(unit),
+        efflorescence_map=draw(unit),
+        front_width=draw(st.floats(0.01, 1.0)),
+        rain_threshold=draw(unit),
+    )
 
 
 def weathered(stone, modes, **state):
     used = set(model.inputs_of(modes))
-    return model.weathered_coefficients(stone["kd"], stone["ks"], stone["m"], stone["alpha"], stone["sp"],
-                                        stone["n_dot_l"], stone["n_dot_v"], modes,
-                                        **{name: value for name, value in state.items() if name in used})
+    return model.weathered_coefficients(
+        stone["kd"],
+        stone["ks"],
+        stone["m"],
+        stone["alpha"],
+        stone["sp"],
+        stone["n_dot_l"],
+        stone["n_dot_v"],
+        modes,
+        **{name: value for name, value in state.items() if name in used},
+    )
 
 
 def over_time(stone, modes, **state):
@@ -51,8 +71,9 @@ def over_time(stone, modes, **state):
 @SETTINGS
 @given(stone=stones(), state=masks(), modes=st.sampled_from(MODE_SETS))
 def test_time_zero_is_the_clean_material_exactly(stone, state, modes):
-    clean = model.porous_coefficients(stone["kd"], stone["ks"], stone["m"], stone["alpha"], stone["sp"],
-                                      stone["n_dot_l"], stone["n_dot_v"])
+    clean = model.porous_coefficients(
+        stone["kd"], stone["ks"], stone["m"], stone["alpha"], stone["sp"], stone["n_dot_l"], stone["n_dot_v"]
+    )
     kd_w, ks_w, water_w = weathered(stone, modes, time=0.0, **state)
     assert np.array_equal(kd_w, clean[0]) and np.array_equal(ks_w, clean[1])
     assert not water_w.any()
@@ -140,9 +161,16 @@ def test_the_front_reaches_the_highest_mask_first():
     assert fills[0] > fills[1] > fills[2] == 0.0
 
 
-@pytest.mark.parametrize("name, value, clamped", [("time", 1.7, 1.0), ("time", -0.3, 0.0),
-                                                   ("rain_map", 2.0, 1.0), ("edge_map", np.nan, 0.0),
-                                                   ("front_width", 0.0, 0.01)])
+@pytest.mark.parametrize(
+    "name, value, clamped",
+    [
+        ("time", 1.7, 1.0),
+        ("time", -0.3, 0.0),
+        ("rain_map", 2.0, 1.0),
+        ("edge_map", np.nan, 0.0),
+        ("front_width", 0.0, 0.01),
+    ],
+)
 def test_out_of_range_inputs_are_clamped_with_a_warning(name, value, clamped):
     stone = dict(kd=np.array([0.6, 0.5, 0.4]), ks=0.1, m=0.5, alpha=0.3, sp=2.0, n_dot_l=0.7, n_dot_v=0.9)
     base = dict(time=0.6, rain_map=0.2, edge_map=0.8, front_width=0.2)
@@ -213,14 +241,23 @@ def test_every_input_may_vary_per_point():
     point what it gets alone, every weathering input included."""
     rng = np.random.default_rng(7)
     count = 5
-    state = {name: rng.uniform(low, high, count) if np.ndim(default) == 0 else rng.uniform(0.0, 1.0, (count, 3))
-             for name, (default, low, high, _) in model.WEATHERING_INPUTS.items()}
-    stone = dict(kd=rng.uniform(0.0, 0.5, (count, 3)), ks=rng.uniform(0.0, 0.4, count), m=rng.uniform(0.0, 1.5, count),
-                 alpha=rng.uniform(0.0, 1.0, count), sp=rng.uniform(0.0, 10.0, count),
-                 n_dot_l=rng.uniform(0.0, 1.0, count), n_dot_v=rng.uniform(0.0, 1.0, count))
+    state = {
+        name: rng.uniform(low, high, count) if np.ndim(default) == 0 else rng.uniform(0.0, 1.0, (count, 3))
+        for name, (default, low, high, _) in model.WEATHERING_INPUTS.items()
+    }
+    stone = dict(
+        kd=rng.uniform(0.0, 0.5, (count, 3)),
+        ks=rng.uniform(0.0, 0.4, count),
+        m=rng.uniform(0.0, 1.5, count),
+        alpha=rng.uniform(0.0, 1.0, count),
+        sp=rng.uniform(0.0, 10.0, count),
+        n_dot_l=rng.uniform(0.0, 1.0, count),
+        n_dot_v=rng.uniform(0.0, 1.0, count),
+    )
     together = weathered(stone, model.MODES, **state)
     for point in range(count):
-        alone = weathered({k: v[point] for k, v in stone.items()}, model.MODES,
-                          **{k: v[point] for k, v in state.items()})
+        alone = weathered(
+            {k: v[point] for k, v in stone.items()}, model.MODES, **{k: v[point] for k, v in state.items()}
+        )
         for all_points, one_point in zip(together, alone):  # k_d, k_s (one value a point), k_water
             assert np.allclose(all_points[point], one_point, rtol=1e-12, atol=1e-15)

@@ -11,12 +11,18 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from lit_sphere import LitSphere
-from porous_weathering import model, nodes, render, studio, weathering
-from test_porous_render import TOLERANCE, assert_matches
-
-STONE = dict(base_color=(0.62, 0.55, 0.45), ks=0.08, roughness=0.6, porosity=0.35, pore_depth_ratio=2.5)
-WATER_ROUGHNESS = 0.3  # a lobe wide enough to be seen under a sun of angle 0
+from helpers import (
+    STONE,
+    TOLERANCE,
+    LitSphere,
+    MaskedPlane,
+    assert_matches,
+    expected_image,
+    lobes,
+    model_weights,
+    weathered,
+)
+from porous_weathering import model, nodes, studio, weathering
 
 #: Mask values that leave every fill partial, so each term of each mode shows.
 STATES = {
@@ -27,38 +33,14 @@ STATES = {
 }
 
 
-def weathered(name, modes, key_light=None, **state):
-    return pw.make_weathered_material(name, modes=modes, key_light=key_light, water_roughness=WATER_ROUGHNESS,
-                                      **STONE, **state)
-
-
-def lobes(render_with, roughness):
-    """White Lambert, white GGX at the stone's roughness and at the water's."""
-    diffuse = render_with(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0, roughness=roughness))
-    glossy = render_with(pw.make_base_material("G", base_color=(0, 0, 0), ks=1.0, roughness=roughness))
-    water = render_with(pw.make_base_material("W", base_color=(0, 0, 0), ks=1.0, roughness=WATER_ROUGHNESS))
-    return diffuse[..., :3], glossy[..., :3], water[..., :3]
-
-
-def expected_image(weights, lobe_images):
-    kd_w, ks_w, water_w = weights
-    diffuse, glossy, water = lobe_images
-    return kd_w * diffuse + np.asarray(ks_w)[..., None] * glossy + water_w * water
-
-
-def model_weights(modes, n_dot_l, n_dot_v, **state):
-    p = STONE
-    return model.weathered_coefficients(p["base_color"], p["ks"], p["roughness"], p["porosity"],
-                                        p["pore_depth_ratio"], n_dot_l, n_dot_v, modes, **state)
-
-
 @pytest.mark.parametrize("modes", list(STATES))
 def test_key_light_matches_model(fresh_scene, modes):
     sphere = LitSphere(fresh_scene)
     image = sphere.render(weathered("Weathered", modes.split("+"), key_light=sphere.sun, **STATES[modes]))
     n_dot_l, n_dot_v = sphere.cosines()
-    expected = expected_image(model_weights(modes.split("+"), n_dot_l, n_dot_v, **STATES[modes]),
-                              lobes(sphere.render, STONE["roughness"]))
+    expected = expected_image(
+        model_weights(modes.split("+"), n_dot_l, n_dot_v, **STATES[modes]), lobes(sphere.render, STONE["roughness"])
+    )
     assert_matches(image, expected, sphere.covered & (n_dot_l > 0.0))
 
 
@@ -67,8 +49,9 @@ def test_ambient_matches_model(fresh_scene):
     sphere = LitSphere(fresh_scene)
     image = sphere.render(weathered("Weathered", modes.split("+"), **STATES[modes]))
     n_dot_l, n_dot_v = sphere.cosines()
-    expected = expected_image(model_weights(modes.split("+"), None, n_dot_v, **STATES[modes]),
-                              lobes(sphere.render, STONE["roughness"]))
+    expected = expected_image(
+        model_weights(modes.split("+"), None, n_dot_v, **STATES[modes]), lobes(sphere.render, STONE["roughness"])
+    )
     assert_matches(image, expected, sphere.covered & (n_dot_l > 0.0))
 
 
@@ -80,26 +63,6 @@ def test_time_zero_renders_the_clean_material_exactly(fresh_scene, light):
     state = {**STATES["soiling+wet+efflorescence"], "time": 0.0}
     aged = sphere.render(weathered("New", model.MODES, key_light=key_light, **state))
     assert np.array_equal(aged, clean)
-
-
-class MaskedPlane:
-    """A plane facing +Z under a tilted sun, its masks varying across it."""
-
-    def __init__(self, scene, size=32):
-        self.scene = scene
-        self.plane = studio.add_plane(scene)
-        self.sun = studio.add_sun(scene, (0.5, 0.3, 0.8))
-        studio.add_ortho_camera(scene)
-        render.use_cycles(scene, size=size, samples=1)
-
-    def render(self, material):
-        studio.assign(self.plane, material)
-        return render.render_array(self.scene)
-
-    def probe(self, source):
-        """Per-pixel values of a mask source, read through the same nodes the material uses."""
-        probe = studio.emission_probe("Mask Probe", lambda graph, geometry: weathering.mask_socket(graph, source))
-        return self.render(probe)[..., 0]
 
 
 def gradient_image(name, values):
@@ -122,13 +85,17 @@ def test_image_and_attribute_masks_match_model(fresh_scene):
     for corner, value in zip(salt.data, (0.0, 0.3, 1.0, 0.6)):
         corner.color = (value, value, value, 1.0)
     state = dict(time=0.55, front_width=0.3)
-    image = plane.render(weathered("Masked", model.MODES, key_light=plane.sun, rain_map=rain, edge_map=edge,
-                                   efflorescence_map="salt", **state))
+    image = plane.render(
+        weathered(
+            "Masked", model.MODES, key_light=plane.sun, rain_map=rain, edge_map=edge, efflorescence_map="salt", **state
+        )
+    )
     masks = dict(rain_map=plane.probe(rain), edge_map=plane.probe(edge), efflorescence_map=plane.probe("salt"))
     covered = image[..., 3] > 0.999
     n_dot_l = np.dot(np.array(plane.sun.matrix_world.to_3x3().col[2]), (0.0, 0.0, 1.0))
-    expected = expected_image(model_weights(model.MODES, n_dot_l, 1.0, **state, **masks),
-                              lobes(plane.render, STONE["roughness"]))
+    expected = expected_image(
+        model_weights(model.MODES, n_dot_l, 1.0, **state, **masks), lobes(plane.render, STONE["roughness"])
+    )
     assert np.ptp(masks["rain_map"][covered]) > 0.8 and np.ptp(masks["efflorescence_map"][covered]) > 0.8
     assert_matches(image, expected, covered)
 
@@ -160,11 +127,15 @@ def test_out_of_range_values_render_clamped(fresh_scene):
 
 
 def test_materials_hold_only_their_modes_nodes():
-    groups = {modes: nodes.weathered_group(modes, nodes.SUN) for modes in
-              [(), ("soiling",), ("wet",), ("efflorescence",), model.MODES]}
+    groups = {
+        modes: nodes.weathered_group(modes, nodes.SUN)
+        for modes in [(), ("soiling",), ("wet",), ("efflorescence",), model.MODES]
+    }
     assert groups[()] is nodes.porous_group(nodes.SUN)
-    inputs = {modes: {item.name for item in group.interface.items_tree if item.in_out == "INPUT"}
-              for modes, group in groups.items()}
+    inputs = {
+        modes: {item.name for item in group.interface.items_tree if item.in_out == "INPUT"}
+        for modes, group in groups.items()
+    }
     assert "Time" not in inputs[()]
     assert {"Edge Map", "Pollution Color"} <= inputs[("soiling",)] and "Salt Color" not in inputs[("soiling",)]
     assert "Rain Map" in inputs[("wet",)] and "Edge Map" not in inputs[("wet",)]

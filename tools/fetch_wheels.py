@@ -24,8 +24,16 @@ def pip_download_args(filename):
     """pip download arguments that fetch exactly the wheel ``filename`` and nothing else."""
     name, version, python_tag, abi_tag, platform_tags = filename.removesuffix(".whl").split("-")
     python_version = f"{python_tag[2]}.{python_tag[3:]}"  # cp311 -> 3.11
-    args = ["--no-deps", "--only-binary=:all:", "--implementation", "cp",
-            "--python-version", python_version, "--abi", abi_tag]
+    args = [
+        "--no-deps",
+        "--only-binary=:all:",
+        "--implementation",
+        "cp",
+        "--python-version",
+        python_version,
+        "--abi",
+        abi_tag,
+    ]
     for platform_tag in platform_tags.split("."):
         args += ["--platform", platform_tag]
     return args + [f"{name}=={version}"]
@@ -38,8 +46,19 @@ def fetch(wheels=None):
         target = (ROOT / path).parent
         target.mkdir(parents=True, exist_ok=True)
         print(f"downloading {path}")
-        subprocess.run([sys.executable, "-m", "pip", "download", "-q", "-d", str(target),
-                        *pip_download_args(pathlib.PurePosixPath(path).name)], check=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "pip",
+                "download",
+                "-q",
+                "-d",
+                str(target),
+                *pip_download_args(pathlib.PurePosixPath(path).name),
+            ],
+            check=True,
+        )
     return [path for path in missing if not (ROOT / path).is_file()]
 
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import model
+from porous_weathering import model
 
 #: Cycles renders a GGX lobe with alpha^2 at or below this as a perfect mirror.
 MIRROR_ALPHA2 = 1e-7
@@ -90,8 +90,9 @@ class Porous:
         elif not isinstance(self.light_mode, str):
             key = np.asarray(self.light_mode, dtype=np.float64)
             n_dot_l = np.broadcast_to((normal @ (key / np.linalg.norm(key)))[:, None], n_dot_l.shape)
-        kd_poro, ks_poro = model.porous_coefficients(np.asarray(self.kd, dtype=np.float64), self.ks, self.m,
-                                                     self.alpha, self.sp, n_dot_l, n_dot_v[:, None])
+        kd_poro, ks_poro = model.porous_coefficients(
+            np.asarray(self.kd, dtype=np.float64), self.ks, self.m, self.alpha, self.sp, n_dot_l, n_dot_v[:, None]
+        )
         shape = np.shape(n_dot_v[:, None] if n_dot_l is None else n_dot_l)
         return np.broadcast_to(kd_poro, (*shape, 3)), np.broadcast_to(ks_poro, shape)
 
@@ -309,8 +310,11 @@ def sky_radiance(surface, material, sky, points, normal, samples, seed, batch):
     for start in range(0, samples, batch):
         k = min(batch, samples - start)
         u = rng.random((3, len(points), k))
-        local = np.where((u[2] < glossy_share)[..., None], sample_vndf(view_local, np.sqrt(alpha2), u[0], u[1]),
-                         sample_cosine(u[0], u[1]))
+        local = np.where(
+            (u[2] < glossy_share)[..., None],
+            sample_vndf(view_local, np.sqrt(alpha2), u[0], u[1]),
+            sample_cosine(u[0], u[1]),
+        )
         directions = np.einsum("pji,pkj->pki", to_local, local)
         pdf = mixture_pdf(local, view_local, alpha2, glossy_share)
         weight = np.where(pdf > 0.0, sky.radiance(directions) / np.maximum(pdf, 1e-300), 0.0)
@@ -355,8 +359,11 @@ def sample_vndf(view, alpha, u1, u2):
     vh = vh / np.linalg.norm(vh, axis=-1, keepdims=True)
     length2 = vh[..., 0] ** 2 + vh[..., 1] ** 2
     safe = np.sqrt(np.maximum(length2, 1e-300))
-    t1 = np.where((length2 > 0)[..., None], np.stack([-vh[..., 1], vh[..., 0], 0 * safe], -1) / safe[..., None],
-                  np.array([1.0, 0.0, 0.0]))
+    t1 = np.where(
+        (length2 > 0)[..., None],
+        np.stack([-vh[..., 1], vh[..., 0], 0 * safe], -1) / safe[..., None],
+        np.array([1.0, 0.0, 0.0]),
+    )
     t2 = np.cross(vh, t1)
     radius, phi = np.sqrt(u1), 2.0 * np.pi * u2
     p1, p2 = radius * np.cos(phi), radius * np.sin(phi)

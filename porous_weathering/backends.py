@@ -1,0 +1,52 @@
+"""The two evaluators of the maths written once in ``porous.py`` and ``modes/``.
+
+Every maths function takes a backend ``xp`` first and uses only Python arithmetic and the
+operations below, so the same lines evaluate numpy arrays (``NumpyOps``: the model, the
+ground truth) and build shader nodes (``NODE_OPS``: the groups, via ``shader_math.Expr``).
+Neither backend imports bpy.
+"""
+
+import numpy as np
+
+from . import shader_math
+
+
+class NumpyOps:
+    """numpy arrays.  ``colour``: colours carry RGB on the last axis, so a per-point scalar
+    gets a channel axis to broadcast against them (``channel``)."""
+
+    clip = staticmethod(np.clip)
+    maximum = staticmethod(np.maximum)
+    minimum = staticmethod(np.minimum)
+    power = staticmethod(np.power)
+    arccos = staticmethod(np.arccos)
+
+    def __init__(self, colour: bool = True):
+        self.colour = colour
+
+    def channel(self, x):
+        """A per-point scalar made to broadcast against a colour."""
+        return np.asarray(x)[..., None] if self.colour else x
+
+
+class NodeOps:
+    """Shader nodes: each operation on an ``Expr`` adds a Math or Vector Math node; Blender
+    broadcasts a scalar socket into a colour one by itself."""
+
+    clip = staticmethod(shader_math.clip)
+    maximum = staticmethod(shader_math.maximum)
+    minimum = staticmethod(shader_math.minimum)
+    power = staticmethod(shader_math.power)
+    arccos = staticmethod(shader_math.arccos)
+
+    @staticmethod
+    def channel(x):
+        return x
+
+
+NODE_OPS = NodeOps()
+
+
+def numpy_ops(kd) -> NumpyOps:
+    """The numpy backend for a colour ``kd``: with a channel axis unless ``kd`` is a scalar grey."""
+    return NumpyOps(colour=bool(np.ndim(kd)))

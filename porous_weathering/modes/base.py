@@ -1,0 +1,130 @@
+"""The records a weathering mode is made of, and the maths the modes share (SPEC 4).
+
+A mode is one ``Mode`` record: its inputs, its asset metadata, and its maths as ``Layer``
+functions written once against a backend ``xp`` (``backends.py``) that either evaluates
+numpy arrays (the model) or builds shader nodes (the groups).  Layers of every mode a
+material uses run in the order of their ``stage`` on one ``Point``: pore-filling layers
+first (carbon, salt, water), then layers lying over the surface (the grey deposit).
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from .. import porous
+
+#: Stages: where a layer runs among those of the other modes.
+FILL_CARBON, FILL_SALT, FILL_WATER, COVER_DEPOSIT = 10, 20, 30, 40
+
+
+@dataclass(frozen=True)
+class Input:
+    """One weathering input: a keyword of make_weathered_material and a group socket."""
+
+    name: str
+    default: float | tuple
+    low: float
+    high: float
+    tooltip: str
+    #: A per-point mask: a number, an image or a colour attribute (weathering.mask_source).
+    mask: bool = False
+    #: The baked map (maps registry name) that feeds this mask, if the bake makes one.
+    map: str | None = None
+
+    @property
+    def socket(self) -> str:
+        """The group input's name: 'rain_map' -> 'Rain Map'."""
+        return self.name.replace("_", " ").title()
+
+    @property
+    def is_colour(self) -> bool:
+        return isinstance(self.default, tuple)
+
+
+@dataclass
+class Point:
+    """A shading point as the layers weather it: the clean stone's terms, and the weights of
+    the diffuse, glossy and water lobes that each layer updates."""
+
+    kd: Any  #: k_d, clamped (a colour)
+    ka: Any  #: k_a = 1 - k_s - k_d
+    m: Any
+    sp: Any
+    pore: Any  #: alpha * G_p, per channel
+    theta_i: Any
+    theta_r: Any
+    kd_w: Any  #: diffuse weight
+    ks_w: Any  #: glossy weight (roughness m)
+    state: dict  #: {input name: value}, clamped to each input's range
+    water_w: Any = None  #: near-mirror water lobe weight; None while no layer made one
+    notes: dict = field(default_factory=dict)  #: what a mode's layers pass on to each other
+
+
+@dataclass(frozen=True)
+class Layer:
+    stage: int
+    apply: Callable[[Any, Point], None]  #: apply(xp, point) updates the point's weights
+
+
+@dataclass(frozen=True)
+class Mode:
+    name: str
+    label: str
+    description: str  #: the panel's tooltip
+    inputs: tuple[Input, ...]  #: in the order of the group's sockets
+    layers: tuple[Layer, ...]
+    catalog: str  #: the asset catalog, under "Porous Weathering/"
+    asset_summary: str  #: the asset description's first clause
+    #: Inputs set for the asset preview, so that it shows the weathered look.
+    preview: dict = field(default_factory=dict)
+    #: The mode adds the near-mirror water lobe (its group has Water Roughness / Water Weight).
+    water_lobe: bool = False
+
+
+# --- inputs every mode shares -----------------------------------------------------------------
+
+TIME = Input("time", 0.0, 0.0, 1.0, "Age t: 0 is the clean material exactly, 1 fully weathered. Keyframe it to animate")
+FRONT_WIDTH = Input(
+    "front_width", 0.25, 0.01, 1.0, "Width, in mask units, over which a point goes from clean to fully filled"
+)
+RAIN_MAP = Input(
+    "rain_map", 0.0, 0.0, 1.0, "Rain exposure E: 1 where rain falls freely, 0 where sheltered", mask=True, map="rain"
+)
+
+#: The water lobe's roughness: a group input of the modes with a water lobe, not a model input.
+WATER_ROUGHNESS = Input("water_roughness", 0.05, 0.0, 1.0, "Roughness of the water lobe: near 0 is a mirror")
+
+
+# --- maths the modes share ---------------------------------------------------------------------
+
+
+def fill_curve(xp, progress):
+    """The three-phase pore fill of Fig. 3 (smoothstep): slow, fast, then saturated at 1."""
+    x = xp.clip(progress, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def pore_fill(xp, mask, time, level, width):
+    """Fill fraction of the pores: a front sweeps the mask down from 1 as time grows
+    (threshold 1 - level * time); behind it a point fills over ``width`` of mask."""
+    return fill_curve(xp, (mask - (1.0 - level * time)) / width)
+
+
+def blend(clean, weathered, fill):
+    """``clean`` at fill 0 (exactly), ``weathered`` at fill 1."""
+    return clean + fill * (weathered - clean)
+
+
+def filled_absorption(xp, ka, sp, fill, theta_i, theta_r):
+    """A_p of pores a fraction ``fill`` full: s_p,eff = s_p (1 - fill) (SPEC 4)."""
+    nb = porous.bounce_count(xp, sp * (1.0 - fill), theta_i, theta_r)
+    return porous.pore_absorption(xp, ka, xp.channel(nb))
+
+
+def cover(xp, point, color, coverage):
+    """Lay a matte layer of ``color`` over a fraction ``coverage`` of the surface: it hides
+    the stone's diffuse, glossy and water lobes alike."""
+    point.kd_w = blend(point.kd_w, color, xp.channel(coverage))
+    point.ks_w = point.ks_w * (1.0 - coverage)
+    if point.water_w is not None:
+        point.water_w = point.water_w * xp.channel(1.0 - coverage)

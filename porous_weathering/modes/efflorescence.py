@@ -1,0 +1,43 @@
+"""Efflorescence (SPEC 4, section 4.3 of the paper): salt fills the pores where a location
+map (a height field from a photograph, or generated) is highest first."""
+
+from .base import FILL_SALT, FRONT_WIDTH, TIME, Input, Layer, Mode, blend, filled_absorption, pore_fill
+
+EFFLORESCENCE_MAP = Input(
+    "efflorescence_map",
+    0.0,
+    0.0,
+    1.0,
+    "Efflorescence location: salt fills the pores from the highest value down",
+    mask=True,
+)
+EFFLORESCENCE_LEVEL = Input(
+    "efflorescence_level", 1.0, 0.0, 1.0, "How far down the location map the salt reaches at t = 1"
+)
+SALT_COLOR = Input("salt_color", (0.8, 0.8, 0.8), 0.0, 1.0, "k_d,efflo_salt: the salt's diffuse colour (about 0.8)")
+
+
+def efflorescence_diffuse(xp, kd, salt_color, pore, ap, ks_poro):
+    """k_d,efflo, eq. (11), capped at 1 - k_s,poro: eq. (11) alone reflects more light than
+    arrives on bright stone (k_d + k_s near 1), which must not happen."""
+    return xp.minimum(kd * (1.0 - pore * ap) + salt_color * pore * (1.0 - ap), 1.0 - ks_poro)
+
+
+def fill_with_salt(xp, point):
+    s = point.state
+    salt = pore_fill(xp, s["efflorescence_map"], s["time"], s["efflorescence_level"], s["front_width"])
+    ap = filled_absorption(xp, point.ka, point.sp, salt, point.theta_i, point.theta_r)
+    salty = efflorescence_diffuse(xp, point.kd, s["salt_color"], point.pore, ap, xp.channel(point.ks_w))
+    point.kd_w = blend(point.kd_w, salty, xp.channel(salt))
+
+
+MODE = Mode(
+    name="efflorescence",
+    label="Efflorescence",
+    description="Salt fills the pores where the location map is highest first",
+    inputs=(TIME, FRONT_WIDTH, EFFLORESCENCE_MAP, EFFLORESCENCE_LEVEL, SALT_COLOR),
+    layers=(Layer(FILL_SALT, fill_with_salt),),
+    catalog="Efflorescence",
+    asset_summary="Efflorescence: salt fills the pores where the location map is highest first",
+    preview=dict(time=1.0, efflorescence_map=1.0),
+)

@@ -1,0 +1,86 @@
+"""Soiling by atmospheric pollution (SPEC 4, section 4.1 of the paper): rain-washed white
+areas, sheltered grey areas under a deposit, and black areas whose pores fill with carbon."""
+
+from .base import (
+    COVER_DEPOSIT,
+    FILL_CARBON,
+    FRONT_WIDTH,
+    RAIN_MAP,
+    TIME,
+    Input,
+    Layer,
+    Mode,
+    blend,
+    cover,
+    filled_absorption,
+    pore_fill,
+)
+
+#: Roughness m at which the grey deposit covers half of what it can (grooves trap particles).
+DEPOSIT_HALF_ROUGHNESS = 0.5
+
+RAIN_THRESHOLD = Input("rain_threshold", 0.5, 0.0, 1.0, "E at and above which rain washes the surface (white area)")
+EDGE_MAP = Input(
+    "edge_map",
+    0.0,
+    0.0,
+    1.0,
+    "Edge/cavity mask C: carbon fills the pores from the highest C down",
+    mask=True,
+    map="edges",
+)
+SOILING_LEVEL = Input("soiling_level", 1.0, 0.0, 1.0, "How far down the edge mask the black area reaches at t = 1")
+POLLUTION_COLOR = Input(
+    "pollution_color",
+    (0.03, 0.03, 0.03),
+    0.0,
+    1.0,
+    "k_d,pollution: the carbon in the pores (the paper suggests 0.8; soot is dark)",
+)
+DEPOSIT_COLOR = Input(
+    "deposit_color", (0.30, 0.29, 0.27), 0.0, 1.0, "Colour of the grey-area deposit on sheltered, rough surfaces"
+)
+
+
+def sheltered_fraction(xp, rain_map, rain_threshold, width):
+    """0 in the white (rain-washed) area E >= threshold, rising to 1 over ``width`` below it."""
+    return xp.clip((rain_threshold - rain_map) / width, 0.0, 1.0)
+
+
+def polluted_diffuse(kd, pollution_color, pore, ap):
+    """k_d,polluted, eq. (7): carbon in the pores replaces the light they return."""
+    return kd * (1.0 - pore) + pollution_color * pore * (1.0 - ap)
+
+
+def deposit_coverage(sheltered, m, time, level):
+    """Grey-area deposit (this project's model): grows with time, more on rougher stone."""
+    return sheltered * m / (m + DEPOSIT_HALF_ROUGHNESS) * (level * time)
+
+
+def fill_with_carbon(xp, point):
+    """The black area: carbon fills the sheltered pores from the highest edge mask down."""
+    s = point.state
+    sheltered = sheltered_fraction(xp, s["rain_map"], s["rain_threshold"], s["front_width"])
+    carbon = sheltered * pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
+    ap = filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
+    point.kd_w = blend(point.kd_w, polluted_diffuse(point.kd, s["pollution_color"], point.pore, ap), xp.channel(carbon))
+    point.notes["sheltered"] = sheltered
+
+
+def lay_deposit(xp, point):
+    """The grey area: a deposit over whatever fills the pores, where rain does not wash."""
+    s = point.state
+    coverage = deposit_coverage(point.notes["sheltered"], point.m, s["time"], s["soiling_level"])
+    cover(xp, point, s["deposit_color"], coverage)
+
+
+MODE = Mode(
+    name="soiling",
+    label="Soiling",
+    description="Atmospheric soiling: rain-washed white, sheltered grey and carbon-black areas",
+    inputs=(TIME, FRONT_WIDTH, RAIN_MAP, RAIN_THRESHOLD, EDGE_MAP, SOILING_LEVEL, POLLUTION_COLOR, DEPOSIT_COLOR),
+    layers=(Layer(FILL_CARBON, fill_with_carbon), Layer(COVER_DEPOSIT, lay_deposit)),
+    catalog="Soiling",
+    asset_summary="Soiling (white, grey and black areas) from a rain map and an edge map",
+    preview=dict(time=1.0, rain_map=0.0, edge_map=1.0),
+)

@@ -1,0 +1,92 @@
+"""The porous BRDF post-process of SPEC.md sections 2-3, eqs. (2)-(6), written once.
+
+Each function takes a backend ``xp`` (``backends.py``) first: ``model.py`` evaluates these
+lines on numpy arrays, ``nodes.py`` builds shader nodes from them.  Inputs are clamped here
+the way the node groups clamp theirs; ``model.py`` sanitises (and warns) before calling.
+"""
+
+import math
+
+#: Guards the denominator of g() at m = 0 and grazing x = 0 (SPEC 2: g = 0 there).
+EPSILON = 1e-6
+
+#: Three-point Gauss-Legendre rule on [0, 1], used for the ambient mean of g
+#: (docs/model.md: its largest error against the exact mean is 1.6e-3).
+AMBIENT_NODES = (0.1127016653792583, 0.5, 0.8872983346207417)
+AMBIENT_WEIGHTS = (0.2777777777777778, 0.4444444444444444, 0.2777777777777778)
+
+#: Cosine-weighted hemisphere mean of the incidence angle theta_i: pi / 4.
+AMBIENT_THETA_I = math.pi / 4
+
+
+def valid_albedo(xp, kd, ks):
+    """(k_d, k_s) clamped to [0, 1], k_d also to 1 - k_s so that k_a >= 0 (SPEC 1)."""
+    ks = xp.clip(ks, 0.0, 1.0)
+    kd = xp.minimum(xp.clip(kd, 0.0, 1.0), 1.0 - xp.channel(ks))
+    return kd, ks
+
+
+def shadowing_k(m):
+    """k = 2 m^2 / pi, eq. (4)."""
+    return 2.0 * m * m / math.pi
+
+
+def shadowing_g(xp, x, k):
+    """One factor of G_p, eq. (4): x / (x(1-k) + k), 0 at x = 0 even when k = 0."""
+    x = xp.clip(x, 0.0, 1.0)
+    return x / xp.maximum(x * (1.0 - k) + k, EPSILON)
+
+
+def ambient_g(xp, k):
+    """Cosine-weighted hemisphere mean of g(N.S): 2 * integral_0^1 g(mu, k) mu dmu (SPEC 3)."""
+    terms = [2.0 * w * mu * shadowing_g(xp, mu, k) for mu, w in zip(AMBIENT_NODES, AMBIENT_WEIGHTS)]
+    return terms[0] + terms[1] + terms[2]
+
+
+def bounce_count(xp, sp, theta_i, theta_r):
+    """n_b, eq. (6): mean number of bounces inside a pore, never negative."""
+    return xp.maximum(0.0, sp * (3.7 - 2.0 * ((theta_i + theta_r) / 2.0 - 2.0 * math.pi / (sp + 6.0))))
+
+
+def pore_absorption(xp, ka, nb):
+    """A_p, eq. (5) in its stable form 1 - (1 - k_a)^n_b (no 0/0 at k_a = 0)."""
+    return 1.0 - xp.power(1.0 - ka, nb)
+
+
+def porous_weights(xp, kd, ks, alpha, gp, ap):
+    """(k_d,poro, k_s,poro), eqs. (2) and (3)."""
+    pore = xp.channel(alpha * gp)
+    kd_poro = kd * (1.0 - pore * ap) + xp.channel(ks) * pore * (1.0 - ap)
+    ks_poro = ks * (1.0 - alpha * gp)
+    return kd_poro, ks_poro
+
+
+def pore_geometry(xp, m, n_dot_l, n_dot_v):
+    """(G_p, theta_i, theta_r): eq. (4) and the angles of eq. (6); ``n_dot_l=None`` is ambient,
+    where g(N.S) and theta_i are replaced by their cosine-weighted hemisphere means (SPEC 3)."""
+    m = xp.maximum(m, 0.0)
+    n_dot_v = xp.clip(n_dot_v, 0.0, 1.0)
+    k = shadowing_k(m)
+    if n_dot_l is None:
+        g_light, theta_i = ambient_g(xp, k), AMBIENT_THETA_I
+    else:
+        n_dot_l = xp.clip(n_dot_l, 0.0, 1.0)
+        g_light, theta_i = shadowing_g(xp, n_dot_l, k), xp.arccos(n_dot_l)
+    return g_light * shadowing_g(xp, n_dot_v, k), theta_i, xp.arccos(n_dot_v)
+
+
+def pore_terms(xp, kd, ks, m, sp, n_dot_l, n_dot_v):
+    """(G_p, A_p), eqs. (4)-(6), for valid k_d and k_s; A_p is a colour when k_d is one."""
+    sp = xp.maximum(sp, 0.0)
+    gp, theta_i, theta_r = pore_geometry(xp, m, n_dot_l, n_dot_v)
+    nb = bounce_count(xp, sp, theta_i, theta_r)
+    ap = pore_absorption(xp, 1.0 - xp.channel(ks) - kd, xp.channel(nb))
+    return gp, ap
+
+
+def porous_coefficients(xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v):
+    """k_d,poro and k_s,poro for a light at N.S = n_dot_l seen at N.V = n_dot_v."""
+    kd, ks = valid_albedo(xp, kd, ks)
+    alpha = xp.clip(alpha, 0.0, 1.0)
+    gp, ap = pore_terms(xp, kd, ks, m, sp, n_dot_l, n_dot_v)
+    return porous_weights(xp, kd, ks, alpha, gp, ap)
