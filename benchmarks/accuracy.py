@@ -15,6 +15,7 @@ import sys
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import bpy  # noqa: E402
+
 import numpy as np  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402

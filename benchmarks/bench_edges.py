@@ -21,6 +21,7 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import bpy  # noqa: E402
+
 import matplotlib  # noqa: E402
 import numpy as np  # noqa: E402
 

@@ -16,8 +16,9 @@ import pathlib
 import sys
 import time
 
-import bmesh  # noqa: E402  (importable only once bpy is)
 import bpy
+
+import bmesh  # noqa: E402  (importable only once bpy is)
 import matplotlib
 import matplotlib.ticker
 import numpy as np

@@ -41,6 +41,7 @@ def heightfield(name, triangles):
     """A linked mesh object of about ``triangles`` triangles: an n x n grid of quads, each cut
     in two, its height a sum of waves, ridges and pits; UVs planar in [0, 1]."""
     import bpy
+
     import numpy as np
 
     n = max(1, int(round((triangles / 2) ** 0.5)))

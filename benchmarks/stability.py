@@ -24,6 +24,7 @@ import warnings
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import bpy  # noqa: E402
+
 import numpy as np  # noqa: E402
 
 from porous_weathering import compat, model, nodes, render, studio  # noqa: E402

@@ -23,6 +23,7 @@ from types import MappingProxyType
 from typing import Any
 
 import bpy
+
 import numpy as np
 
 from . import imageio, maps, uv

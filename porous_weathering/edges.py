@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 
 import bpy
+
 import numpy as np
 
 from . import mesh_arrays, scratch_scene

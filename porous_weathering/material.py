@@ -4,6 +4,7 @@ import os
 from collections.abc import Sequence
 
 import bpy
+
 import numpy as np
 
 from . import compat, model, nodes

@@ -20,6 +20,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 import bpy
+
 import numpy as np
 
 from . import compat, mesh_arrays, scratch_scene

@@ -6,6 +6,7 @@ import warnings
 from collections.abc import Sequence
 
 import bpy
+
 import numpy as np
 
 from . import compat, imageio, material, model, nodes

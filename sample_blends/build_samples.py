@@ -21,8 +21,9 @@ import math
 import pathlib
 import sys
 
-import bmesh  # importable only once bpy is
 import bpy
+
+import bmesh  # importable only once bpy is
 import numpy as np
 from mathutils import Matrix, Vector
 

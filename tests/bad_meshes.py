@@ -9,8 +9,9 @@ import os
 import subprocess
 import sys
 
-import bmesh
 import bpy
+
+import bmesh
 import numpy as np
 
 from porous_weathering import studio

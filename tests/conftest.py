@@ -5,6 +5,7 @@ import pathlib
 import sys
 
 import bpy
+
 import pytest
 
 FAILED = pathlib.Path(__file__).resolve().parent / "failed"

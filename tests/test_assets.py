@@ -3,6 +3,7 @@
 import pathlib
 
 import bpy
+
 import numpy as np
 import pytest
 

@@ -6,6 +6,7 @@ import subprocess
 import sys
 
 import bpy
+
 import numpy as np
 import pytest
 

@@ -10,6 +10,7 @@ import sys
 import time
 
 import bpy
+
 import numpy as np
 import psutil
 import pytest

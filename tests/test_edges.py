@@ -1,7 +1,8 @@
 """Edge/cavity mask C (porous_weathering/edges.py) against shapes whose answer is known."""
 
-import bmesh
 import bpy
+
+import bmesh
 import numpy as np
 import pytest
 

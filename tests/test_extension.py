@@ -1,6 +1,7 @@
 """The extension as Blender sees it: registration, saved files, untrusted files."""
 
 import bpy
+
 import numpy as np
 import pytest
 

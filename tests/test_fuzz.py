@@ -6,6 +6,7 @@ with model.py at every covered pixel."""
 import warnings
 
 import bpy
+
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st

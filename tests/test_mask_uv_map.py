@@ -6,6 +6,7 @@ along y instead.
 """
 
 import bpy
+
 import numpy as np
 import pytest
 

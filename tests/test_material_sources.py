@@ -1,6 +1,7 @@
 """A porous material made from an artist's existing material keeps its texture images."""
 
 import bpy
+
 import pytest
 
 from porous_weathering import compat, material

@@ -11,6 +11,7 @@ import json
 import pathlib
 
 import bpy
+
 import pytest
 
 from snapshots import all_group_snapshots

@@ -18,6 +18,7 @@ import tomllib
 import zipfile
 
 import bpy
+
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent

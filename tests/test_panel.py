@@ -3,6 +3,7 @@
 import pathlib
 
 import bpy
+
 import pytest
 
 import porous_weathering

@@ -4,6 +4,7 @@ import pathlib
 import warnings
 
 import bpy
+
 import pytest
 
 import porous_weathering as pw

@@ -2,8 +2,9 @@
 
 import math
 
-import bmesh
 import bpy
+
+import bmesh
 import numpy as np
 import pytest
 

@@ -7,6 +7,7 @@ import io
 from dataclasses import dataclass
 
 import bpy
+
 import numpy as np
 import pytest
 

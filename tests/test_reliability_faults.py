@@ -15,6 +15,7 @@ import subprocess
 import sys
 
 import bpy
+
 import numpy as np
 import pytest
 

@@ -12,6 +12,7 @@ import os
 import warnings
 
 import bpy
+
 import numpy as np
 import pytest
 

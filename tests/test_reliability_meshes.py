@@ -6,6 +6,7 @@ attribute, material slot and output folder as it was (tests/bad_meshes.py builds
 import os
 
 import bpy
+
 import numpy as np
 import pytest
 

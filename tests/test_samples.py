@@ -5,6 +5,7 @@ sample_blends/build_samples.py builds, and, weathered as the main job weathers t
 import pathlib
 
 import bpy
+
 import numpy as np
 import pytest
 

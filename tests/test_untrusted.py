@@ -8,6 +8,7 @@ import subprocess
 import sys
 
 import bpy
+
 import numpy as np
 
 import porous_weathering

@@ -12,8 +12,9 @@ test fails if the bake or the material ignores the rain map; region colours are 
 with model.py, and the whole image pixel by pixel.
 """
 
-import bmesh  # importable only once bpy is
 import bpy
+
+import bmesh  # importable only once bpy is
 import numpy as np
 import pytest
 from mathutils import Vector

@@ -4,6 +4,7 @@ and the efflorescence location maps."""
 import warnings
 
 import bpy
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings

@@ -7,6 +7,7 @@ and mask values (read from probe renders).
 """
 
 import bpy
+
 import numpy as np
 import pytest
 
