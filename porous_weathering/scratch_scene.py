@@ -3,6 +3,7 @@ scene, meshes, materials and selection are never touched; and the probe material
 light aiming those scenes use."""
 
 import bpy  # noqa: F401  (mathutils is importable only once bpy is)
+
 from mathutils import Vector
 
 from . import compat
