@@ -1,24 +1,33 @@
-"""Edge/cavity mask timings (docs/maps.md, "Edge/cavity mask").
+"""Edge/cavity mask: timings, and the measurements behind its defaults (docs/maps.md, "Edge/cavity mask").
 
-    python benchmarks/bench_edges.py [--max-vertices N] [--rounds N] [--no-sobel]
+    python benchmarks/bench_edges.py [--max-vertices N] [--rounds N] [--no-image] [--study]
 
-1. The curvature mask (``edges.write_curvature_attribute``: evaluate, curvature, smooth,
-   map, write the ``pw_edges`` attribute) on tori of 10k to 1M vertices: it must grow
-   linearly, so the table gives the time per vertex and its ratio to the smallest mesh's.
-   The sizes are timed in interleaved rounds (each round times every size once), so load
-   from other jobs on the machine hits all sizes alike; each size keeps its best round. CPU
-   time of this process is given beside wall time, as it is less sensitive to that load.
-   The plot goes to docs/img/edges_benchmark_<Blender line>.png.
-2. The Sobel mask (``edges.edge_mask_image``: two Cycles EMIT bakes plus the numpy filter)
-   of a 20k-vertex torus at 256 to 2048 texels square.
+1. The attribute mask (``edges.write_curvature_attribute`` with the default settings:
+   evaluate, sample, smooth, map, write ``pw_edges``) on the scan-like bust
+   (sample_blends/scan_generator.py) of 10k to 1M vertices: it must grow linearly, so the
+   table gives the time per vertex and its ratio to the smallest mesh's. The sizes are timed
+   in interleaved rounds (each round times every size once), so load from other jobs on the
+   machine hits all sizes alike; each size keeps its best round. CPU time of this process is
+   given beside wall time, as it is less sensitive to that load, and per sample of the surface
+   (coarse busts add samples along long edges and across large faces). The plot goes to
+   docs/img/edges_benchmark_<Blender line>.png.
+2. The image mask (``edges.edge_mask_image``: two Cycles EMIT bakes of the texels' positions
+   and normals, then the same smoothing at every texel) of a 20k-vertex torus at 256 to 2048
+   texels square.
+3. With ``--study``: how the defaults were chosen. (a) The bust with and without its scan
+   noise at edge scales 0.25% to 4% of its size: how far the noise moves the mask, and how
+   much of the surface the mask lights. (b) The bundled samples at the same scales, with the
+   cavity and edge weights (1, 1) and (1, 0.5). (c) The same bust in millimetres, metres and
+   0.1 units across (attribute), and the same torus in each (image): the largest difference.
 """
 
 import argparse
 import pathlib
 import sys
-import time
 
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "sample_blends"))
 
 import bpy  # noqa: E402
 
@@ -28,18 +37,42 @@ import numpy as np  # noqa: E402
 matplotlib.use("Agg")  # files only, no display
 import machine  # noqa: E402  (benchmarks/machine.py)
 import matplotlib.pyplot as plt  # noqa: E402
+import scan_generator  # noqa: E402  (sample_blends/scan_generator.py)
 import timing  # noqa: E402  (benchmarks/timing.py)
 
 from porous_weathering import edges  # noqa: E402
 
-IMAGES = pathlib.Path(__file__).resolve().parents[1] / "docs" / "img"
-SEGMENTS = (142, 200, 283, 400, 566, 800, 1132, 1414)  # a torus of s x s/2 quads has s^2/2 vertices
+IMAGES = ROOT / "docs" / "img"
+TRIANGLES = (20_000, 40_000, 80_000, 200_000, 400_000, 1_000_000, 2_000_000)  # about half as many vertices
 RESOLUTIONS = (256, 512, 1024, 2048)
+SCALES = (0.0025, 0.005, 0.01, 0.02, 0.04)
+WEIGHTS = ((1.0, 1.0), (edges.DEFAULT_CAVITY_WEIGHT, edges.DEFAULT_EDGE_WEIGHT))
+SAMPLES = ("limestone_facade", "brick_wall", "sculpted_stone")
+#: Scale factors from millimetres: metres, and a bust 0.1 units across.
+UNITS = {"mm": 1.0, "m": 0.001, "tenth": 0.1 / scan_generator.NOMINAL_DIAGONAL_MM}
 
 
-def torus(segments):
-    """A torus of major radius 1 and minor radius 0.4, segments x segments / 2 quads, with UVs,
-    made straight from numpy arrays (bmesh's primitives take quadratic time at 1M vertices)."""
+def bust(name, triangles, factor=1.0, scan_noise=True):
+    """The bust, scaled by ``factor`` from millimetres, with or without its scan noise (the
+    1.2-4 mm field; the same random draws either way, so only the noise differs)."""
+    generator_noise = scan_generator._fourier_noise
+
+    def noise(points, rng, terms, shortest, longest, rms):
+        values = generator_noise(points, rng, terms, shortest, longest, rms)
+        return values if scan_noise or shortest > 10.0 else np.zeros_like(values)
+
+    scan_generator._fourier_noise = noise
+    try:
+        vertices, faces = scan_generator.bust_mesh(triangles, seed=0)
+    finally:
+        scan_generator._fourier_noise = generator_noise
+    return scan_generator.add_to_scene(name, vertices * factor, faces)
+
+
+def torus(segments, radius=1.0):
+    """A torus of major radius ``radius`` and minor radius 0.4 ``radius``, segments x segments
+    / 2 quads, with UVs, made straight from numpy arrays (bmesh's primitives take quadratic
+    time at 1M vertices)."""
     around, across = segments, segments // 2
     u, v = np.meshgrid(np.arange(around), np.arange(across), indexing="ij")
     a, b = 2 * np.pi * u.ravel() / around, 2 * np.pi * v.ravel() / across
@@ -48,7 +81,7 @@ def torus(segments):
     corner_v = np.stack([v, v, v + 1, v + 1], -1).reshape(-1, 4)
     mesh = bpy.data.meshes.new("Torus")
     mesh.vertices.add(len(points))
-    mesh.vertices.foreach_set("co", points.astype(np.float32).ravel())
+    mesh.vertices.foreach_set("co", (points * radius).astype(np.float32).ravel())
     mesh.loops.add(corner_u.size)
     mesh.loops.foreach_set("vertex_index", ((corner_u % around) * across + corner_v % across).ravel())
     mesh.polygons.add(len(corner_u))
@@ -62,20 +95,15 @@ def torus(segments):
 
 
 def best_time(run, repeats):
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        run()
-        times.append(time.perf_counter() - start)
-    return min(times)
+    return min(timing.wall_and_cpu_seconds(run)[0] for _ in range(repeats))
 
 
-def curvature_timings(tori, rounds):
-    """{vertices: (best wall seconds, best CPU seconds)} of the curvature mask, in interleaved rounds."""
-    best = {len(obj.data.vertices): (np.inf, np.inf) for obj in tori}
+def curvature_timings(busts, rounds):
+    """{vertices: (best wall seconds, best CPU seconds)} of the attribute mask, in interleaved rounds."""
+    best = {len(obj.data.vertices): (np.inf, np.inf) for obj in busts}
     for _ in range(rounds):
-        for obj in tori:
-            wall, cpu = timing.wall_and_cpu_seconds(lambda obj=obj: edges.write_curvature_attribute(obj, 0.1))
+        for obj in busts:
+            wall, cpu = timing.wall_and_cpu_seconds(lambda obj=obj: edges.write_curvature_attribute(obj))
             vertices = len(obj.data.vertices)
             best[vertices] = (min(best[vertices][0], wall), min(best[vertices][1], cpu))
     return best
@@ -90,7 +118,7 @@ def write_plot(best, path):
     total.loglog(vertices, wall, "o-", label="wall time")
     total.loglog(vertices, cpu, "s-", label="CPU time")
     total.loglog(vertices, wall[0] * vertices / vertices[0], "k:", label="linear (slope 1)")
-    total.set_ylabel("curvature mask (s)")
+    total.set_ylabel("attribute edge mask (s)")
     for label, seconds, marker in (("wall", wall, "o-"), ("CPU", cpu, "s-")):
         per_vertex.semilogx(vertices, seconds / vertices * 1e6, marker, label=f"{label} time")
     per_vertex.set_ylim(bottom=0)
@@ -99,51 +127,150 @@ def write_plot(best, path):
         axes.set_xlabel("vertices")
         axes.grid(True, which="both", alpha=0.3)
         axes.legend()
-    figure.suptitle(f"Curvature edge mask (write_curvature_attribute), Blender {bpy.app.version_string}")
+    figure.suptitle(f"Edge mask on the scan-like bust (write_curvature_attribute), Blender {bpy.app.version_string}")
     figure.tight_layout()
     path.parent.mkdir(exist_ok=True)
     figure.savefig(path)
     plt.close(figure)
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--max-vertices", type=int, default=1_100_000)
-    parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--no-sobel", action="store_true", help="time the curvature mask only")
-    args = parser.parse_args()
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    tori = [torus(segments) for segments in SEGMENTS if segments**2 // 2 <= args.max_vertices]
-    best = curvature_timings(tori, args.rounds)
+def timings(args):
+    busts = [bust(f"Bust {n}", n) for n in TRIANGLES if n // 2 <= args.max_vertices]
+    best = curvature_timings(busts, args.rounds)
     print(f"{machine.describe(bpy.app.version_string)}")
-    print(f"smoothing radius 0.1 on a torus of radii 1 and 0.4; best of {args.rounds} interleaved rounds\n")
-    print("| vertices | wall (s) | µs / vertex | ratio to first | CPU (s) | CPU µs / vertex | ratio to first |")
+    print(f"default edge settings (radius {edges.DEFAULT_EDGE_SCALE:g} of the bust's size); best of {args.rounds}")
+    # Coarse busts (edges longer than half the radius) add samples along their edges and across
+    # their faces: the work is linear in the samples, which the last columns show.
+    samples = {
+        len(obj.data.vertices): len(
+            edges.surface(obj, edges.effective_radius(obj, edges.EdgeSettings())).sources.points
+        )
+        for obj in busts
+    }
+    print("\n| vertices | wall (s) | µs / vertex | CPU (s) | CPU µs / vertex | samples | CPU µs / sample |")
     print("|---:|---:|---:|---:|---:|---:|---:|")
-    first = None
     for vertices, (wall, cpu) in sorted(best.items()):
-        per_vertex = np.array([wall, cpu]) / vertices * 1e6
-        first = per_vertex if first is None else first
         print(
-            f"| {vertices:,} | {wall:.3f} | {per_vertex[0]:.2f} | {per_vertex[0] / first[0]:.2f} "
-            f"| {cpu:.3f} | {per_vertex[1]:.2f} | {per_vertex[1] / first[1]:.2f} |",
+            f"| {vertices:,} | {wall:.3f} | {wall / vertices * 1e6:.2f} | {cpu:.3f} | {cpu / vertices * 1e6:.2f} "
+            f"| {samples[vertices]:,} | {cpu / samples[vertices] * 1e6:.2f} |",
             flush=True,
         )
     plot = IMAGES / f"edges_benchmark_{bpy.app.version[0]}.{bpy.app.version[1]}.png"
     write_plot(best, plot)
     print(f"\nwrote {plot}")
-    for obj in tori:
+    for obj in busts:
         bpy.data.meshes.remove(obj.data)
-    if not args.no_sobel:
-        sobel_timings(args.rounds)
 
 
-def sobel_timings(repeats):
+def image_timings(repeats):
     obj = torus(200)
-    print(f"\n| texels (Sobel, {len(obj.data.vertices):,} vertices) | edge mask image (s) | ns / texel |")
+    print(f"\n| texels (image mask, {len(obj.data.vertices):,} vertices) | edge mask image (s) | ns / texel |")
     print("|---:|---:|---:|")
     for resolution in RESOLUTIONS:
         seconds = best_time(lambda resolution=resolution: edges.edge_mask_image(obj, "UVMap", resolution), repeats)
         print(f"| {resolution}^2 | {seconds:.3f} | {seconds / resolution**2 * 1e9:.0f} |", flush=True)
+    bpy.data.meshes.remove(obj.data)
+
+
+def study():
+    noise_study()
+    samples_study()
+    units_study()
+
+
+def noise_study(triangles=200_000):
+    noisy, clean = bust("Noisy", triangles), bust("Clean", triangles, scan_noise=False)
+    size = edges.object_size(clean)
+    print(f"\n(a) the bust, {len(clean.data.polygons):,} triangles, {size:.1f} mm across, with and without scan noise")
+    print("| scale | radius (mm) | noise: mean abs(dC) | p99 | max | lit (C >= 0.5) | of it concave | convex |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
+    for scale in SCALES:
+        settings = edges.EdgeSettings(scale=scale, cavity_weight=1.0, edge_weight=1.0)
+        masks = [edges.write_curvature_attribute(obj, settings=settings) for obj in (noisy, clean)]
+        difference = np.abs(masks[0] - masks[1])
+        radius = scale * size
+        concave = edges.curvature(clean, radius) < 0
+        lit = masks[1] >= 0.5
+        print(
+            f"| {scale:g} | {radius:.2f} | {difference.mean():.4f} | {np.percentile(difference, 99):.3f} "
+            f"| {difference.max():.3f} | {lit.mean():.3f} | {(lit & concave).mean():.3f} "
+            f"| {(lit & ~concave).mean():.3f} |",
+            flush=True,
+        )
+    for obj in (noisy, clean):
+        bpy.data.meshes.remove(obj.data)
+
+
+def samples_study():
+    """Area fractions lit (C >= 0.5) on each sample, read at the area samples of the surface
+    (on a coarse mesh the vertices are only its corners)."""
+    print("\n(b) the samples: area lit (C >= 0.5), and of it concave / convex, for cavity and edge weights")
+    print("| sample | scale | " + " | ".join(f"weights {w[0]:g}, {w[1]:g}" for w in WEIGHTS) + " |")
+    print("|---|---:|" + "---:|" * len(WEIGHTS))
+    for name in SAMPLES:
+        bpy.ops.wm.open_mainfile(filepath=str(ROOT / "sample_blends" / f"{name}.blend"), load_ui=False)
+        objects = [obj for obj in bpy.context.scene.objects if obj.type == "MESH" and obj.name != "Ground"]
+        for scale in SCALES[1:]:
+            sums = np.zeros((len(WEIGHTS), 4))  # area, lit, lit concave, lit convex
+            for obj in objects:
+                radius = scale * edges.object_size(obj)
+                sources = edges.surface(obj, radius).sources
+                carrying = sources.area > 0
+                curvature = edges.smooth_over_radius(
+                    sources, sources.points[carrying], sources.normals[carrying], radius
+                )
+                area = sources.area[carrying]
+                for row, (cavity, edge) in enumerate(WEIGHTS):
+                    lit = edges.curvature_mask(curvature, radius, cavity_weight=cavity, edge_weight=edge) >= 0.5
+                    sums[row] += [
+                        area.sum(),
+                        area[lit].sum(),
+                        area[lit & (curvature < 0)].sum(),
+                        area[lit & (curvature > 0)].sum(),
+                    ]
+            cells = [
+                f"{lit / total:.3f} ({concave / total:.3f} / {convex / total:.3f})"
+                for total, lit, concave, convex in sums
+            ]
+            print(f"| {name} | {scale:g} | " + " | ".join(cells) + " |", flush=True)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+
+
+def units_study(triangles=100_000, resolution=512):
+    attribute = {
+        unit: edges.write_curvature_attribute(bust(f"Bust {unit}", triangles, factor)) for unit, factor in UNITS.items()
+    }
+    image = {
+        unit: edges.edge_mask_image(torus(200, scan_generator.NOMINAL_DIAGONAL_MM * factor / 3.0), "UVMap", resolution)
+        for unit, factor in UNITS.items()
+    }
+    print(
+        f"\n(c) units: the largest difference from millimetres "
+        f"(bust of {triangles:,} triangles; torus at {resolution}^2)"
+    )
+    print("| unit | attribute mask | image mask |")
+    print("|---|---:|---:|")
+    for unit in UNITS:
+        print(
+            f"| {unit} | {np.abs(attribute[unit] - attribute['mm']).max():.2e} "
+            f"| {np.abs(image[unit] - image['mm']).max():.2e} |"
+        )
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--max-vertices", type=int, default=1_100_000)
+    parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--no-image", action="store_true", help="time the attribute mask only")
+    parser.add_argument("--study", action="store_true", help="the measurements behind the defaults, not the timings")
+    args = parser.parse_args()
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    if args.study:
+        study()
+        return
+    timings(args)
+    if not args.no_image:
+        image_timings(args.rounds)
 
 
 if __name__ == "__main__":

@@ -8,18 +8,24 @@ through the real pipeline, ``bake.bake_maps``:
 - ``rain-attribute``: rain exposure to the per-corner colour attribute ``pw_rain``;
 - ``rain-image``: rain exposure to a float EXR on the mesh's own (non-overlapping) UV map;
 - ``edges-attribute``: the curvature edge mask to the colour attribute ``pw_edges``;
+- ``scan-image``: both maps of the scan generator's bust (sample_blends/scan_generator.py: no UVs,
+  millimetres) to images, as ``bake`` makes them: its lightmap first (issue 16's target, 2M
+  triangles at 4096²: 4 minutes, 8 GiB);
+- ``scan-attribute``: both maps of the bust to colour attributes (target: 90 s at 2M);
 
-then the curvature alone (``edges.curvature``) at growing sizes, to show it is linear.
+the scan stages give the time of each step (the unwrap, each map) too. Then the curvature alone
+(``edges.curvature``) at growing sizes, to show it is linear.
 
     /tmp/venv52/bin/python benchmarks/bench_scale.py [--triangles 2000000] [--samples 16]
-        [--resolution 2048] [--stages STAGE ...] [--sizes 125000 250000 500000 1000000 2000000]
+        [--resolution 4096] [--stages STAGE ...] [--sizes 125000 250000 500000 1000000 2000000]
         [--rounds 3] [--json out.json]
 
 ``--stages`` with no stage runs only the curvature series.
 
-The mesh is a heightfield (a weathered wall: waves, ridges and pits) of triangles with planar
-UVs in [0, 1], so the image bake reuses them (xatlas on a 2M-triangle scan is not measured
-here). Rain time grows linearly with ``--samples`` (docs/reliability.md gives the numbers).
+The other stages' mesh is a heightfield (a weathered wall: waves, ridges and pits) of triangles
+with planar UVs in [0, 1], which the image bake reuses. Rain time grows linearly with
+``--samples`` (docs/reliability.md gives the numbers); ``benchmarks/bench_unwrap.py`` times the
+lightmaps alone.
 """
 
 import argparse
@@ -33,8 +39,8 @@ import time
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 GIB = 1024**3
 LIMIT_BYTES = 8 * GIB
-DEFAULT_EDGE_RADIUS = 0.05  # bake.DEFAULT_EDGE_RADIUS, which the stages use
-STAGES = ("build", "rain-attribute", "rain-image", "edges-attribute")
+DEFAULT_EDGE_RADIUS = 0.05  # scene units, for the curvature stage (the bake's own default follows the object's size)
+STAGES = ("build", "rain-attribute", "rain-image", "edges-attribute", "scan-image", "scan-attribute")
 
 
 def heightfield(name, triangles):
@@ -84,7 +90,13 @@ def child(args):
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     start = time.perf_counter()
-    obj = heightfield("Scan", args.triangles)
+    if args.child.startswith("scan-"):
+        sys.path.insert(0, os.path.join(ROOT, "sample_blends"))
+        import scan_generator
+
+        obj = scan_generator.add_to_scene("Bust", *scan_generator.bust_mesh(args.triangles, seed=0))
+    else:
+        obj = heightfield("Scan", args.triangles)
     result = {
         "stage": args.child,
         "triangles": len(obj.data.polygons),
@@ -94,16 +106,27 @@ def child(args):
     # The curvature is timed best of --rounds; a bake runs once (a second run would find its map
     # unchanged and skip it).
     rounds = args.rounds if args.child == "curvature" else 1
-    timings = [timing.wall_and_cpu_seconds(lambda: run_stage(args.child, obj, args)) for _ in range(rounds)]
+    steps = {}  # the scan stages' seconds per step
+    timings = [timing.wall_and_cpu_seconds(lambda: run_stage(args.child, obj, args, steps)) for _ in range(rounds)]
     result["stage_s"], result["stage_cpu_s"] = (min(seconds) for seconds in zip(*timings))
+    result["steps"] = steps
     print("RESULT " + json.dumps(result), flush=True)
 
 
-def run_stage(stage, obj, args):
+def run_stage(stage, obj, args, steps):
     from porous_weathering import bake, edges, rain
 
     settings = rain.RainSettings(samples=args.samples)
-    if stage == "rain-attribute":
+    if stage.startswith("scan-"):
+        with tempfile.TemporaryDirectory() as out:
+            target = stage.removeprefix("scan-")
+            options = bake.BakeOptions(target=target, resolution=args.resolution, out_dir=out, rain_settings=settings)
+            last = time.perf_counter()
+            for step in bake.iter_bake([obj], options):  # the time up to a step is its map's
+                steps[step.map] = steps.get(step.map, 0.0) + time.perf_counter() - last
+                last = time.perf_counter()
+                assert step.outcome is None or step.outcome.status == "written"
+    elif stage == "rain-attribute":
         bake.bake_maps([obj], bake.BakeOptions(maps=("rain",), target="attribute", rain_settings=settings))
         assert rain.RAIN_ATTRIBUTE in obj.data.color_attributes
     elif stage == "rain-image":
@@ -116,7 +139,7 @@ def run_stage(stage, obj, args):
         bake.bake_maps([obj], bake.BakeOptions(maps=("edges",), target="attribute"))
         assert edges.EDGE_ATTRIBUTE in obj.data.color_attributes
     elif stage == "curvature":
-        edges.curvature(obj, bake.DEFAULT_EDGE_RADIUS)
+        edges.curvature(obj, DEFAULT_EDGE_RADIUS)
 
 
 def run_child(stage, triangles, args):
@@ -148,8 +171,8 @@ def run_child(stage, triangles, args):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--triangles", type=int, default=2_000_000)
-    parser.add_argument("--samples", type=int, default=16, help="rain samples per corner / texel")
-    parser.add_argument("--resolution", type=int, default=2048, help="rain image size")
+    parser.add_argument("--samples", type=int, default=64, help="rain samples per corner / texel (the bake's default)")
+    parser.add_argument("--resolution", type=int, default=4096, help="image size")
     parser.add_argument(
         "--sizes",
         type=int,
@@ -184,9 +207,11 @@ def main():
         timings, peak = run_child(stage, args.triangles, args)
         timings["peak_bytes"] = peak
         report["stages"].append(timings)
+        steps = ", ".join(f"{name} {seconds:.1f} s" for name, seconds in timings["steps"].items())
         print(
             f"{stage:16} {timings['triangles']:>10} {timings['build_s']:8.1f} {timings['stage_s']:8.1f} "
-            f"{peak / GIB:9.2f}{'  OVER THE LIMIT' if peak > LIMIT_BYTES else ''}",
+            f"{peak / GIB:9.2f}{'  OVER THE LIMIT' if peak > LIMIT_BYTES else ''}{'  (' + steps + ')' if steps else ''}"
+            f"  load {os.getloadavg()[0]:.1f}",
             flush=True,
         )
 

@@ -24,6 +24,16 @@ class NumpyOps:
     def __init__(self, colour: bool = True):
         self.colour = colour
 
+    @staticmethod
+    def multiply_add(a, b, c):
+        return a * b + c
+
+    @staticmethod
+    def smoothstep(edge0, edge1, x):
+        """0 below edge0, 1 above edge1, 3t^2 - 2t^3 between (as GLSL and the Map Range node)."""
+        t = np.clip((x - edge0) / (edge1 - edge0), 0.0, 1.0)
+        return t * t * (3.0 - 2.0 * t)
+
     def channel(self, x):
         """A per-point scalar made to broadcast against a colour."""
         return np.asarray(x)[..., None] if self.colour else x
@@ -38,6 +48,8 @@ class NodeOps:
     minimum = staticmethod(shader_math.minimum)
     power = staticmethod(shader_math.power)
     arccos = staticmethod(shader_math.arccos)
+    smoothstep = staticmethod(shader_math.smoothstep)
+    multiply_add = staticmethod(shader_math.multiply_add)
 
     @staticmethod
     def channel(x):

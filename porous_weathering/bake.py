@@ -2,16 +2,22 @@
 
 ``iter_bake`` does the work one (object, map) step at a time, so that a caller can show
 progress and stop between steps (the modal operator); ``bake_maps`` runs it to the end with
-a progress callback and a cancel test. Every map is written whole or not at all:
+a progress callback and a cancel test. Every map is written whole or not at all, with its
+values clamped to [0, 1] (a Monte Carlo estimate of 1 can come out a little above it):
 
-- image maps go to ``OUT/<object>.<map>.exr`` (float, linear) through a temporary file;
+- image maps go to ``OUT/<object>.<map>.exr`` (float, linear) through a temporary file
+  (``image_path``: a name that is not a file name as it is gets a hash suffix);
 - colour attributes (``pw_rain``, ``pw_edges``, per face corner) are replaced only once their
   values are baked;
 - a new lightmap UV map is removed again when no map of its object could be written.
 
-Each map carries a hash of its inputs (geometry, transforms, UVs, occluders, parameters): in
-the EXR header (``pw:inputs``) or as the mesh's custom property ``<attribute>_inputs``. A map
-whose stored hash matches is reported "unchanged" and not baked again.
+Each map records what it was made from: a hash of its inputs (geometry, transforms, UVs,
+occluders, parameters), the .blend file and the object (``Provenance``), in the EXR header
+(``pw:inputs``, ``pw:source``, ``pw:object``, ``pw:map``) or as the mesh's custom properties
+``<attribute>_inputs``, ``<attribute>_source`` and ``<attribute>_object``. A map whose stored
+hash and provenance match is reported "unchanged" and not baked again. An image map made from
+another .blend or object is never replaced silently: the bake is refused (``OverwriteRefused``)
+unless ``force``.
 """
 
 import hashlib
@@ -26,18 +32,18 @@ import bpy
 
 import numpy as np
 
-from . import imageio, maps, uv
-from .imageio import HASH_KEY, MAP_KEY, UV_MAP_KEY  # noqa: F401  (public: docs/api.md)
+from . import imageio, maps, scan_checks, uv
+from .imageio import HASH_KEY, MAP_KEY, OBJECT_KEY, SOURCE_KEY, UV_MAP_KEY  # noqa: F401  (public: docs/api.md)
 from .mesh_arrays import write_corner_attribute  # noqa: F401  (public)
 from .options import Entry, check, check_value, declared, entries, option, to_argv
 
 TARGETS = ("image", "attribute")
 DEFAULT_RESOLUTION = 512
-#: Texels filled around every UV island (and packed between xatlas charts).
+#: Texels filled around every UV island (the bake's margin; the lightmap's islands lie
+#: ``uv.padding_for(resolution)`` texels apart).
 MARGIN = 4
 #: Bumped when a change of the bake itself makes old maps stale.
 BAKE_VERSION = 1
-DEFAULT_EDGE_RADIUS = maps.edges.DEFAULT_EDGE_RADIUS
 
 
 def __getattr__(name):
@@ -51,6 +57,12 @@ def __getattr__(name):
 
 class BakeCancelled(Exception):
     """The caller asked to stop; the maps finished before that are complete and kept."""
+
+
+class OverwriteRefused(ValueError):
+    """An image map would replace a file made from another .blend or object (or a file that
+    is not a map): nothing of this bake was written, unless the check failed only as the map
+    was about to be written (a file that appeared meanwhile), when the maps before it are kept."""
 
 
 def _map_list(text):
@@ -190,20 +202,102 @@ class Outcome:
     where: str  # the image path or the attribute name
 
 
+#: The ``Step.map`` of an object's unwrap, the step before its image maps (docs/maps.md).
+LIGHTMAP_STEP = "lightmap"
+
+
 @dataclass(frozen=True)
 class Step:
-    """Progress of ``iter_bake``: step ``index`` of ``total`` starts (outcome None) or ended."""
+    """Progress of ``iter_bake``: step ``index`` of ``total`` starts (outcome None) or ended.
+    A long step (the unwrap, ``map`` LIGHTMAP_STEP) also reports how far it got (``part``,
+    0 to 1) and what it does (``stage``)."""
 
     index: int
     total: int
     object: str
     map: str
     outcome: Outcome = None
+    part: float = 0.0
+    stage: str = ""
+
+    @property
+    def fraction(self) -> float:
+        """How much of the bake is done as the step starts (or goes on), or once it ended."""
+        return (self.index + (1.0 if self.outcome is not None else self.part)) / self.total
+
+    @property
+    def message(self) -> str:
+        """The progress line: "<object>: <map>", with its stage, and its status once it ended."""
+        stage = f": {self.stage}" if self.stage else ""
+        return f"{self.object}: {self.map}{stage}" + (f" {self.outcome.status}" if self.outcome else "")
+
+
+#: Characters that a file name cannot hold on some system (Windows refuses the most), as "_".
+_TO_FILE_NAME = str.maketrans(dict.fromkeys([*map(chr, range(32)), *'<>:"/\\|?*'], "_"))
 
 
 def image_path(out_dir: str, object_name: str, map_name: str) -> str:
-    safe = object_name.replace(os.sep, "_").replace(os.altsep or os.sep, "_")
+    """``OUT/<object>.<map>.exr``. An object name that a file name cannot hold as it is has its
+    unsafe characters replaced by "_" and gets "-" and the first 8 hex digits of the sha256 of
+    its exact (UTF-8) name, so that names that read alike stay apart: "Wall/1" gives
+    ``Wall_1-<hash>.rain.exr`` and "Wall_1" ``Wall_1.rain.exr``."""
+    safe = object_name.translate(_TO_FILE_NAME)
+    if safe != object_name:
+        safe += "-" + hashlib.sha256(object_name.encode()).hexdigest()[:8]
     return os.path.join(out_dir, f"{safe}.{map_name}.exr")
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """What a map was made from: the .blend file (absolute path; "" when unsaved or not
+    recorded), the object's exact name and the map ("" when not recorded)."""
+
+    source: str = ""
+    object: str = ""
+    map: str = ""
+
+    @classmethod
+    def of(cls, obj: "bpy.types.Object", map_name: str) -> "Provenance":
+        """The provenance a map of ``obj`` baked now gets."""
+        return cls(os.path.abspath(bpy.data.filepath) if bpy.data.filepath else "", obj.name, map_name)
+
+    @classmethod
+    def from_header(cls, header: Mapping[str, str]) -> "Provenance":
+        return cls(header.get(SOURCE_KEY, ""), header.get(OBJECT_KEY, ""), header.get(MAP_KEY, ""))
+
+    def header(self) -> dict[str, str]:
+        return {SOURCE_KEY: self.source, OBJECT_KEY: self.object, MAP_KEY: self.map}
+
+    def yields_to(self, other: "Provenance") -> bool:
+        """Whether a map made from this may be replaced by one made from ``other``: each field
+        it records (an unsaved .blend or an older map records none) must be the same."""
+        same_source = not self.source or self.source == other.source or _same_file(self.source, other.source)
+        return same_source and self.object in ("", other.object) and self.map in ("", other.map)
+
+    def __str__(self):
+        return f"{self.source or 'an unsaved .blend'} (object '{self.object or '?'}')"
+
+
+def _same_file(first, second):
+    try:
+        return bool(second) and os.path.samefile(first, second)
+    except OSError:
+        return False
+
+
+def refuse_overwrite(path: str, wanted: Provenance) -> None:
+    """Raise OverwriteRefused when the file at ``path`` may not be replaced by a map made from
+    ``wanted``: it is a map made from another .blend, object or map, or an image that this
+    extension did not write (a map painted by hand, say). A file that is no readable image (a
+    broken map) holds nothing to keep, and is replaced."""
+    header = imageio.image_header(path)
+    if header is None:
+        return
+    if MAP_KEY not in header:
+        raise OverwriteRefused(f"{path} is an image that Porous Weathering did not write")
+    made = Provenance.from_header(header)
+    if not made.yields_to(wanted):
+        raise OverwriteRefused(f"{path} was made from {made}, not from {wanted}")
 
 
 def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | None = None) -> None:
@@ -260,60 +354,74 @@ def bake_maps(
     options: BakeOptions | None = None,
     *,
     dry_run: bool = False,
+    force: bool = False,
     progress: Callable[[float, str], None] | None = None,
     cancelled: Callable[[], bool] | None = None,
 ) -> list["Outcome"]:
-    """Bake ``options.maps`` of ``objects``; returns the list of Outcomes.
+    """Bake ``options.maps`` of ``objects``; returns the list of Outcomes (see ``iter_bake``).
 
-    ``progress(fraction, message)`` is called before and after each step; ``cancelled()``
-    is asked before each step and stops the bake with BakeCancelled when true.
+    ``progress(fraction, message)`` is called before and after each step (and as the unwrap
+    goes on); ``cancelled()`` is asked before each map and stops the bake with BakeCancelled
+    when true (to stop within an unwrap, close ``iter_bake``'s generator).
     """
     outcomes = []
-    for step in iter_bake(objects, options or BakeOptions(), dry_run=dry_run):
-        if step.outcome is None:
-            if cancelled is not None and cancelled():
-                raise BakeCancelled(f"bake cancelled before {step.object}: {step.map}")
-            message = f"{step.object}: {step.map}"
-        else:
+    for step in iter_bake(objects, options or BakeOptions(), dry_run=dry_run, force=force):
+        if step.outcome is not None:
             outcomes.append(step.outcome)
-            message = f"{step.object}: {step.map} {step.outcome.status}"
+        elif step.map != LIGHTMAP_STEP and cancelled is not None and cancelled():
+            raise BakeCancelled(f"bake cancelled before {step.message}")
         if progress is not None:
-            progress((step.index + (step.outcome is not None)) / step.total, message)
+            progress(step.fraction, step.message)
     return outcomes
 
 
 def iter_bake(
-    objects: Sequence["bpy.types.Object"], options: BakeOptions | None = None, *, dry_run: bool = False
+    objects: Sequence["bpy.types.Object"],
+    options: BakeOptions | None = None,
+    *,
+    dry_run: bool = False,
+    force: bool = False,
 ) -> Iterator["Step"]:
-    """The Steps of the bake, as a generator (see the module docstring). The objects and the
-    output folder are checked at once, so a refusal comes before anything starts. Closing the
-    generator early (cancel) undoes the lightmap UV map of the object in progress if none of
-    its maps was written."""
+    """The Steps of the bake, as a generator (see the module docstring). The objects, the
+    output folder and the image files the bake would replace are checked at once, so a refusal
+    comes before anything starts: OverwriteRefused when a map file was made from another .blend
+    or object (or is not a map), unless ``force``. For image maps each object's unwrap is a
+    step of its own before its maps (``LIGHTMAP_STEP``, reporting as it goes: ``Step.part``,
+    ``Step.stage``). Closing the generator early (cancel) stops an unwrap at once, and undoes
+    the lightmap UV map of the object in progress if none of its maps was written."""
     options = options or BakeOptions()
     check_targets(objects, options)
     options.occluder_collection()  # refuses an unknown collection name up front
-    if options.target == "image" and not dry_run:
-        check_writable_folder(options.out_dir)
-    return _steps(objects, options, dry_run)
+    if options.target == "image":
+        if not dry_run:
+            check_writable_folder(options.out_dir)
+        if not force:
+            for obj in objects:
+                for map_name in options.maps:
+                    refuse_overwrite(image_path(options.out_dir, obj.name, map_name), Provenance.of(obj, map_name))
+    return _steps(objects, options, dry_run, force)
 
 
-def _steps(objects, options, dry_run):
+def _steps(objects, options, dry_run, force):
     digests = _Digests()
-    total = len(objects) * len(options.maps)
+    unwraps = options.target == "image"  # each object's unwrap is a step before its maps
+    per_object = len(options.maps) + unwraps
+    total = len(objects) * per_object
     for number, obj in enumerate(objects):
         mesh = obj.data
-        uv_map, new_uvs = _uv_map_for(mesh, options) if options.target == "image" else (None, None)
+        scan_checks.warn(obj, rain=maps.RAIN.name in options.maps)
+        uv_map, new_uvs = (yield from _unwrap(obj, options, number * per_object, total)) if unwraps else (None, None)
         added_uv_map = new_uvs is not None and not dry_run
         if added_uv_map:
             uv.add_uv_map(mesh, uv_map, new_uvs)
         written = False
         try:
             for offset, map_name in enumerate(options.maps):
-                index = number * len(options.maps) + offset
+                index = number * per_object + unwraps + offset
                 yield Step(index, total, obj.name, map_name)
                 uvs = new_uvs if new_uvs is not None else (uv.corner_uvs(mesh, uv_map) if uv_map else None)
                 inputs = _inputs_hash(obj, map_name, options, uvs, digests)
-                outcome = _bake_one(obj, map_name, options, uv_map, inputs, dry_run)
+                outcome = _bake_one(obj, map_name, options, uv_map, inputs, dry_run, force)
                 written = written or outcome.status == "written"
                 yield Step(index, total, obj.name, map_name, outcome)
         except BaseException:
@@ -322,40 +430,64 @@ def _steps(objects, options, dry_run):
             raise
 
 
-def _uv_map_for(mesh, options):
-    """(name of the UV map to bake on, per-corner UVs to add as that map or None)."""
-    existing = uv.find_bakeable_uv_map(mesh, options.resolution)
-    if existing is not None:
-        return existing, None
-    if uv.LIGHTMAP_UV in mesh.uv_layers:
-        raise ValueError(
-            f"mesh '{mesh.name}': its UV map '{uv.LIGHTMAP_UV}' overlaps or leaves [0, 1]; "
-            f"remove or rename it to let the bake make a new one"
-        )
-    return uv.LIGHTMAP_UV, uv.lightmap_uvs(mesh, options.resolution, padding=MARGIN)
+def _unwrap(obj, options, index, total):
+    """The unwrap step of ``obj``: its Steps while it runs (in a child process, stopped when this
+    generator is closed); returns (the UV map to bake on, per-corner UVs to add as it or None)."""
+    unwrap = uv.iter_lightmap(obj.data, options.resolution)
+    try:
+        while True:
+            try:
+                part, stage = next(unwrap)
+            except StopIteration as done:
+                lightmap = done.value
+                break
+            yield Step(index, total, obj.name, LIGHTMAP_STEP, part=part, stage=stage)
+    except uv.LightmapError as error:
+        raise ValueError(f"object '{obj.name}': cannot make a lightmap: {error}") from error
+    finally:
+        unwrap.close()
+    made = "new" if lightmap.uvs is not None else "reused"
+    stage = f"'{lightmap.name}' ({made}, {lightmap.report.utilisation:.0%} used)"
+    yield Step(index, total, obj.name, LIGHTMAP_STEP, part=1.0, stage=stage)
+    return lightmap.name, lightmap.uvs
 
 
-def _bake_one(obj, map_name, options, uv_map, inputs, dry_run):
+def _bake_one(obj, map_name, options, uv_map, inputs, dry_run, force):
     kind = maps.get(map_name)
     mesh = obj.data
+    made = Provenance.of(obj, map_name)
     if options.target == "image":
         where = image_path(options.out_dir, obj.name, map_name)
-        stored = imageio.read_metadata(where).get(HASH_KEY)
+        header = imageio.read_metadata(where)
+        unchanged = header.get(HASH_KEY) == inputs and Provenance.from_header(header) == made
     else:
         where = kind.attribute
-        stored = mesh.get(f"{where}_inputs") if where in mesh.color_attributes else None
-    if stored == inputs:
+        unchanged = where in mesh.color_attributes and mesh.get(f"{where}_inputs") == inputs
+    if unchanged:
         return Outcome(obj.name, map_name, "unchanged", where)
     if dry_run:
         return Outcome(obj.name, map_name, "planned", where)
 
     if options.target == "image":
-        pixels = kind.bake_image(obj, uv_map, options, MARGIN)
-        imageio.write_image(where, pixels, metadata={HASH_KEY: inputs, MAP_KEY: map_name, UV_MAP_KEY: uv_map})
+        pixels = np.clip(kind.bake_image(obj, uv_map, options, MARGIN), 0.0, 1.0)
+        if not force:  # the file as it is now: another run may have written it meanwhile
+            refuse_overwrite(where, made)
+        imageio.write_image(where, pixels, metadata={HASH_KEY: inputs, UV_MAP_KEY: uv_map, **made.header()})
     else:
         kind.bake_attribute(obj, options)
+        _clamp_attribute(mesh.color_attributes[where])
         mesh[f"{where}_inputs"] = inputs
+        mesh[f"{where}_source"] = made.source
+        mesh[f"{where}_object"] = made.object
     return Outcome(obj.name, map_name, "written", where)
+
+
+def _clamp_attribute(attribute):
+    colours = np.empty(len(attribute.data) * 4, dtype=np.float32)
+    attribute.data.foreach_get("color", colours)
+    clamped = np.clip(colours, 0.0, 1.0)
+    if not np.array_equal(clamped, colours):
+        attribute.data.foreach_set("color", clamped)
 
 
 # --- the input hash -------------------------------------------------------------------------
@@ -426,12 +558,18 @@ def link_images(objects: Sequence["bpy.types.Object"], options: BakeOptions) -> 
     the object's custom property ``pw_<map>_image``."""
     for obj in objects:
         for map_name in options.maps:
-            path = image_path(options.out_dir, obj.name, map_name)
-            name = os.path.basename(path)
-            image = bpy.data.images.get(name) or bpy.data.images.load(path, check_existing=True)
-            image.name = name
-            image.filepath = bpy.path.relpath(path)
-            image.colorspace_settings.name = "Non-Color"
-            image.use_fake_user = True  # an image nothing uses yet is not saved otherwise
-            image.reload()
-            obj[f"pw_{map_name}_image"] = image.name
+            link_image(obj, map_name, image_path(options.out_dir, obj.name, map_name))
+
+
+def link_image(obj: "bpy.types.Object", map_name: str, path: str) -> "bpy.types.Image":
+    """Point ``obj`` at the map image file ``path`` (also the panel's efflorescence map): an Image
+    (relative path, Non-Color, reloaded) named in the object's custom property ``pw_<map>_image``."""
+    name = os.path.basename(path)
+    image = bpy.data.images.get(name) or bpy.data.images.load(path, check_existing=True)
+    image.name = name
+    image.filepath = bpy.path.relpath(path)
+    image.colorspace_settings.name = "Non-Color"
+    image.use_fake_user = True  # an image nothing uses yet is not saved otherwise
+    image.reload()
+    obj[f"pw_{map_name}_image"] = image.name
+    return image

@@ -1,35 +1,58 @@
 """The ``bake`` command (porous_weathering/cli.py): its options are generated from the bake's
 option declarations (``bake.option_entries``), so the command line, the operator and the
-Dask workers offer the same options with the same defaults and checks."""
+Dask workers offer the same options with the same defaults and checks.
+
+Exit codes (docs/cli.md): 0 every requested map written or up to date; 1 a file failed; 2 bad
+arguments (nothing baked); 3 a file was refused because it would replace maps made from another
+.blend or object (``--force`` replaces them); 130 / 143 interrupted by SIGINT / SIGTERM.
+"""
 
 import os
 import sys
+import warnings
+from dataclasses import dataclass
 
 import bpy
 
-from . import distributed, maps, options
+from . import distributed, interrupts, maps, options
 from .bake import (
     BakeOptions,
-    bake_maps,
+    OverwriteRefused,
+    Provenance,
     check_writable_folder,
     image_path,
+    iter_bake,
     link_images,
     option_entries,
     options_from_values,
 )
 from .progress import ProgressBar
 
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+EXIT_REFUSED = 3
+FORCE_HINT = "bake into another --out, or add --force to replace it"
+
 
 def configure_parser(parser):
     files = ", ".join(f"OUT/<object>{kind.image_suffix}" for kind in maps.all_kinds())
     attributes = ", ".join(kind.attribute for kind in maps.all_kinds())
+    parser.usage = "%(prog)s FILE.blend [FILE.blend ...] [options]"  # FILE.blend may also come after --objects
     parser.description = (
         f"Bake the weathering maps ({', '.join(maps.names())}) of the mesh objects of .blend files. Image maps "
         f"are written as {files} (float, linear); attribute maps are the colour attributes {attributes}, "
         "stored in the .blend (needs --save). Maps whose inputs did not change since they were written are "
-        "skipped. Exit code 0 only when every requested map was written (or is up to date)."
+        "skipped; a map file made from another .blend or object is not replaced without --force. Exit codes: "
+        "0 every requested map was written or is up to date, 1 a file failed, 2 bad arguments, 3 a file was "
+        "refused (it would replace maps made from another .blend or object), 130/143 interrupted."
     )
-    parser.add_argument("files", nargs="+", metavar="FILE.blend", help=".blend files to bake")
+    parser.add_argument(
+        "files",
+        nargs="*",
+        metavar="FILE.blend",
+        help=".blend files to bake; a word ending in .blend that names an existing file is a file, even "
+        "after --objects",
+    )
     parser.add_argument(
         "--objects",
         nargs="+",
@@ -50,17 +73,26 @@ def configure_parser(parser):
     parser.add_argument(
         "--dry-run", action="store_true", help="check the inputs and list what would be baked; write nothing"
     )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="replace image maps made from another .blend or object (default: refuse that file, exit 3)",
+    )
     distributed.add_arguments(parser)
 
 
 def run(args):
     """The ``bake`` command; returns the exit code (0: every requested map was written)."""
     try:
+        args.files, args.objects = _files_and_objects(args.files, args.objects)
         values = vars(args)
         values["out_dir"] = os.path.abspath(args.out_dir)
         bake_options = options_from_values(values)
         if bake_options.target == "attribute" and not (args.save or args.dry_run):
             raise ValueError("--target attribute stores the maps in the .blend: add --save")
+        for path in args.files:
+            if os.path.isdir(path):
+                raise ValueError(f"{path} is a folder, not a .blend file")
         missing = [path for path in args.files if not os.path.isfile(path)]
         if missing:
             raise FileNotFoundError(f"no such .blend file: {', '.join(missing)}")
@@ -68,45 +100,125 @@ def run(args):
             check_writable_folder(bake_options.out_dir)
     except (ValueError, OSError) as error:
         print(f"error: {error}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     if args.workers or args.scheduler:
         return distributed.run(args, bake_options.target, bake_options.maps, bake_options.to_argv())
-
-    failures = 0
-    written_paths = set()
-    for path in args.files:
-        try:
-            failures += _bake_file(os.path.abspath(path), args, bake_options, written_paths)
-        except KeyboardInterrupt:
-            print(f"\ninterrupted: maps finished so far are complete; {path} was not saved", file=sys.stderr)
-            return 130
-        except (ValueError, OSError, RuntimeError) as error:
-            print(f"\nerror: {path}: {error}", file=sys.stderr)
-            failures += 1
-    return 0 if failures == 0 else 1
+    return _bake_serially(args, bake_options)
 
 
-def _bake_file(path, args, bake_options: BakeOptions, written_paths):
-    """Bake one file; returns the number of failures."""
+def _files_and_objects(files, objects):
+    """(files, object names): ``--objects`` takes every word up to the next option, so a word
+    ending in .blend that names an existing file is taken back as a file."""
+    taken = [word for word in objects if word.endswith(".blend") and os.path.isfile(word)]
+    names = [word for word in objects if word not in taken]
+    if objects and not names:
+        raise ValueError("--objects needs at least one object name")
+    files = [*files, *taken]
+    if not files:
+        raise ValueError("no .blend file given (usage: bake FILE.blend [FILE.blend ...] [options])")
+    return files, names
+
+
+@dataclass
+class _Run:
+    """Where the serial run is, for the messages (and the last words of an interrupt)."""
+
+    save: bool
+    file: str = ""
+    saved: bool = False
+    bar: ProgressBar | None = None
+
+    def fail(self, line):
+        """An error line on stderr, below the progress bar as it stopped."""
+        self.bar.finish()
+        print(line, file=sys.stderr)
+
+    def last_words(self, signal_name):
+        words = f"interrupted by {signal_name}: the maps finished before are whole, the map in progress was discarded"
+        if self.save and self.file and not self.saved:
+            words += f"; {self.file} was not saved"
+        return words
+
+
+def _bake_serially(args, bake_options):
+    run = _Run(save=args.save and not args.dry_run)
+    failed = refused = 0
+    claimed = {}  # image path -> Provenance of the file of this run that makes it
+    with interrupts.exit_on_signals(run.last_words):
+        for path in map(os.path.abspath, args.files):
+            run.file, run.saved, run.bar = path, False, ProgressBar(os.path.basename(path))
+            try:
+                _bake_file(path, args, bake_options, claimed, run)
+            except OverwriteRefused as error:
+                run.fail(f"error: {path}: {_one_line(error)}; {FORCE_HINT}")
+                refused += 1
+            except (ValueError, OSError, RuntimeError) as error:
+                run.fail(f"error: {path}: {_one_line(error)}")
+                failed += 1
+            run.bar.finish()
+    return EXIT_FAILED if failed else EXIT_REFUSED if refused else 0
+
+
+def _one_line(error):
+    """An exception's message on one line, without the "Error: " Blender puts before its own."""
+    text = " ".join(str(error).split())
+    return text.removeprefix("Error: ")
+
+
+def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
+    """Bake one file; its outcome lines go to stdout as its maps finish (attribute maps once the
+    .blend is saved, as they exist only in it)."""
     bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
     objects = _chosen_objects(args)
-    if bake_options.target == "image":
-        clashes = {image_path(bake_options.out_dir, o.name, m) for o in objects for m in bake_options.maps}
-        clashes &= written_paths
-        if clashes:
-            raise ValueError(f"another file already wrote {', '.join(sorted(clashes))}: bake it into another --out")
-    bar = ProgressBar(os.path.basename(path))
-    outcomes = bake_maps(objects, bake_options, dry_run=args.dry_run, progress=bar)
-    bar.finish()
-    for outcome in outcomes:
-        print(f"{outcome.status:9} {outcome.object}.{outcome.map} -> {outcome.where}")
-        written_paths.add(outcome.where)
-    if args.save and not args.dry_run:
+    if bake_options.target == "image" and not args.force:
+        _refuse_claimed(objects, bake_options, claimed)
+    stored_in_blend = bake_options.target == "attribute" and run.save
+    unsaved = []
+    # a warning (a scan that looks set up wrongly, ...) is one line, above the progress bar
+    warnings.showwarning = lambda message, *_: run.bar.print(f"warning: {message}", file=sys.stderr)
+    for step in iter_bake(objects, bake_options, dry_run=args.dry_run, force=args.force):
+        outcome = step.outcome
+        run.bar(step.fraction, step.message)
+        if outcome is None:
+            continue
+        line = f"{outcome.status:9} {outcome.object}.{outcome.map} -> {outcome.where}"
         if bake_options.target == "image":
-            link_images(objects, bake_options)
-        bpy.ops.wm.save_mainfile(filepath=path)  # Blender writes FILE.blend@ and renames it: atomic
-        print(f"saved     {path}")
-    return 0
+            claimed[outcome.where] = Provenance.of(bpy.data.objects[outcome.object], outcome.map)
+        if stored_in_blend and outcome.status == "written":
+            unsaved.append(line)
+        else:
+            run.bar.print(line)
+    if run.save:
+        _save(path, objects, bake_options, unsaved, run)
+
+
+def _refuse_claimed(objects, bake_options, claimed):
+    """Refuse a file whose image maps an earlier file of this run makes (a dry run included)."""
+    for obj in objects:
+        for map_name in bake_options.maps:
+            where = image_path(bake_options.out_dir, obj.name, map_name)
+            wanted = Provenance.of(obj, map_name)
+            if where in claimed and not claimed[where].yields_to(wanted):
+                raise OverwriteRefused(f"{where} is made in this run from {claimed[where]}, not from {wanted}")
+
+
+def _save(path, objects, bake_options, unsaved, run):
+    if bake_options.target == "image":
+        link_images(objects, bake_options)
+    try:
+        with interrupts.uncut():  # Blender writes FILE.blend@ and renames it: never cut in between
+            bpy.ops.wm.save_mainfile(filepath=path)
+            run.saved = True
+    except RuntimeError as error:
+        lost = (
+            f"the {len(unsaved)} attribute map(s) baked into it were NOT saved"
+            if bake_options.target == "attribute"
+            else "the image maps are written, but not linked into it"
+        )
+        raise RuntimeError(f"cannot save it ({_one_line(error)}): {lost}") from error
+    for line in unsaved:
+        run.bar.print(line)
+    run.bar.print(f"saved     {path}")
 
 
 def _chosen_objects(args):

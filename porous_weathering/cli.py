@@ -2,7 +2,9 @@
 ``blender -b -c porous_weathering COMMAND ...`` (Blender's extension command), one parser.
 
 Each command lives in its own module, which defines ``configure_parser(parser)`` and
-``run(args) -> exit code``; it is imported only when that command runs.
+``run(args) -> exit code``; it is imported only when that command runs. Every error is one line
+on stderr; a usage error exits with 2. Standard output is line-buffered, so the lines of what
+is done reach a log even when the run is killed.
 """
 
 import argparse
@@ -14,11 +16,19 @@ import sys
 COMMANDS = {
     "bake": (".bake_command", "bake rain-exposure and edge/cavity maps of .blend files"),
     "demo": (".demo", "render the bundled sample scene and write pictures"),
+    "export": (".export_command", "publish weathered states as glTF 2.0 with material variants and paradata"),
 }
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line usage errors (exit 2)."""
+
+    def error(self, message):
+        self.exit(2, f"error: {message} (see {self.prog} --help)\n")
+
+
 def build_parser():
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="python -m porous_weathering",
         description="Porous Weathering: porous materials and their weathering in Blender.",
     )
@@ -32,6 +42,8 @@ def build_parser():
 
 def main(argv=None):
     """Parse ``argv`` (default: sys.argv[1:]) and run the command; returns its exit code."""
+    if hasattr(sys.stdout, "reconfigure"):
+        sys.stdout.reconfigure(line_buffering=True)
     args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
     return importlib.import_module(args.module_name, __package__).run(args)
 
@@ -44,6 +56,9 @@ def exit_with(argv=None):
         code = main(argv)
     except SystemExit as error:  # argparse's --help and usage errors
         code = error.code if isinstance(error.code, int) else 2 if error.code else 0
+    except KeyboardInterrupt:  # before a command took the signals over (bake: interrupts.py)
+        print("interrupted by SIGINT", file=sys.stderr)
+        code = 130
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)

@@ -8,13 +8,18 @@
 - ``comparison.png``: all of them side by side, one row per mode.
 
 ``python -m porous_weathering demo --docs`` regenerates every picture of docs/images/ instead:
-``porous_vs_base.png``, ``facade_aging.png`` (the comparison) and ``<mode>_before_after.png``,
-a sample scene new (left) and fully weathered (right) for each mode (DOCS_BEFORE_AFTER).
+``porous_vs_base.png``, ``facade_aging.png`` (the façade new and fully weathered, a row per
+mode), ``<mode>_before_after.png``, a sample scene new (left) and fully weathered (right) for
+each mode (DOCS_BEFORE_AFTER), and ``bust_weathering.png``, the scan-like bust (DOCS_BUST).
+
+Pictures are ``--size`` pixels high (default 540: the façade's are 960 x 540), denoised, each
+labelled with its mode and age; the documentation's are written at DOCS_SCALE.
 
 ``Sample`` (a sample scene opened, its maps made, its weathered materials at any age) is what
 the tests of the sample scenes use too.
 """
 
+import math
 import os
 import sys
 import tempfile
@@ -23,7 +28,10 @@ from dataclasses import dataclass, field
 
 import bpy
 
-from . import bake, efflorescence_map, maps, material, model, presets, rain, render, studio, weathering
+import numpy as np
+from mathutils import Vector
+
+from . import bake, edges, efflorescence_map, maps, material, model, presets, rain, render, studio, weathering
 from .progress import ProgressBar
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -31,6 +39,8 @@ SAMPLES_DIR = os.path.join(ROOT, "sample_blends")
 DOCS_IMAGES = os.path.join(ROOT, "docs", "images")
 FACADE = "limestone_facade"
 AGES = (0.0, 0.33, 0.66, 1.0)
+#: The documentation's sheets are written at this scale of the renders (smaller files).
+DOCS_SCALE = 0.75
 
 STONE = dict(base_color=(0.62, 0.55, 0.45), ks=0.25, roughness=0.35)
 POROUS = dict(porosity=0.4, pore_depth_ratio=3.0)
@@ -42,6 +52,12 @@ DRIVEN_RAIN = dict(wind_azimuth=-90.0, wind_tilt=25.0)
 #: Soiling in a polluted city: a wall open to driven rain counts as washed (E >= 0.3), and the
 #: deposit is dark, so the sheltered areas stand out at a glance.
 CITY_SOILING = dict(rain_threshold=0.3, deposit_color=(0.06, 0.055, 0.05))
+#: The façade's: washed where E >= 0.36 (the open wall gets 0.41 from the driven rain, the band
+#: the cornice shelters from 0 up to that over about 1.5 m), a narrow front (0.1) so that the
+#: sheltered band below the cornice, the window heads and the sills is grey right down to where
+#: the rain washes the wall, and a deposit a little lighter (the grey area stays between the
+#: washed wall and the crusts: 0.5-0.9x the clean stone).
+FACADE_SOILING = dict(CITY_SOILING, rain_threshold=0.36, front_width=0.1, deposit_color=(0.15, 0.14, 0.125))
 #: A soft, porous limestone (Lecce or Caen stone: the top of the preset's porosity range) with
 #: shallow pores. Deep pores are nearly black when clean (A_p near 1), so carbon, water or salt
 #: in them would hardly change how the stone looks.
@@ -53,20 +69,54 @@ JOINT_MAP = dict(size=512, rows=16, bricks_per_row=9, mortar=0.01, reach=0.006, 
 
 
 @dataclass(frozen=True)
+class View:
+    """How the main job frames a sample: its camera (``location`` and ``target`` in the scene's
+    units, ``lens`` in mm), the pictures' ``aspect`` (width over height) and, if not None, the
+    direction towards its sun (``sun``) and the sun's strength."""
+
+    location: tuple
+    target: tuple
+    lens: float
+    aspect: float = 16 / 9
+    sun: tuple | None = None
+    sun_strength: float | None = None
+
+
+@dataclass(frozen=True)
 class Recipe:
     """How a sample scene weathers: the objects (None: every mesh but the ground), their stone,
     for each mode the map each mask reads: "rain" or "edges" (baked as colour attributes) or
-    "joints" (JOINT_MAP, an image on the bricks' UV map), the rain of the bake and the
-    weathering inputs (model.WEATHERING_INPUTS) that differ from their defaults."""
+    "joints" (JOINT_MAP, an image on the bricks' UV map), the rain of the bake (``rain``:
+    rain.RainSettings fields), the edge mask's settings that differ from their defaults
+    (``edges``: edges.EdgeSettings fields), the weathering inputs (model.WEATHERING_INPUTS) that
+    differ from their defaults (the black crust and the wet darkening keep the API's defaults in
+    every recipe), the main job's ``view`` (None: the scene's own camera, sun and aspect) and
+    ``unite``: if not None, the name of the one object the weathered objects are united into
+    (a Boolean union) before the bake, so that the corners between parts built as separate
+    boxes (a wall and its cornice, a wall and a sill) are concave corners of one surface, as on
+    a real building or a scan: the edge mask sees curvature only within a surface; and
+    ``cell``: if not None, the size (scene units) of the cells the weathered objects' faces are
+    cut into before the bake, so that the per-corner maps resolve shelter and corners at the
+    scale of the main job's pictures."""
 
     objects: tuple
     stone: dict
     masks: dict
     rain: dict = field(default_factory=lambda: DRIVEN_RAIN)
     inputs: dict = field(default_factory=dict)
+    view: View | None = None
+    edges: dict = field(default_factory=dict)
+    unite: str | None = None
+    cell: float | None = None
 
 
 RAIN_AND_EDGES = dict(rain_map="rain", edge_map="edges")
+#: The façade from the front left, from eye height, so the undersides of the cornice and the
+#: sills show; a low sun from the front right rakes the wall (and lights the band the cornice
+#: shelters) and is near the mirror direction of the right-hand bay, where wet stone glints.
+FACADE_VIEW = View(
+    location=(-3.0, -10.8, 1.3), target=(1.0, 0.0, 3.1), lens=30.0, sun=(0.58, -0.78, 0.2), sun_strength=3.0
+)
 RECIPES = {
     # Efflorescence follows the rain map on the façade: salts crystallise where rain soaks in.
     FACADE: Recipe(
@@ -77,18 +127,38 @@ RECIPES = {
             model.WET: dict(rain_map="rain"),
             model.EFFLORESCENCE: dict(efflorescence_map="rain"),
         },
-        inputs=CITY_SOILING,
+        inputs=FACADE_SOILING,
+        view=FACADE_VIEW,
+        edges=dict(scale=0.025),
+        unite="Facade",
+        cell=0.1,
     ),
+    # Soiling with the API's defaults (benchmarks/bench_visible.py): the default grey deposit
+    # (0.30) is lighter than the brick (luminance 0.13), so the sheltered brick gets lighter.
     "brick_wall": Recipe(
         ("Bricks",),
         presets.PRESETS["BRICK"].material_params(),
-        {model.WET: dict(rain_map="rain"), model.EFFLORESCENCE: dict(efflorescence_map="joints")},
+        {
+            model.SOILING: RAIN_AND_EDGES,
+            model.WET: dict(rain_map="rain"),
+            model.EFFLORESCENCE: dict(efflorescence_map="joints"),
+        },
     ),
     # Vertical rain: the hollows and the undersides of the ridges are the sheltered places.
     "sculpted_stone": Recipe(
         ("Sculpted Stone",), SOFT_LIMESTONE, {model.SOILING: RAIN_AND_EDGES}, rain={}, inputs=CITY_SOILING
     ),
+    # The scan-like bust (millimetres, no UV map) with the limestone preset and the API's
+    # defaults: driven rain washes the hat and the chest, the brim shelters the face.
+    "bust": Recipe(
+        ("Bust",),
+        presets.PRESETS["LIMESTONE"].material_params(),
+        {model.SOILING: RAIN_AND_EDGES, model.WET: dict(rain_map="rain")},
+        view=View(location=(-520.0, -900.0, 200.0), target=(0.0, 0.0, 300.0), lens=55.0, aspect=1.0, sun_strength=2.5),
+    ),
 }
+#: The scan-like bust in docs/images/bust_weathering.png: (mode, age) of each picture.
+DOCS_BUST = ((model.SOILING, 0.0), (model.SOILING, 1.0), (model.WET, 1.0))
 #: The sample scene that shows each mode in docs/images/<mode>_before_after.png.
 DOCS_BEFORE_AFTER = {model.SOILING: "sculpted_stone", model.WET: "brick_wall", model.EFFLORESCENCE: "brick_wall"}
 
@@ -108,8 +178,29 @@ class Sample:
             for obj in self.scene.objects
             if obj.type == "MESH" and (obj.name in self.recipe.objects if self.recipe.objects else obj.name != "Ground")
         ]
+        if self.recipe.unite:
+            self.objects = [unite(self.objects, self.recipe.unite)]
+        if self.recipe.cell:
+            for obj in self.objects:
+                refine(obj, self.recipe.cell)
         self.sources = self._make_maps(bake_samples, map_dir, progress)
         self._materials = {}
+        if self.recipe.view:
+            self._frame(self.recipe.view)
+
+    def _frame(self, view):
+        """The recipe's camera, aspect and sun (after the bake: rain and edges do not see them)."""
+        camera = self.scene.camera
+        camera.data.lens = view.lens
+        camera.location = view.location
+        direction = Vector(view.target) - Vector(view.location)
+        camera.rotation_euler = direction.to_track_quat("-Z", "Y").to_euler()
+        height = self.scene.render.resolution_y
+        self.scene.render.resolution_x = round(height * view.aspect)
+        if view.sun is not None:
+            studio.aim_sun(self.sun, view.sun)
+        if view.sun_strength is not None:
+            self.sun.data.energy = view.sun_strength
 
     def _make_maps(self, bake_samples, map_dir, progress):
         used = {source for masks in self.recipe.masks.values() for source in masks.values()}
@@ -120,6 +211,7 @@ class Sample:
                 maps=baked,
                 target="attribute",
                 rain_settings=rain.RainSettings(samples=bake_samples, **self.recipe.rain),
+                edge_settings=edges.EdgeSettings(**self.recipe.edges),
             )
             bar = ProgressBar(f"baking the maps of {self.name}") if progress else None
             bake.bake_maps(self.objects, options, progress=bar)
@@ -130,19 +222,28 @@ class Sample:
             sources["joints"] = efflorescence_map.save_map(efflorescence_map.brick_joint_map(**JOINT_MAP), path)
         return sources
 
-    def material(self, mode):
-        """The weathered material of ``mode`` (made once), on the sample's stone and maps."""
-        if mode not in self._materials:
-            masks = {mask: self.sources[map_name] for mask, map_name in self.recipe.masks[mode].items()}
-            inputs = {name: value for name, value in self.recipe.inputs.items() if name in model.inputs_of(mode)}
-            self._materials[mode] = weathering.make_weathered_material(
-                f"{self.name} {mode}", modes=(mode,), key_light=self.sun, **self.recipe.stone, **masks, **inputs
-            )
-        return self._materials[mode]
+    def inputs(self, mode, **changes):
+        """The weathering inputs ``mode``'s material is given: the recipe's that ``mode`` reads,
+        updated with ``changes`` (e.g. the paper-exact ``crust=0``); the rest keep the API's
+        defaults."""
+        recipe = {name: value for name, value in self.recipe.inputs.items() if name in model.inputs_of(mode)}
+        return {**recipe, **changes}
 
-    def show(self, mode, age):
-        """Give the weathered objects ``mode``'s material at age ``age``."""
-        weathered = self.material(mode)
+    def material(self, mode, **changes):
+        """The weathered material of ``mode`` (made once per set of ``changes`` to the recipe's
+        inputs), on the sample's stone and maps."""
+        key = (mode, tuple(sorted(changes.items())))
+        if key not in self._materials:
+            masks = {mask: self.sources[map_name] for mask, map_name in self.recipe.masks[mode].items()}
+            name = f"{self.name} {mode}" + "".join(f" {k}={v}" for k, v in sorted(changes.items()))
+            self._materials[key] = weathering.make_weathered_material(
+                name, modes=(mode,), key_light=self.sun, **self.recipe.stone, **masks, **self.inputs(mode, **changes)
+            )
+        return self._materials[key]
+
+    def show(self, mode, age, **changes):
+        """Give the weathered objects ``mode``'s material (``changes``: see ``material``) at age ``age``."""
+        weathered = self.material(mode, **changes)
         weathering.set_input(weathered.node_tree.nodes["Porous"], "time", age)
         for obj in self.objects:
             studio.assign(obj, weathered)
@@ -161,6 +262,47 @@ class Sample:
         render.use_cycles(self.scene, size=size, samples=samples, bounces=4, pixel_filter=1.5)
         self.scene.render.resolution_x = round(size * aspect)
         self.scene.cycles.use_denoising = True
+        self.scene.render.use_persistent_data = True  # the next age reuses the BVH and the images
+
+
+def unite(objects, name):
+    """One object ``name``: the Boolean union of ``objects`` (the first keeps its material and
+    place in the scene; the others are removed). Blender's Manifold solver (4.5 and later): the
+    sample's parts are closed meshes, and it unites the façade's in a fraction of a second."""
+    first, others = objects[0], objects[1:]
+    parts = bpy.data.collections.new(f"{name} parts")
+    for obj in others:
+        parts.objects.link(obj)
+    modifier = first.modifiers.new("Unite", "BOOLEAN")
+    modifier.operation, modifier.operand_type, modifier.collection = "UNION", "COLLECTION", parts
+    modifier.solver = "MANIFOLD"
+    mesh = bpy.data.meshes.new_from_object(first.evaluated_get(bpy.context.evaluated_depsgraph_get()))
+    first.modifiers.clear()
+    first.data, mesh.name, first.name = mesh, name, name
+    for obj in others:
+        bpy.data.objects.remove(obj)
+    bpy.data.collections.remove(parts)
+    return first
+
+
+def refine(obj, cell):
+    """Cut ``obj``'s mesh by planes across each axis, no more than ``cell`` apart (its shape stays
+    the same), as sample_blends/build_samples.py cuts the façade's faces."""
+    import bmesh
+
+    mesh = bmesh.new()
+    mesh.from_mesh(obj.data)
+    corners = [vertex.co for vertex in mesh.verts]
+    for axis in range(3):
+        low, high = min(c[axis] for c in corners), max(c[axis] for c in corners)
+        count = math.ceil((high - low) / cell - 1e-3)
+        normal = Vector([float(axis == k) for k in range(3)])
+        for k in range(1, count):
+            point = normal * (low + k * (high - low) / count)
+            geometry = mesh.verts[:] + mesh.edges[:] + mesh.faces[:]
+            bmesh.ops.bisect_plane(mesh, geom=geometry, dist=1e-5, plane_co=point, plane_no=normal)
+    mesh.to_mesh(obj.data)
+    mesh.free()
 
 
 def configure_parser(parser):
@@ -171,8 +313,10 @@ def configure_parser(parser):
         help=f"regenerate the documentation's pictures in {os.path.relpath(DOCS_IMAGES, ROOT)}/ "
         "instead (--out is ignored)",
     )
-    parser.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel (default: 16)")
-    parser.add_argument("--size", type=int, default=240, help="picture height in pixels (default: 240)")
+    parser.add_argument(
+        "--samples", type=int, default=8, help="Cycles samples per pixel, denoised (default: 8; Fig. 11: 4x)"
+    )
+    parser.add_argument("--size", type=int, default=540, help="picture height in pixels (default: 540)")
     parser.add_argument("--bake-samples", type=int, default=32, help="rain samples per face corner (default: 32)")
 
 
@@ -184,7 +328,8 @@ def run(args):
         os.makedirs(args.out, exist_ok=True)
         written = [render_porous_vs_base(os.path.join(args.out, "porous_vs_base.png"), args.size, args.samples * 4)]
         aging = render_aging(args.out, args.size, args.samples, args.bake_samples)
-        written += aging + [side_by_side(aging, len(AGES), os.path.join(args.out, "comparison.png"))]
+        labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in AGES]
+        written += aging + [side_by_side(aging, len(AGES), os.path.join(args.out, "comparison.png"), labels)]
     print(f"wrote {len(written)} pictures in {time.time() - started:.0f} s", file=sys.stderr)
     return 0
 
@@ -195,7 +340,10 @@ def docs_pictures(args):
     written = [render_porous_vs_base(os.path.join(DOCS_IMAGES, "porous_vs_base.png"), args.size, args.samples * 4)]
     with tempfile.TemporaryDirectory(prefix="pw_docs_") as work:
         aging = render_aging(work, args.size, args.samples, args.bake_samples)
-        written.append(side_by_side(aging, len(AGES), os.path.join(DOCS_IMAGES, "facade_aging.png")))
+        # The README's sheet: new and fully weathered, a row per mode (four ages are in out/).
+        ends = [path for index, path in enumerate(aging) if index % len(AGES) in (0, len(AGES) - 1)]
+        labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in (AGES[0], AGES[-1])]
+        written.append(side_by_side(ends, 2, os.path.join(DOCS_IMAGES, "facade_aging.png"), labels, DOCS_SCALE))
         modes_of = {}  # sample -> the modes it shows: each sample is opened and baked once
         for mode, name in DOCS_BEFORE_AFTER.items():
             modes_of.setdefault(name, []).append(mode)
@@ -206,7 +354,15 @@ def docs_pictures(args):
                 pictures = [
                     sample.render(mode, age, os.path.join(work, f"{name}_{mode}_{age}.png")) for age in (0.0, 1.0)
                 ]
-                written.append(side_by_side(pictures, 2, os.path.join(DOCS_IMAGES, f"{mode}_before_after.png")))
+                labels = [f"{mode}, t = {age:g}" for age in (0, 1)]
+                out = os.path.join(DOCS_IMAGES, f"{mode}_before_after.png")
+                written.append(side_by_side(pictures, 2, out, labels, DOCS_SCALE))
+        bust = Sample("bust", bake_samples=args.bake_samples, map_dir=work, progress=True)
+        bust.use_cycles(args.size, args.samples)
+        pictures = [bust.render(mode, age, os.path.join(work, f"bust_{mode}_{age}.png")) for mode, age in DOCS_BUST]
+        labels = [f"{mode}, t = {age:g}" for mode, age in DOCS_BUST]
+        out = os.path.join(DOCS_IMAGES, "bust_weathering.png")
+        written.append(side_by_side(pictures, len(pictures), out, labels, DOCS_SCALE))
     return written
 
 
@@ -228,6 +384,7 @@ def render_porous_vs_base(path, size=256, samples=64):
     studio.add_ortho_camera(scene, scale=4.6)
     render.use_cycles(scene, size=size, samples=samples, bounces=4, pixel_filter=1.5)
     scene.render.resolution_x = 2 * size
+    scene.cycles.use_denoising = True
     return render.render_picture(scene, path)
 
 
@@ -247,11 +404,16 @@ def render_aging(out, size, samples, bake_samples):
     return pictures
 
 
-def side_by_side(paths, columns, out_path):
-    """One picture of ``paths`` laid out in rows of ``columns`` (OpenImageIO)."""
+def side_by_side(paths, columns, out_path, labels=(), scale=1.0):
+    """One picture of ``paths`` laid out in rows of ``columns`` (OpenImageIO), each tile with its
+    label (if any) in its top left corner, the whole scaled by ``scale``."""
     import OpenImageIO as oiio
 
     tiles = [oiio.ImageBuf(path) for path in paths]
+    if scale != 1.0:
+        tiles = [_scaled(tile, scale) for tile in tiles]
+    for tile, label in zip(tiles, labels):
+        _label(tile, label)
     width, height = tiles[0].spec().width, tiles[0].spec().height
     rows = -(-len(tiles) // columns)
     sheet = oiio.ImageBuf(oiio.ImageSpec(width * columns, height * rows, tiles[0].spec().nchannels, oiio.UINT8))
@@ -260,3 +422,29 @@ def side_by_side(paths, columns, out_path):
     if not sheet.write(out_path):
         raise OSError(f"cannot write {out_path}: {sheet.geterror()}")
     return out_path
+
+
+def _scaled(tile, scale):
+    import OpenImageIO as oiio
+
+    spec = tile.spec()
+    size = oiio.ROI(0, round(spec.width * scale), 0, round(spec.height * scale), 0, 1, 0, spec.nchannels)
+    return oiio.ImageBufAlgo.resize(tile, roi=size)
+
+
+def _label(tile, text):
+    """Write ``text`` in white on a darkened band at the top left of ``tile``; without a font
+    (OpenImageIO finds none on some machines) the tile stays as it is."""
+    import OpenImageIO as oiio
+
+    spec = tile.spec()
+    height = max(12, spec.height // 18)
+    text_layer = oiio.ImageBuf(oiio.ImageSpec(spec.width, spec.height, spec.nchannels, oiio.FLOAT))
+    white = [1.0] * spec.nchannels
+    if not oiio.ImageBufAlgo.render_text(text_layer, height // 2, round(height * 1.15), text, height, "", white):
+        return
+    pixels = tile.get_pixels(oiio.FLOAT)
+    width = min(spec.width, round(height * 0.62 * len(text)) + height)
+    pixels[: round(height * 1.5), :width, :3] *= 0.4
+    pixels = np.maximum(pixels, text_layer.get_pixels(oiio.FLOAT))
+    tile.set_pixels(oiio.ROI(0, spec.width, 0, spec.height, 0, 1, 0, spec.nchannels), pixels)

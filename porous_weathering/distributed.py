@@ -1,60 +1,75 @@
 """Batch baking on a Dask cluster: ``bake ... --workers N`` or ``--scheduler ADDRESS`` (docs/batch.md).
 
-Every task runs the ``bake`` command itself in a fresh process on a worker:
-``python -m porous_weathering bake FILE --objects=OBJECT --maps MAP ...``. A fresh process because
-bpy holds one scene per process, and so that a crashing bake takes down one process, not the
-worker. The command writes its map atomically and skips it when the stored input hash matches,
-so a task is idempotent: a retried or re-run task writes its map whole or finds it "unchanged".
+A task runs the ``bake`` command itself on whole files (``bake FILE ... --maps ...``), so its
+outcomes, messages and exit code are those of the serial run by construction. It runs in the
+worker's *bake process*: one long-lived Python process per worker that imports bpy once and runs
+the command (``cli.main``) for every task it is given, so a task costs a file open, not a Blender
+start. A process of its own, not the worker, because bpy holds one scene per process and is not
+thread-safe, and so that a crashing bake takes down that process, not the worker: the task starts
+a new bake process and runs once more.
 
-The run has up to three phases, each a set of Dask tasks:
+Files interact only through image maps of the same path (mesh objects of the same name, one
+``--out``), which the serial run settles in file order. So a run of several files first lists
+the mesh objects of each file (in parallel: a file open each, no bake), and files that share a
+name are baked together, in their order, by one task: the serial run on those files.
 
-1. plan: a dry run per file lists its (object, map) pairs and which are already up to date;
-2. bake: one task per (file, object, map) that is not up to date;
-3. save (``--save``): per file, once all its maps are baked, the command with ``--save`` links
-   them into the .blend (its maps are then "unchanged") - one process per .blend, never two.
+A worker that dies mid-task is replaced, and the scheduler runs its task elsewhere (up to
+``distributed.scheduler.allowed-failures`` times). Each attempt logs an event, from which the
+client prints a ``retried`` line; the bake processes also report their progress bar through
+events. Interrupted (SIGINT, SIGTERM), the client cancels its tasks; a task that learns it was
+cancelled, or whose worker closes, stops its bake process (SIGTERM: the bake command discards
+the map in flight and does not save).
 
-A worker that dies mid-task is replaced, and the scheduler runs the task elsewhere (up to
-``distributed.scheduler.allowed-failures`` times); a bake process killed by a signal (a crash,
-the OOM killer) is retried through ``retries=``. Each attempt logs an event on the scheduler,
-from which the CLI reports retries.
-
-Workers import this module to run its tasks without bpy: it imports nothing that imports bpy.
+This module imports nothing that imports bpy: the workers run its tasks without bpy, and only
+the bake processes (``serve``) import it.
 """
 
 import argparse
 import contextlib
 import ctypes
+import io
+import json
 import logging
 import os
+import re
+import select
 import signal
 import subprocess
 import sys
-import time
-from collections import Counter, defaultdict
-from dataclasses import dataclass, replace
+import tempfile
+import threading
+import uuid
+import warnings
+from dataclasses import dataclass
 
 from .progress import ProgressBar
 
-#: Where ``python -m porous_weathering`` is found by the bake processes of a worker.
+#: Where ``porous_weathering`` is found by the bake processes of a worker.
 PACKAGE_PARENT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-#: Scheduler event topic of task attempts: {"key", "worker"}.
-ATTEMPTS_TOPIC = "porous-weathering-attempt"
-#: Extra attempts of a task whose bake process was killed by a signal.
-RETRIES = 1
 CONNECT_TIMEOUT = "10s"
+#: Exit codes of the bake command (docs/cli.md) that a run on Dask combines as the serial run does.
+EXIT_FAILED, EXIT_REFUSED = 1, 3
+#: Extra attempts of a task whose bake process died.
+RETRIES = 1
+#: How often a running task checks whether it was cancelled (seconds).
+CANCEL_POLL = 0.2
+#: How long a stopped bake process gets to discard its map in flight before it is killed.
+STOP_GRACE = 10.0
 #: Loaded before any fork: a forked child of a threaded worker must not dlopen.
 _LIBC = ctypes.CDLL(None) if sys.platform.startswith("linux") else None
 _PR_SET_PDEATHSIG = 1
+#: A frame of the progress bar of the bake command (progress.ProgressBar): its percentage and message.
+_BAR_FRAME = re.compile(r"\] +(\d+)% (.*)$")
 
 
-def add_arguments(parser):
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of ``bake`` that hand the work to Dask (the default is the serial run)."""
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
         "--workers",
         type=_positive_int,
         metavar="N",
-        help="bake on a local Dask cluster of N worker processes, one (file, object, map) per task (docs/batch.md)",
+        help="bake on a local Dask cluster of N worker processes, one file per task (docs/batch.md)",
     )
     where.add_argument(
         "--scheduler",
@@ -75,267 +90,428 @@ def _positive_int(text):
 
 @dataclass(frozen=True)
 class Result:
-    """What one task did: ``status`` is an Outcome status, "failed" or "saved"."""
+    """What a request printed and returned in a bake process (one task)."""
 
-    file: str
-    object: str
-    map: str
-    status: str
-    where: str = ""
-    error: str = ""
-    seconds: float = 0.0
-    workers: tuple = ()  # of each attempt, in order: set by the client from the attempt events
+    files: tuple
+    code: int
+    stdout: tuple = ()  # its lines: for "bake", the outcome lines ("written OBJECT.MAP -> WHERE") and "saved ..."
+    stderr: tuple = ()  # its message lines ("error: FILE: ..."), progress bar frames left out
+    workers: tuple = ()  # of each attempt, in order (set by the client from the attempt events)
 
 
-def plan_file(path, selection, options):
-    """Task: the Results of a dry run of ``path`` ("planned" or "unchanged"), or one "failed"."""
-    started = time.monotonic()
-    process = _run_bake_command([path, *selection, *options, "--dry-run"])
-    if process.returncode != 0:
-        return [Result(path, "", "", "failed", error=_error_message(process.stderr))]
-    seconds = time.monotonic() - started
-    return [
-        Result(path, obj, map_name, status, where, seconds=seconds)
-        for status, obj, map_name, where in parse_outcomes(process.stdout)
-    ]
+def in_bake_process(request: list[str], files: list[str], topic: str) -> Result:
+    """Task: ``request`` (see ``serve``) about ``files`` in this worker's bake process.
 
-
-def bake_map(path, object_name, map_name, options):
-    """Task: bake one map of one object of ``path``; its Result."""
-    started = time.monotonic()
-    process = _run_bake_command([path, f"--objects={object_name}", "--maps", map_name, *options])
-    seconds = time.monotonic() - started
-    outcomes = parse_outcomes(process.stdout)
-    if process.returncode != 0 or len(outcomes) != 1:
-        return Result(path, object_name, map_name, "failed", error=_error_message(process.stderr), seconds=seconds)
-    status, _, _, where = outcomes[0]
-    return Result(path, object_name, map_name, status, where, seconds=seconds)
-
-
-def save_file(path, object_names, options):
-    """Task: link the baked maps of ``object_names`` into ``path`` and save it."""
-    started = time.monotonic()
-    process = _run_bake_command([path, "--objects", *object_names, *options, "--save"])
-    status, error = ("saved", "") if process.returncode == 0 else ("failed", _error_message(process.stderr))
-    return Result(path, "", "", status, path, error, time.monotonic() - started)
-
-
-def parse_outcomes(stdout):
-    """(status, object, map, where) of the outcome lines the bake command prints:
-    ``STATUS OBJECT.MAP -> WHERE``."""
-    outcomes = []
-    for line in stdout.splitlines():
-        status, _, rest = line.partition(" ")
-        if status in ("written", "unchanged", "planned") and " -> " in rest:
-            name, where = rest.strip().split(" -> ", 1)
-            obj, map_name = name.rsplit(".", 1)
-            outcomes.append((status, obj, map_name, where))
-    return outcomes
-
-
-def _run_bake_command(argv):
-    _log_attempt()
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, (PACKAGE_PARENT, os.environ.get("PYTHONPATH")))))
-    process = subprocess.run(
-        [sys.executable, "-m", "porous_weathering", "bake", *argv],
-        capture_output=True,
-        text=True,
-        env=env,
-        preexec_fn=_die_with_parent,
-    )
-    if process.returncode < 0:  # a crash or the OOM killer, not a bad input: worth another attempt
-        raise ChildProcessError(
-            f"bake process killed by signal {-process.returncode}: {_error_message(process.stderr)}"
-        )
-    return process
-
-
-def _die_with_parent():
-    """In the bake process before exec: die with the worker, so no orphan bakes on after it."""
-    if _LIBC is not None:
-        _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-
-
-def _log_attempt():
+    A bake process that dies (a crash, the OOM killer) is replaced and the request runs once
+    more; cancelled (the client was interrupted), the task stops its bake process."""
     from distributed import get_worker
 
     worker = get_worker()
-    worker.log_event(ATTEMPTS_TOPIC, {"key": worker.get_current_task(), "worker": worker.address})
+    key = worker.get_current_task()
+
+    def cancelled():  # by the client, or the worker is closing (its cluster too, maybe)
+        task = worker.state.tasks.get(key)
+        running = task is not None and task.state in ("executing", "long-running")
+        return not (running and worker.status.name in ("running", "paused"))
+
+    def report(**event):
+        worker.log_event(topic, {"key": key, **event})
+
+    with _BAKE_PROCESS_LOCK:  # one request at a time per worker, whatever its number of threads
+        for _ in range(1 + RETRIES):
+            report(attempt=worker.address)
+            try:
+                return _bake_process().run(request, files, cancelled, report)
+            except _BakeProcessDied as error:
+                died = error
+    return Result(tuple(files), 1, stderr=(f"error: {', '.join(files)}: {died}",))
 
 
-def _error_message(stderr):
-    """The last line the command printed: its ``error: ...`` or the exception of a traceback."""
-    lines = [line.strip() for line in stderr.replace("\r", "\n").splitlines() if line.strip()]
-    return lines[-1] if lines else "the bake command failed without a message"
+class _BakeProcessDied(Exception):
+    pass
+
+
+_BAKE_PROCESS_LOCK = threading.Lock()
+_bake_process_of_worker = None
+
+
+def _bake_process():
+    """This worker's bake process, started anew if it is not running."""
+    global _bake_process_of_worker
+    if _bake_process_of_worker is None or _bake_process_of_worker.process.poll() is not None:
+        _bake_process_of_worker = _BakeProcess()
+    return _bake_process_of_worker
+
+
+class _BakeProcess:
+    """A Python process with bpy that runs ``serve``: the bake command once per request."""
+
+    def __init__(self):
+        replies, reply_end = os.pipe()
+        # Its fd 2 (Blender's own messages, a crash's last words) goes to a file read when it dies;
+        # append mode, so that truncating it between requests works.
+        self.messages = tempfile.TemporaryFile("a+")
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, (PACKAGE_PARENT, os.environ.get("PYTHONPATH")))))
+        self.process = subprocess.Popen(
+            [sys.executable, "-c", f"from porous_weathering.distributed import serve; serve({reply_end})"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL,  # Blender's "Read blend" and "Info: Baking map saved" notes
+            stderr=self.messages,
+            pass_fds=(reply_end,),
+            env=env,
+            start_new_session=True,  # a Ctrl-C on the terminal reaches the client, which cancels
+            preexec_fn=_die_with_parent,
+        )
+        os.close(reply_end)
+        self.replies = replies
+
+    def run(self, request, files, cancelled, report):
+        """The Result of ``request``; _BakeProcessDied when the process dies before it answers."""
+        self.messages.truncate(0)
+        stdout, stderr, percent = [], [], None
+        try:
+            self.process.stdin.write((json.dumps(request) + "\n").encode())
+            self.process.stdin.flush()
+        except BrokenPipeError:
+            raise self._died() from None
+        pending = b""
+        while True:
+            ready = select.select([self.replies], [], [], CANCEL_POLL)[0]
+            if cancelled():
+                self.stop()
+                return Result(tuple(files), 130)  # for no one: the client cancelled the task
+            if not ready:
+                continue
+            chunk = os.read(self.replies, 65536)
+            if not chunk:
+                raise self._died()
+            *lines, pending = (pending + chunk).split(b"\n")
+            for line in lines:
+                message = json.loads(line)
+                if "code" in message:
+                    return Result(tuple(files), message["code"], tuple(stdout), tuple(stderr))
+                if "out" in message:
+                    stdout.append(message["out"])
+                elif "err" in message:
+                    stderr.append(message["err"])
+                elif (frame := _BAR_FRAME.search(message["frame"])) and frame[1] != percent:
+                    percent = frame[1]
+                    report(progress=int(percent) / 100, message=frame[2].strip())
+
+    def _died(self):
+        code = self.process.wait()
+        self.messages.seek(0)
+        last_words = [line.strip() for line in self.messages if line.strip()]
+        self._close()
+        how = f"killed by signal {-code}" if code < 0 else f"ended with exit code {code}"
+        return _BakeProcessDied(f"the bake process was {how}" + (f": {last_words[-1]}" if last_words else ""))
+
+    def stop(self):
+        """SIGTERM: the bake command discards its map in flight and does not save; then KILL."""
+        self.process.terminate()
+        try:
+            self.process.wait(STOP_GRACE)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        self._close()
+
+    def _close(self):
+        with contextlib.suppress(BrokenPipeError):  # a request it never read
+            self.process.stdin.close()
+        os.close(self.replies)
+        self.messages.close()
+
+
+def _die_with_parent():
+    """In the bake process before exec: SIGTERM when the worker thread that started it ends, so
+    no bake carries on (or saves) after its worker is gone."""
+    if _LIBC is not None:
+        _LIBC.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def serve(reply_fd: int) -> None:
+    """The bake process. Each line of stdin is a request, a JSON list of words: ``["bake", ...]``
+    runs the bake command with those words; ``["meshes", FILE]`` opens FILE and prints the names
+    of its mesh objects (a JSON list). What it prints goes out on ``reply_fd`` as it comes, then
+    its exit code, one JSON message a line: {"out": line}, {"err": line}, {"frame": progress
+    bar frame}, {"code": int}."""
+    from . import cli
+
+    replies = os.fdopen(reply_fd, "w", buffering=1)
+
+    def send(**message):
+        try:
+            replies.write(json.dumps(message) + "\n")
+        except BrokenPipeError:  # the worker is gone (killed): no one wants this bake any more
+            os._exit(1)
+
+    for line in sys.stdin:
+        command, *words = json.loads(line)
+        with (
+            contextlib.redirect_stdout(_forwarding_stream(send, "out")),
+            contextlib.redirect_stderr(_forwarding_stream(send, "err")),
+        ):
+            try:
+                code = cli.main([command, *words]) if command == "bake" else _print_mesh_objects(*words)
+            except SystemExit as error:  # argparse: the client checked the words, so unexpected
+                code = error.code if isinstance(error.code, int) else 2
+            except Exception as error:  # what the serial run would end with as a traceback
+                print(f"error: {type(error).__name__}: {error}", file=sys.stderr)
+                code = 1
+        send(code=code)
+    replies.close()
+    os._exit(0)  # skip bpy's exit-time cleanup, as cli.exit_with does
+
+
+def _print_mesh_objects(path):
+    import bpy
+
+    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
+    print(json.dumps(sorted(o.name for o in bpy.data.objects if o.type == "MESH")))
+    return 0
+
+
+def _forwarding_stream(send, kind):
+    """A text stream that sends each line written to it as {kind: line}, and each frame of a
+    progress bar (text after a carriage return) as {"frame": text}."""
+    return io.TextIOWrapper(_LineForwarder(send, kind), encoding="utf-8", errors="replace", write_through=True)
+
+
+class _LineForwarder(io.RawIOBase):
+    def __init__(self, send, kind):
+        self.send, self.kind, self.pending, self.in_frame = send, kind, "", False
+
+    def writable(self):
+        return True
+
+    def write(self, data):
+        *pieces, self.pending = re.split(r"([\r\n])", self.pending + bytes(data).decode("utf-8", "replace"))
+        for text, end in zip(pieces[0::2], pieces[1::2], strict=True):
+            if text.strip() and not self.in_frame:
+                self.send(**{self.kind: text})
+            self.in_frame = end == "\r"
+        if self.in_frame and self.pending.strip():  # ProgressBar writes each frame whole, in one call
+            self.send(frame=self.pending)
+            self.pending = ""
+        return len(data)
 
 
 # --- the command line, in the client process -------------------------------------------------
 
 
-def run(args, target, map_names, shared):
-    """``bake`` on Dask; returns the exit code (0: every requested map was written or is up to date).
+def run(args: argparse.Namespace, target: str, map_names: tuple, shared: list[str]) -> int:
+    """``bake`` on Dask; returns the exit code, that of the serial run on the same inputs.
 
-    ``shared`` are the command-line words of the bake options every bake process of this run
-    gets (``BakeOptions.to_argv``); files, objects and maps come per task."""
-    if target == "attribute":
-        print(
-            "error: attribute maps live in the .blend, which one process must write: use --target image "
-            "with --workers/--scheduler, or bake attributes without them",
-            file=sys.stderr,
-        )
-        return 2
+    ``shared`` are the command-line words of the bake options every task of this run gets
+    (``BakeOptions.to_argv``); the files, the objects chosen and ``--force``, ``--save`` and
+    ``--dry-run`` come from ``args``."""
+    selection = (
+        [f"--collection={args.collection}"] if args.collection else ["--objects", *args.objects] if args.objects else []
+    )
+    words = [*selection, "--maps", ",".join(map_names), *shared] + ["--force"] * args.force
+    files = [os.path.abspath(path) for path in args.files]
     try:
-        with _connect(args) as client:
-            return _run_on(client, args, map_names, shared)
+        with _interrupts_raised(), _connect(args) as client:
+            return _Run(client, words).bake(files, target, ["--dry-run"] * args.dry_run + ["--save"] * args.save)
     except SchedulerUnreachable as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
+    except Interrupted as interrupt:
+        print(
+            "\ninterrupted: the tasks were cancelled; maps finished so far are complete, "
+            "no .blend file was saved after the interrupt",
+            file=sys.stderr,
+        )
+        return interrupt.code
 
 
 class SchedulerUnreachable(Exception):
     pass
 
 
+class Interrupted(Exception):
+    """SIGINT or SIGTERM reached the client: ``code`` is 128 + the signal number (130, 143)."""
+
+    def __init__(self, signum):
+        super().__init__(signal.Signals(signum).name)
+        self.code = 128 + signum
+
+
+@contextlib.contextmanager
+def _interrupts_raised():
+    """SIGINT and SIGTERM raise Interrupted in the main thread while in this block."""
+
+    def handler(signum, frame):
+        raise Interrupted(signum)
+
+    previous = {number: signal.signal(number, handler) for number in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for number, action in previous.items():
+            signal.signal(number, action)
+
+
 @contextlib.contextmanager
 def _connect(args):
+    import dask
     from distributed import Client, LocalCluster
 
     if args.scheduler:
         try:
             client = Client(args.scheduler, timeout=CONNECT_TIMEOUT)
-        except OSError as error:  # includes the connection timeout
-            raise SchedulerUnreachable(f"cannot reach the Dask scheduler {args.scheduler}: {error}") from error
+        except (OSError, ValueError) as error:  # a malformed address, or no answer in time
+            raise SchedulerUnreachable(f"cannot reach the Dask scheduler {args.scheduler}: {error}") from None
         with client:
             yield client
         return
-    # One thread per worker: a bake process already uses every core of the machine.
-    with (
-        LocalCluster(
-            n_workers=args.workers,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address=None,
-            silence_logs=logging.ERROR,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    # One thread per worker: a worker runs one bake at a time, which already uses every core.
+    # Workers forked from a fresh forkserver start in half the time of spawned ones, and inherit
+    # its ignored SIGINT: a Ctrl-C on the terminal reaches them too, but is the client's to handle.
+    client_handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}), warnings.catch_warnings():
+            # the scheduler's HTTP server (no dashboard) moves off a port in use, no matter
+            warnings.filterwarnings("ignore", "Port .* is already in use")
+            cluster = LocalCluster(
+                n_workers=args.workers,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",
+                dashboard_address=None,
+                silence_logs=logging.ERROR,
+            )
+    finally:
+        signal.signal(signal.SIGINT, client_handler)
+    with cluster, Client(cluster) as client:
         yield client
 
 
-@dataclass(frozen=True)
-class _Task:
-    function: object
-    arguments: tuple
-    lost: Result  # what to report when the task failed for good (e.g. its workers kept dying)
+class _Run:
+    """One ``bake`` on a cluster. Its tasks report their attempts and progress as events of a
+    topic of this run, which arrive on the client's event-loop thread."""
 
+    def __init__(self, client, words):
+        self.client, self.words = client, words
+        self.topic = f"porous-weathering-{uuid.uuid4().hex}"
+        self.attempts = {}  # task key -> the workers of its attempts
+        self.running = {}  # task key -> the fraction of its bake done, for the tasks of this phase
+        self.lock = threading.Lock()  # the progress bar and the output, drawn from both threads
+        self.bar, self.done, self.total = None, 0, 0
+        client.subscribe_topic(self.topic, self._on_event)
 
-def _run_on(client, args, map_names, shared):
-    files = [os.path.abspath(path) for path in args.files]
-    selection = (
-        [f"--collection={args.collection}"] if args.collection else ["--objects", *args.objects] if args.objects else []
-    )
+    def bake(self, files, target, flags):
+        """Bake ``files`` (with ``flags``: --save, --dry-run); the exit code."""
+        meshes = [[] for _ in files]
+        if target == "image" and len(files) > 1:  # only then can two files write the same map
+            listed = self._gather("list", [(["meshes", path], [path]) for path in files], show=False)
+            meshes = [json.loads(r.stdout[-1]) if r.code == 0 else [] for r in listed]
+        groups = clash_groups(files, meshes)
+        results = self._gather("bake", [(["bake", *group, *self.words, *flags], group) for group in groups], show=True)
+        for r in results:
+            if len(r.workers) > 1:
+                print(
+                    f"retried   {', '.join(map(os.path.basename, r.files))} ran on {', '.join(r.workers)} "
+                    "(a worker was lost or its bake process died)",
+                    flush=True,
+                )
+        return _exit_code(results)
 
-    plans = _gather(
-        client,
-        ProgressBar("plan"),
-        [
-            _Task(
-                plan_file, (path, [*selection, "--maps", ",".join(map_names)], shared), [Result(path, "", "", "failed")]
-            )
-            for path in files
-        ],
-    )
-    planned = _refuse_clashes([result for plan in plans for result in plan])
-    if args.dry_run:
-        return _report(planned)
-    baked = _gather(
-        client,
-        ProgressBar("bake"),
-        [
-            _Task(bake_map, (r.file, r.object, r.map, shared), replace(r, status="failed"))
-            for r in planned
-            if r.status == "planned"
-        ],
-    )
-    results = [r for r in planned if r.status != "planned"] + baked
-    if args.save:
-        failed_files = {r.file for r in results if r.status == "failed"}
-        objects = {path: sorted({r.object for r in results if r.file == path}) for path in files}
-        results += _gather(
-            client,
-            ProgressBar("save"),
-            [
-                _Task(save_file, (path, objects[path], shared), Result(path, "", "", "failed"))
-                for path in files
-                if path not in failed_files
-            ],
-        )
-    return _report(results)
+    def _gather(self, label, requests, show):
+        """Run a task per (request, files); their Results, in order, each printed as it comes
+        when ``show``."""
+        from distributed import as_completed
 
+        futures = {
+            self.client.submit(in_bake_process, request, files, self.topic, pure=False): files
+            for request, files in requests
+        }
+        with self.lock:
+            self.bar, self.done, self.total = ProgressBar(label), 0, len(futures)
+            self.running = {future.key: 0.0 for future in futures}
+        results = {}
+        try:
+            for future in as_completed(list(futures)):
+                results[future.key] = self._result(future, futures[future])
+                future.release()  # else the scheduler recomputes a fetched result whose worker dies later
+                with self.lock:
+                    del self.running[future.key]
+                    self.done += 1
+                    self._draw(os.path.basename(futures[future][-1]))
+                    if show:
+                        self._show(results[future.key])
+        except Interrupted:
+            self.client.cancel(list(futures), force=True)
+            raise
+        finally:
+            with self.lock:
+                self.bar.finish()
+                self.bar = None
+        return [results[future.key] for future in futures]
 
-def _gather(client, bar, tasks):
-    """Run the tasks on the cluster, with a progress bar; their results in order, each Result
-    carrying the workers its task ran on (from the attempt events)."""
-    from distributed import as_completed
-
-    futures = {client.submit(t.function, *t.arguments, pure=False, retries=RETRIES): t for t in tasks}
-    keys = [future.key for future in futures]
-    results = {}
-    for done, future in enumerate(as_completed(list(futures)), 1):
-        task = futures.pop(future)
+    def _result(self, future, files):
+        """The task's Result with the workers of its attempts; one that failed for good (its
+        workers kept dying: KilledWorker) as a failure of its files."""
+        workers = tuple(self.attempts.get(future.key, ()))
         if future.status == "finished":
-            results[future.key] = future.result()
-        else:
-            error = future.exception()
-            results[future.key] = _with(task.lost, error=f"{type(error).__name__}: {error}")
-        future.release()  # else the scheduler recomputes a fetched result whose worker dies later
-        bar(done / len(keys), f"{done}/{len(keys)} {os.path.basename(task.arguments[0])}")
-    if keys:
-        bar.finish()
-    workers = defaultdict(tuple)
-    for _, event in client.get_events(ATTEMPTS_TOPIC):
-        workers[event["key"]] += (event["worker"],)
-    return [_with(results[key], workers=workers[key]) for key in keys]
+            result = future.result()
+            return Result(result.files, result.code, result.stdout, result.stderr, workers)
+        error = future.exception()
+        reason = (
+            f"the Dask workers running it died {len(workers)} times"
+            if type(error).__name__ == "KilledWorker"
+            else f"{type(error).__name__}: {error}"
+        )
+        return Result(tuple(files), 1, stderr=tuple(f"error: {path}: {reason}" for path in files), workers=workers)
+
+    def _on_event(self, event):
+        message = event[1]
+        with self.lock:
+            if "attempt" in message:
+                self.attempts.setdefault(message["key"], []).append(message["attempt"])
+            elif message["key"] in self.running:
+                self.running[message["key"]] = message["progress"]
+                self._draw(message["message"])
+
+    def _draw(self, message):
+        self.bar((self.done + sum(self.running.values())) / self.total, f"{self.done}/{self.total} {message}")
+
+    def _show(self, result):
+        """Print what the bake command printed, the progress bar then going on from a new line."""
+        lines = [(sys.stdout, line) for line in result.stdout] + [(sys.stderr, line) for line in result.stderr]
+        if lines and self.bar is not None:
+            self.bar.finish()
+        for stream, line in lines:
+            print(line, file=stream, flush=True)
 
 
-def _with(result, **changes):
-    """``result`` (a Result or a plan's list of them) with ``changes``."""
-    if isinstance(result, list):
-        return [replace(r, **changes) for r in result]
-    return replace(result, **changes)
+def clash_groups(files: list[str], meshes: list[list[str]]) -> list[list[str]]:
+    """The files in groups that must be baked together, in their order, by one serial run:
+    files that hold mesh objects of the same name (only they can have image maps of the same
+    path: ``bake.image_path`` keeps distinct names apart), and a file given twice (one writer
+    per .blend). ``meshes`` are the names of each file's mesh objects. Grouping more files than
+    needed costs only parallelism; the outcome is the serial run's either way."""
+    group_of = list(range(len(files)))  # union-find over the files
+
+    def root(index):
+        while group_of[index] != index:
+            index = group_of[index]
+        return index
+
+    first_with = {}
+    for index, (path, names) in enumerate(zip(files, meshes, strict=True)):
+        # casefolded: on a case-insensitive file system, "Wall" and "wall" write one file
+        for key in [("file", os.path.realpath(path))] + [("mesh", name.casefold()) for name in names]:
+            group_of[root(index)] = root(first_with.setdefault(key, index))
+    groups = {}
+    for index, path in enumerate(files):
+        groups.setdefault(root(index), []).append(path)
+    return list(groups.values())
 
 
-def _refuse_clashes(planned):
-    """Fail the maps of a file when an earlier file writes the same image (as the serial run does)."""
-    claimed, checked = {}, []
-    for result in planned:
-        owner = claimed.setdefault(result.where, result.file) if result.where else result.file
-        if owner != result.file:
-            result = replace(
-                result,
-                status="failed",
-                error=f"{os.path.basename(owner)} also writes {result.where}: bake it into another --out",
-            )
-        checked.append(result)
-    return checked
-
-
-def _report(results):
-    """Print the summary table (stdout), retries and errors; the exit code."""
-    print(f"{'status':9} {'tries':>5} {'seconds':>7}  file / map")
-    for r in results:
-        name = f"{os.path.basename(r.file)}" + (f": {r.object}.{r.map}" if r.object else "")
-        print(f"{r.status:9} {len(r.workers):>5} {r.seconds:>7.1f}  {name}" + (f" -> {r.where}" if r.where else ""))
-    for r in results:
-        if len(r.workers) > 1:
-            print(
-                f"retried   {os.path.basename(r.file)}: {r.object}.{r.map} ran on {', '.join(r.workers)} "
-                f"(a worker was lost or its bake process was killed)"
-            )
-    failed = [r for r in results if r.status == "failed"]
-    for r in failed:
-        print(f"error: {r.file}" + (f": {r.object}.{r.map}" if r.object else "") + f": {r.error}", file=sys.stderr)
-    counts = Counter(r.status for r in results)
-    print(", ".join(f"{n} {status}" for status, n in sorted(counts.items())))
-    return 1 if failed else 0
+def _exit_code(results):
+    """The serial run's exit code over all files (docs/cli.md): 1 when a file failed, else 3
+    when one was refused (it would replace maps made from another .blend), else 0."""
+    codes = {r.code for r in results} - {0}
+    return EXIT_FAILED if codes - {EXIT_REFUSED} else EXIT_REFUSED if codes else 0

@@ -55,7 +55,8 @@ def photo_map(photo_path, *, denoise_width=5, size=None):
     import OpenImageIO as oiio
 
     photo = oiio.ImageBuf(os.fspath(photo_path))
-    pixels = photo.get_pixels(oiio.FLOAT)
+    # check before reading pixels: get_pixels of a buffer that failed to open trips an OIIO assertion
+    pixels = None if photo.has_error else photo.get_pixels(oiio.FLOAT)
     if photo.has_error or pixels is None:
         raise OSError(f"cannot read photograph {photo_path}: {photo.geterror() or oiio.geterror()}")
     channels = pixels.shape[-1]
@@ -90,7 +91,7 @@ def default_path(name):
     import bpy
 
     if not bpy.data.filepath:
-        raise ValueError("save the .blend first (the map is saved beside it), or pass a path")
+        raise ValueError("save the .blend first: the efflorescence map is saved beside it")
     return os.path.join(os.path.dirname(bpy.data.filepath), f"{bpy.path.clean_name(name)}.efflorescence.exr")
 
 

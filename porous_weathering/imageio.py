@@ -2,20 +2,25 @@
 
 Arrays are float32 (H, W) or (H, W, C), top row first, linear values. A write goes to a
 temporary file in the destination folder and is renamed over the target, so a failed or
-interrupted bake never leaves a truncated map behind. String metadata (e.g. the input hash
-a bake stores) travels in the file's header.
+interrupted bake never leaves a truncated map, or the temporary file, behind
+(``interrupts.temporary_file``); the file gets the permissions of any new file (0666 less the
+umask). String metadata (e.g. the input hash a bake stores) travels in the file's header.
 """
 
 import os
-import tempfile
 
 import numpy as np
 
-#: Header fields of a baked map: the hash of its inputs, the map's name, and the UV map it was
-#: baked on (weathered materials read the image through it, weathering.image_uv_map).
+from . import interrupts
+
+#: Header fields of a baked map: the hash of its inputs, the map's name, the UV map it was baked
+#: on (weathered materials read the image through it, weathering.image_uv_map), and what it was
+#: made from: the .blend file (absolute path; empty when unsaved) and the object's exact name.
 HASH_KEY = "pw:inputs"
 MAP_KEY = "pw:map"
 UV_MAP_KEY = "pw:uv_map"
+SOURCE_KEY = "pw:source"
+OBJECT_KEY = "pw:object"
 
 #: file extension -> (OpenImageIO pixel type name, header attributes)
 FORMATS = {
@@ -54,23 +59,22 @@ def write_image(path, pixels, *, pixel_type=None, metadata=None):
 
     folder = os.path.dirname(os.path.abspath(path))
     try:
-        handle, temporary = tempfile.mkstemp(prefix=".pw_", suffix=extension, dir=folder)
+        with interrupts.temporary_file(folder, extension) as temporary:
+            _write_file(oiio, temporary, spec, pixels)
+            interrupts.move_into_place(temporary, path)
     except OSError as error:
-        raise OSError(f"cannot write image {path}: folder {folder}: {error.strerror}") from error
-    os.close(handle)
-    try:
-        output = oiio.ImageOutput.create(temporary)
-        if output is None or not output.open(temporary, spec):
-            raise OSError(f"cannot write image {path}: {oiio.geterror() or (output and output.geterror())}")
-        written = output.write_image(np.ascontiguousarray(pixels))
-        error = output.geterror()
-        output.close()
-        if not written:
-            raise OSError(f"cannot write image {path}: {error}")
-        os.replace(temporary, path)
-    except BaseException:
-        os.remove(temporary)
-        raise
+        raise OSError(f"cannot write image {path}: {error.strerror or error}") from error
+
+
+def _write_file(oiio, path, spec, pixels):
+    output = oiio.ImageOutput.create(path)
+    if output is None or not output.open(path, spec):
+        raise OSError(oiio.geterror() or (output and output.geterror()) or "OpenImageIO cannot open it")
+    written = output.write_image(np.ascontiguousarray(pixels))
+    error = output.geterror()
+    output.close()
+    if not written:
+        raise OSError(error)
 
 
 def read_image(path):
@@ -89,12 +93,18 @@ def read_image(path):
 
 def read_metadata(path):
     """The header's string attributes of an image file, or {} when there is no readable file."""
+    return image_header(path) or {}
+
+
+def image_header(path):
+    """The header's string attributes of an image file, or None when there is no file that
+    OpenImageIO can read (missing, corrupt or not an image)."""
     import OpenImageIO as oiio
 
     image = oiio.ImageInput.open(os.fspath(path))
     if image is None:
         oiio.geterror()  # clear OpenImageIO's pending error message
-        return {}
+        return None
     try:
         return _string_attributes(image.spec())
     finally:

@@ -108,28 +108,35 @@ RAIN = MapKind(
 
 
 def _edges_image(obj, uv_map, options, margin):
-    return edges.edge_mask_image(obj, uv_map, options.resolution, margin=margin)
+    return edges.edge_mask_image(obj, uv_map, options.resolution, options.edge_settings, margin=margin)
 
 
 def _edges_attribute(obj, options):
-    edges.write_curvature_attribute(obj, options.edge_settings.radius)
+    edges.write_curvature_attribute(obj, settings=options.edge_settings)
 
 
 def _edges_hash(obj, options, digests):
-    return dict(edge_radius=options.edge_settings.radius) if options.target == "attribute" else {}
+    settings = options.edge_settings
+    radius = edges.effective_radius(obj, settings)
+    return dict(edge_radius=radius, cavity_weight=settings.cavity_weight, edge_weight=settings.edge_weight)
 
 
 EDGES = MapKind(
     name="edges",
     label="Edges",
-    description="Edge/cavity mask: Sobel of the normal map (image) or mesh curvature (attribute)",
+    description="Edge/cavity mask: the surface's curvature smoothed over a radius relative to the object's size",
     attribute=edges.EDGE_ATTRIBUTE,
     settings=edges.EdgeSettings,
     options_field="edge_settings",
     bake_image=_edges_image,
     bake_attribute=_edges_attribute,
     hash_inputs=_edges_hash,
-    aliases={"edge_radius": "radius"},
+    aliases={
+        "edge_radius": "radius",
+        "edge_scale": "scale",
+        "cavity_weight": "cavity_weight",
+        "edge_weight": "edge_weight",
+    },
 )
 
 

@@ -165,12 +165,11 @@ def wire_key_light(graph, group_node, light):
     """
     if LIGHT_MODE_OF_TYPE[light.data.type] == nodes.SUN:
         rotation = _driven_vector(graph, light, ("ROT_X", "ROT_Y", "ROT_Z"), "Key Light Rotation")
-        # A sun shines along its local -Z: the direction towards it is its local +Z.
+        # A sun shines along its local -Z: the direction towards it is its local +Z.  A Mapping
+        # node rotates it: Cycles folds it to a constant (a Vector Rotate node it would evaluate
+        # at every shaded point).
         direction = graph.node(
-            "ShaderNodeVectorRotate",
-            {"Vector": (0.0, 0.0, 1.0), "Rotation": rotation},
-            rotation_type="EULER_XYZ",
-            depth=1,
+            "ShaderNodeMapping", {"Vector": (0.0, 0.0, 1.0), "Rotation": rotation}, vector_type="VECTOR", depth=1
         )
         graph.connect(direction.outputs["Vector"], group_node.inputs["Light Direction"])
     else:

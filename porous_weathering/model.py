@@ -212,7 +212,9 @@ def weathered_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes=None, *
     ``kd`` is an RGB colour (a scalar is taken as grey); ``modes`` picks among the registered
     modes (None: all of them); ``state`` holds their inputs (WEATHERING_INPUTS; defaults for
     those left out).  At time 0 the result is porous_coefficients() exactly, with k_water = 0.
-    Pore-filling modes apply first (carbon, salt, water), then the grey deposit over them.
+    Pore-filling modes apply first (carbon, salt, water), then the wet darkening, the grey
+    deposit over them and the black crust over everything; ``crust=0, wet_darkening=0`` give
+    the paper's equations exactly (SPEC 6).
     """
     modes = weathering_modes(_modes.names() if modes is None else modes)
     state = weathering_state(modes, state)

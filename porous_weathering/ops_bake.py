@@ -1,6 +1,11 @@
 """The bake operator: a thin modal wrapper over ``bake.iter_bake`` (one step per timer tick,
-progress in the window manager's progress bar, Esc cancels between steps).  Its properties
-are generated from the bake's option declarations and the map registry."""
+progress in the window manager's progress bar and the status bar, Esc cancels between steps).
+The unwrap runs in a child process and reports every tenth of a second, so the UI stays live
+and Esc stops it at once; a Cycles bake holds the UI until it ends (Blender gives a script no
+way to watch one). Its properties are generated from the bake's option declarations and the
+map registry."""
+
+import warnings
 
 import bpy
 
@@ -29,7 +34,11 @@ class BakeMapsOperator:
 
     def execute(self, context):
         try:
-            values = {entry.dest: getattr(self, entry.dest) for entry in bake.option_entries() if entry.option.ui}
+            values = {
+                entry.dest: options.operator_value(entry.option, getattr(self, entry.dest))
+                for entry in bake.option_entries()
+                if entry.option.ui
+            }
             values["maps"] = tuple(name for name in maps.names() if name in self.maps)
             values["out_dir"] = bpy.path.abspath(self.out_dir)
             chosen = bake.options_from_values(values)
@@ -49,13 +58,13 @@ class BakeMapsOperator:
 
     def modal(self, context, event):
         if event.type == "ESC":
-            self._steps.close()  # undoes the unfinished object's new lightmap UV map
+            self._steps.close()  # stops an unwrap at once; undoes the unfinished object's new lightmap
             self.report({"WARNING"}, f"Bake cancelled after {len(self._outcomes)} map(s)")
             return self._finish(context, {"CANCELLED"})
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         try:
-            step = next(self._steps)
+            step = self._next_step()
         except StopIteration:
             return self._finish(context, {"FINISHED"})
         except (ValueError, OSError, RuntimeError) as error:
@@ -66,15 +75,33 @@ class BakeMapsOperator:
 
     def _run_all(self, context):
         try:
-            for step in self._steps:
-                self._show(context, step)
+            while True:
+                self._show(context, self._next_step())
+        except StopIteration:
+            return {"FINISHED"}
         except (ValueError, OSError, RuntimeError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        return {"FINISHED"}
+
+    def _next_step(self):
+        """The next Step; the warnings the bake gave meanwhile (a scan set up wrongly, ...) are
+        reported as warnings of the operator."""
+        given = []
+        try:
+            with warnings.catch_warnings(record=True) as given:
+                warnings.simplefilter("always", UserWarning)
+                return next(self._steps)
+        finally:
+            for warning in given:
+                if issubclass(warning.category, UserWarning):
+                    self.report({"WARNING"}, str(warning.message))
+                else:  # not meant for the user: shown where it would have been
+                    warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
 
     def _show(self, context, step):
-        context.window_manager.progress_update((step.index + (step.outcome is not None)) / step.total)
+        context.window_manager.progress_update(step.fraction)
+        if context.workspace is not None:
+            context.workspace.status_text_set(f"Baking {step.message}  (Esc cancels)")
         if step.outcome is not None:
             self._outcomes.append(step.outcome)
             self.report({"INFO"}, f"{step.object}: {step.map} {step.outcome.status} ({step.outcome.where})")
@@ -83,6 +110,8 @@ class BakeMapsOperator:
         if self._timer is not None:
             context.window_manager.event_timer_remove(self._timer)
         context.window_manager.progress_end()
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
         if result == {"FINISHED"} and self.target == "image":
             bake.link_images(self._objects, self._options)
         return result

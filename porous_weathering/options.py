@@ -30,6 +30,9 @@ class Option:
     kind: str = "value"
     ui: bool = True  #: a property of the bake operator
     ui_default: Any = None  #: the operator's default, where it differs (e.g. a "//" path)
+    #: A number that may be None ("automatic", as the tooltip says): the operator, whose
+    #: properties cannot be None, shows None as this value and reads it back as None.
+    auto: Any = None
     metavar: str | None = None
     #: Command-line words -> value (argparse ``type``), for values that are not plain numbers or words.
     parse: Callable[[str], Any] | None = None
@@ -88,7 +91,7 @@ def check(instance, prefix: str = "") -> None:
     """Check every option field of a dataclass instance (``__post_init__`` calls it)."""
     for name, opt, _ in declared(instance):
         value = getattr(instance, name)
-        if value is not None or opt.kind == "value":
+        if value is not None or (opt.kind == "value" and opt.auto is None):
             check_value(prefix + opt.label.lower(), opt, value)
 
 
@@ -129,7 +132,8 @@ def add_arguments(parser: argparse.ArgumentParser, items: list[Entry]) -> None:
         opt, default = entry.option, entry.default
         if opt.flag is None:
             continue
-        kind = type(default) if isinstance(default, (int, float)) and not isinstance(default, bool) else str
+        number = default if opt.auto is None else opt.auto
+        kind = type(number) if isinstance(number, (int, float)) and not isinstance(number, bool) else str
         if opt.parse is not None:
             kind, shown = opt.parse, f" (default: {','.join(default)})" if default else ""
         elif isinstance(default, float):
@@ -170,7 +174,7 @@ def operator_properties(props, items: list[Entry]) -> dict:
         opt = entry.option
         if not opt.ui:
             continue
-        default = opt.ui_default if opt.ui_default is not None else entry.default
+        default = next((value for value in (opt.ui_default, entry.default, opt.auto) if value is not None), None)
         common = dict(name=opt.label, description=opt.tooltip + (f" ({opt.unit})" if opt.unit else ""))
         if opt.choices:
             items_ = [(str(choice), str(choice).title(), f"{opt.label}: {choice}") for choice in opt.choices]
@@ -189,3 +193,8 @@ def operator_properties(props, items: list[Entry]) -> dict:
             prop = props.StringProperty(default=default or "", **subtype, **common)
         properties[entry.dest] = prop
     return properties
+
+
+def operator_value(opt: Option, value):
+    """``value`` as read from the operator: its stand-in for None (``opt.auto``) is None again."""
+    return None if opt.auto is not None and value == opt.auto else value

@@ -34,7 +34,7 @@ def shadowing_k(m):
 def shadowing_g(xp, x, k):
     """One factor of G_p, eq. (4): x / (x(1-k) + k), 0 at x = 0 even when k = 0."""
     x = xp.clip(x, 0.0, 1.0)
-    return x / xp.maximum(x * (1.0 - k) + k, EPSILON)
+    return x / xp.maximum(xp.multiply_add(x, 1.0 - k, k), EPSILON)
 
 
 def ambient_g(xp, k):
@@ -44,8 +44,10 @@ def ambient_g(xp, k):
 
 
 def bounce_count(xp, sp, theta_i, theta_r):
-    """n_b, eq. (6): mean number of bounces inside a pore, never negative."""
-    return xp.maximum(0.0, sp * (3.7 - 2.0 * ((theta_i + theta_r) / 2.0 - 2.0 * math.pi / (sp + 6.0))))
+    """n_b, eq. (6): mean number of bounces inside a pore, never negative.  Written as
+    s_p (3.7 + 4 pi / (s_p + 6)) - s_p (theta_i + theta_r), so that a shader folds the first
+    term of a constant s_p and evaluates three operations per point."""
+    return xp.maximum(0.0, sp * (3.7 + 4.0 * math.pi / (sp + 6.0)) - sp * (theta_i + theta_r))
 
 
 def pore_absorption(xp, ka, nb):
@@ -54,9 +56,11 @@ def pore_absorption(xp, ka, nb):
 
 
 def porous_weights(xp, kd, ks, alpha, gp, ap):
-    """(k_d,poro, k_s,poro), eqs. (2) and (3)."""
+    """(k_d,poro, k_s,poro), eqs. (2) and (3); eq. (3) gathered as
+    k_d + alpha G_p ((1 - A_p)(k_d + k_s) - k_d), which takes a shader three operations per
+    point (1 - A_p is the pore's power term itself, so no node computes 1 - A_p)."""
     pore = xp.channel(alpha * gp)
-    kd_poro = kd * (1.0 - pore * ap) + xp.channel(ks) * pore * (1.0 - ap)
+    kd_poro = xp.multiply_add(pore, (1.0 - ap) * (kd + xp.channel(ks)) - kd, kd)
     ks_poro = ks * (1.0 - alpha * gp)
     return kd_poro, ks_poro
 

@@ -2,11 +2,14 @@
 
 Porosity alpha is picked inside the open-porosity range that handbooks give for each
 material; the pore aspect s_p, the colour k_d, k_s and the roughness m are this project's
-picks.  docs/presets.md gives the source of every range and the reasoning behind each pick.
+picks; a stone may also set the weathering inputs the panel shows (the black crust).
+docs/presets.md gives the source of every range and value and the reasoning behind each pick.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
+
+from . import modes as weathering_modes
 
 if TYPE_CHECKING:
     import bpy
@@ -22,6 +25,16 @@ class Preset:
     ks: float
     roughness: float  #: m
     description: str
+    #: Panel weathering inputs this stone sets ({"crust": 0.75}); the others keep the API defaults.
+    weathering: dict = field(default_factory=dict)
+
+    def panel_weathering(self) -> dict:
+        """{input: value} of every weathering input the panel shows: this stone's, else the default."""
+        return {
+            item.name: self.weathering.get(item.name, item.default)
+            for item in weathering_modes.inputs().values()
+            if item.panel
+        }
 
     def material_params(self):
         """The keyword arguments of make_porous_material (and make_weathered_material) it gives."""
@@ -52,6 +65,7 @@ PRESETS = {
         0.04,
         0.7,
         "Buff quartz sandstone: medium porosity, grainy and matt",
+        weathering=dict(crust=0.75),
     ),
     "LIMESTONE": Preset(
         "Limestone",
@@ -72,6 +86,7 @@ PRESETS = {
         0.10,
         0.2,
         "Honed white marble: almost no open pores, slightly glossy",
+        weathering=dict(crust=0.9),
     ),
     "BRICK": Preset(
         "Fired-Clay Brick",
@@ -82,6 +97,7 @@ PRESETS = {
         0.03,
         0.8,
         "Red fired-clay brick: highly porous, deep capillary pores",
+        weathering=dict(crust=0.6),
     ),
     "TERRACOTTA": Preset(
         "Terracotta",
@@ -92,6 +108,7 @@ PRESETS = {
         0.05,
         0.6,
         "Unglazed terracotta: finer and smoother than brick",
+        weathering=dict(crust=0.65),
     ),
     "PLASTER": Preset(
         "Lime Plaster",
@@ -104,7 +121,15 @@ PRESETS = {
         "Lime plaster or render: very porous, chalky white",
     ),
     "CONCRETE": Preset(
-        "Concrete", 0.12, (0.10, 0.20), 1.5, "#969691", 0.05, 0.7, "Ordinary Portland-cement concrete, grey and matt"
+        "Concrete",
+        0.12,
+        (0.10, 0.20),
+        1.5,
+        "#969691",
+        0.05,
+        0.7,
+        "Ordinary Portland-cement concrete, grey and matt",
+        weathering=dict(crust=0.7),
     ),
 }
 

@@ -10,13 +10,27 @@ class ProgressBar:
 
     def __init__(self, label, stream=None):
         self.label, self.stream = label, stream or sys.stderr
+        self._drawn = ""  # the bar's line as drawn, until it is ended
 
     def __call__(self, fraction, message):
         filled = int(round(fraction * self.WIDTH))
-        self.stream.write(
-            f"\r{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {fraction:4.0%} {message:40.40}"
-        )
+        self._drawn = f"{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {fraction:4.0%} {message:40.40}"
+        self.stream.write(f"\r{self._drawn}")
         self.stream.flush()
 
+    def print(self, line, file=None):
+        """Print ``line`` (to stdout) in the bar's place, and draw the bar again after it."""
+        if self._drawn:
+            self.stream.write(f"\r{' ' * len(self._drawn)}\r")
+            self.stream.flush()
+        print(line, file=file or sys.stdout, flush=True)
+        if self._drawn:
+            self.stream.write(self._drawn)
+            self.stream.flush()
+
     def finish(self):
-        self.stream.write("\n")
+        """End the bar's line, if one is drawn, so that what follows starts a line of its own."""
+        if self._drawn:
+            self.stream.write("\n")
+            self.stream.flush()
+            self._drawn = ""

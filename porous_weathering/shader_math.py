@@ -62,14 +62,24 @@ class Graph:
         vector = any(isinstance(x, Expr) and x.kind == VECTOR for x in operands)
         if vector and operation == "POWER":
             raise TypeError("use Graph.power_rgb for a colour base")
+        if operation == "SUBTRACT" and operands[0] == 1.0 and getattr(operands[1], "complement", None) is not None:
+            return operands[1].complement  # 1 - (1 - y) is y: no node
         key = (operation, *(x.socket.as_pointer() if isinstance(x, Expr) else x for x in operands))
         if key not in self._made:
             kind = SCALAR if operation in _VECTOR_TO_SCALAR or not vector else VECTOR
             bl_idname = "ShaderNodeVectorMath" if vector else "ShaderNodeMath"
             output = "Vector" if vector and operation not in _VECTOR_TO_SCALAR else "Value"
             node = self.node(bl_idname, list(operands), operation=operation)
-            self._made[key] = Expr(self, node.outputs[output], kind)
+            made = Expr(self, node.outputs[output], kind)
+            if operation == "SUBTRACT" and operands[0] == 1.0:
+                made.complement = operands[1]
+            self._made[key] = made
         return self._made[key]
+
+    def clamp01(self, x):
+        """x clamped to [0, 1] by one Math node: max(x, 0) with the node's own output clamp."""
+        node = self.node("ShaderNodeMath", [x, 0.0], operation="MAXIMUM", use_clamp=True)
+        return Expr(self, node.outputs["Value"], SCALAR, bounds=(0.0, 1.0))
 
     def power_rgb(self, base, exponent):
         """base^exponent per colour channel (Gamma node; 0^x stays 0, as for 0 < x)."""
@@ -98,11 +108,12 @@ class Expr:
     """An output socket in a Graph, with Python operators that add nodes.
 
     ``bounds`` is the (low, high) range the value is known to lie in, or None: clip() of an
-    Expr already inside the range adds no nodes.
+    Expr already inside the range adds no nodes.  ``complement`` is y when this is 1 - y.
     """
 
     def __init__(self, graph, socket, kind, bounds=None):
         self.graph, self.socket, self.kind, self.bounds = graph, socket, kind, bounds
+        self.complement = None
 
     def __add__(self, other):
         return self.graph.math("ADD", self, other)
@@ -138,13 +149,39 @@ def minimum(a, b):
 
 
 def clip(x, low, high):
-    """x clamped to [low, high] (two nodes; MIN/MAX also replace NaN by the bound in Cycles)."""
+    """x clamped to [low, high]: one node for a scalar into [0, 1], else two (MIN/MAX, which
+    also replace NaN by the bound in Cycles, as the Math node's clamp does)."""
     if not isinstance(x, Expr):
         return min(max(x, low), high)
     if x.bounds is not None and low <= x.bounds[0] and x.bounds[1] <= high:
         return x
+    if x.kind == SCALAR and (low, high) == (0.0, 1.0):
+        return x.graph.clamp01(x)
     clipped = minimum(maximum(x, low), high)
     return Expr(x.graph, clipped.socket, clipped.kind, bounds=(low, high))
+
+
+def multiply_add(a, b, c):
+    """a * b + c in one Math or Vector Math node."""
+    graph = _graph_of(a, b, c)
+    return a * b + c if graph is None else graph.math("MULTIPLY_ADD", a, b, c)
+
+
+def smoothstep(edge0, edge1, x):
+    """0 below edge0, 1 above edge1, 3t^2 - 2t^3 between (t = (x - edge0) / (edge1 - edge0)):
+    one Map Range node, where clamping and the cubic would take eight Math nodes."""
+    graph = _graph_of(edge0, edge1, x)
+    if graph is None:
+        t = min(max((x - edge0) / (edge1 - edge0), 0.0), 1.0)
+        return t * t * (3.0 - 2.0 * t)
+    node = graph.node(
+        "ShaderNodeMapRange",
+        {"Value": x, "From Min": edge0, "From Max": edge1, "To Min": 0.0, "To Max": 1.0},
+        data_type="FLOAT",
+        interpolation_type="SMOOTHSTEP",
+        clamp=True,
+    )
+    return Expr(graph, node.outputs["Result"], SCALAR, bounds=(0.0, 1.0))
 
 
 def arccos(x):

@@ -35,9 +35,10 @@ def make_weathered_material(
 
     ``modes`` is any of the registered modes ("soiling", "wet", "efflorescence"); the material
     has the nodes of those modes only.  ``weathering`` sets their inputs (``time``, the levels,
-    colours, thresholds); each mask input (``rain_map``, ``edge_map``, ``efflorescence_map``)
-    is a number, a ``bpy.types.Image``, an image file path (a
-    string ending in an image extension or containing a path separator) or the name of a
+    colours, thresholds, and the extensions beyond the paper ``crust`` and ``wet_darkening``,
+    whose 0 renders the paper's equations exactly); each mask input (``rain_map``,
+    ``edge_map``, ``efflorescence_map``) is a number, a ``bpy.types.Image``, an image file path
+    (a string ending in an image extension or containing a path separator) or the name of a
     colour attribute.  Out-of-range values are clamped and a missing image becomes the
     mask's default constant, each with a PorousInputWarning; the material never renders
     NaN or the missing-texture pink.  ``water_roughness`` is the water lobe's roughness.

@@ -59,5 +59,22 @@ if [ ! -x "$PW_VENV/bin/python" ] || ! cmp -s "$PW_REQUIREMENTS" "$PW_VENV/.requ
         || { echo "the environment in $PW_VENV does not import" >&2; exit 1; }
     cp "$PW_REQUIREMENTS" "$PW_VENV/.requirements"
 fi
+
+# The Khronos glTF validator (npm package gltf-validator), which the export tests run on every
+# exported file: installed beside the virtual environment (made again with it) when npm exists;
+# without it those tests skip and say so.
+PW_GLTF_VALIDATOR_VERSION=2.0.0-dev.3.10
+pw_gltf_validator() {
+    local folder="$PW_VENV/node" manifest="$PW_VENV/node/node_modules/gltf-validator/package.json"
+    command -v npm >/dev/null 2>&1 || return 0
+    if [ -f "$manifest" ] && grep -q "\"version\": \"$PW_GLTF_VALIDATOR_VERSION\"" "$manifest"; then
+        return 0
+    fi
+    echo "installing gltf-validator $PW_GLTF_VALIDATOR_VERSION (npm) into $folder"
+    npm install --prefix "$folder" --no-save --no-audit --no-fund --loglevel=error \
+        "gltf-validator@$PW_GLTF_VALIDATOR_VERSION" >/dev/null \
+        || echo "warning: gltf-validator could not be installed: the export tests skip the validator" >&2
+}
+pw_gltf_validator
 PW_PY="$PW_VENV/bin/python"
 export PW_BLENDER PW_PY PW_ROOT

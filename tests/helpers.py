@@ -9,12 +9,18 @@
 - ``STONE``, ``weathered``, ``lobes``, ``model_weights``, ``expected_image``: a weathered stone
   and the image model.weathered_coefficients predicts for it, k_d D + k_s G + k_water W (W: a
   white GGX of the water's roughness).
+- ``paper_modes``: the modes as the paper writes them, without the layers beyond it (SPEC 6).
 """
+
+import contextlib
+import dataclasses
 
 import numpy as np
 
 import porous_weathering as pw
 from porous_weathering import model, render, studio, weathering
+from porous_weathering import modes as weathering_modes
+from porous_weathering.modes import soiling, wet
 
 #: Cycles evaluates the node maths in float32 and stores float32 EXR: agreement to 1e-4
 #: of the brightest pixel is far tighter than anything visible (1/255 = 4e-3).
@@ -122,3 +128,28 @@ def model_weights(modes, n_dot_l, n_dot_v, **state):
     return model.weathered_coefficients(
         p["base_color"], p["ks"], p["roughness"], p["porosity"], p["pore_depth_ratio"], n_dot_l, n_dot_v, modes, **state
     )
+
+
+#: The layers beyond the paper (SPEC 6): the black crust and the wet darkening.
+BEYOND_PAPER = (soiling.lay_crust, wet.darken_under_water)
+
+
+@contextlib.contextmanager
+def paper_modes(names):
+    """Registers, for the block, each mode of ``names`` as the paper writes it: its own record
+    without the layers beyond the paper, named "paper_<mode>". Yields those names."""
+    records = [
+        dataclasses.replace(
+            weathering_modes.get(name),
+            name=f"paper_{name}",
+            layers=tuple(layer for layer in weathering_modes.get(name).layers if layer.apply not in BEYOND_PAPER),
+        )
+        for name in names
+    ]
+    for record in records:
+        weathering_modes.register(record)
+    try:
+        yield tuple(record.name for record in records)
+    finally:
+        for record in records:
+            weathering_modes.unregister(record.name)

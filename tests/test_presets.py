@@ -1,14 +1,18 @@
-"""Every preset builds a valid porous material with its documented values."""
+"""Every preset builds a valid porous material with its documented values, and sets the
+black crust that reproduces the measured crust."""
 
 import pathlib
 import warnings
 
 import bpy
 
+import numpy as np
 import pytest
 
 import porous_weathering as pw
 from porous_weathering import model, nodes
+from porous_weathering import modes as weathering_modes
+from porous_weathering.modes import soiling
 from porous_weathering.presets import PRESETS
 
 DOCS = pathlib.Path(__file__).resolve().parent.parent / "docs" / "presets.md"
@@ -70,3 +74,61 @@ def test_docs_give_each_presets_values(key):
     cells = [cell.strip() for cell in row.strip("|").split("|")]
     assert f"{preset.porosity:g}" in cells and f"{preset.pore_depth_ratio:g}" in cells
     assert preset.base_color in cells
+
+
+LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+def black_point_luminance(preset, crust, time=1.0):
+    """Luminance of k_d + k_s of the preset's fully developed black point (sheltered, edge mask
+    1, level 1) at ``time``, seen face on under ambient light: what a spectrophotometer reads."""
+    params = preset.material_params()
+    kd_w, ks_w, _ = model.weathered_coefficients(
+        params["base_color"][:3],
+        params["ks"],
+        params["roughness"],
+        params["porosity"],
+        params["pore_depth_ratio"],
+        None,
+        1.0,
+        (model.SOILING,),
+        time=time,
+        rain_map=0.0,
+        edge_map=1.0,
+        crust=crust,
+    )
+    return float(LUMA @ kd_w + ks_w)
+
+
+def test_default_crust_reproduces_the_measured_crust_on_limestone():
+    limestone = PRESETS["LIMESTONE"]
+    ratio = black_point_luminance(limestone, soiling.CRUST_DEFAULT) / black_point_luminance(limestone, 0.0, time=0.0)
+    assert ratio == pytest.approx(soiling.CRUST_REFLECTANCE_RATIO, abs=0.01)
+
+
+@pytest.mark.parametrize("key", PRESETS)
+def test_preset_crust_reflects_what_the_measured_crust_reflects(key):
+    """The crust is one material whatever it grows on: every preset's fully developed black
+    point has the luminance of the crusted limestone of the measurement (docs/presets.md)."""
+    crust = PRESETS[key].panel_weathering()["crust"]
+    limestone = PRESETS["LIMESTONE"]
+    measured = soiling.CRUST_REFLECTANCE_RATIO * black_point_luminance(limestone, 0.0, time=0.0)
+    assert black_point_luminance(PRESETS[key], crust) == pytest.approx(measured, abs=0.015)
+
+
+@pytest.mark.parametrize("key", PRESETS)
+def test_preset_weathering_values_are_panel_inputs_in_range(key):
+    panel = {item.name: item for item in weathering_modes.inputs().values() if item.panel}
+    for name, value in PRESETS[key].weathering.items():
+        assert name in panel, f"{key} sets {name!r}, which the panel does not show"
+        assert panel[name].low <= value <= panel[name].high
+
+
+@pytest.mark.parametrize("key", PRESETS)
+def test_docs_give_each_presets_weathering_values(key):
+    preset = PRESETS[key]
+    rows = [line for line in DOCS.read_text().splitlines() if line.startswith(f"| {preset.label} |")]
+    assert len(rows) == 2, f"docs/presets.md needs a material row and a weathering row for {preset.label}"
+    cells = [cell.strip() for cell in rows[1].strip("|").split("|")]
+    values = preset.panel_weathering()
+    assert cells[1].split()[0] == f"{values['crust']:g}" and cells[2].split()[0] == f"{values['wet_darkening']:g}"

@@ -172,7 +172,7 @@ def test_overlapping_user_map_is_not_reused(fresh_scene):
     square = np.tile(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32), (6, 1))
     mesh.uv_layers["UVMap"].data.foreach_set("uv", square.ravel())
     corners, _ = uv.triangle_corners(mesh)
-    assert uv.overlapping_texels(square[corners], 16) == 16 * 16 - 16  # centres on the shared diagonal excluded
+    assert uv.overlapping_texels(square[corners], 16) == 16 * 16  # six faces on each centre (a diagonal's: once each)
     assert uv.find_bakeable_uv_map(mesh, 16) is None
 
 

@@ -19,7 +19,8 @@ PACKAGE = ROOT / "porous_weathering"
 
 #: Ways Python code can run code it did not ship with (a .blend's text blocks, strings).
 EXECUTES_STORED_CODE = re.compile(
-    r"\b(exec|eval|compile|execfile|__import__)\s*\(|\.as_module\(|\brunpy\b|"
+    # the builtins, not a method of that name (re.compile builds a pattern, it runs no code)
+    r"(?<!\.)\b(exec|eval|compile|execfile|__import__)\s*\(|\.as_module\(|\brunpy\b|"
     r"\bpickle\b|\bmarshal\b|bpy\.data\.texts|driver_namespace|use_scripts\s*=\s*True|"
     r"text\.as_string|bpy\.ops\.text\.run_script"
 )
@@ -91,6 +92,7 @@ def test_the_code_scan_would_catch_stored_code_being_run():
         "eval (expr)",
         "bpy.data.texts['x'].as_module()",
         "mod = __import__(name)",
+        "code = compile(text, 'x', 'exec')",
         "bpy.ops.wm.open_mainfile(filepath=p, use_scripts=True)",
         "bpy.app.driver_namespace['f'] = f",
     ):

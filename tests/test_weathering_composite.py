@@ -27,6 +27,8 @@ from porous_weathering import bake, model, rain, render, studio, weathering
 #: so carbon in them would hardly show (docs/weathering.md).
 STONE = dict(base_color=(0.62, 0.55, 0.45), ks=0.05, roughness=0.3, porosity=0.5, pore_depth_ratio=0.5)
 LATE = dict(time=1.0, rain_threshold=0.5)
+#: The paper's equations alone (SPEC 6): no black crust.
+PAPER_EXACT = dict(crust=0.0)
 #: Rain driven from the front (-Y) at 40 degrees from the vertical: the open wall gets E = sin 40.
 WIND = rain.RainSettings(wind_azimuth=-90.0, wind_tilt=40.0, samples=16)
 #: Sun low in front, a little below the cornice, so the sheltered band is lit, not in its shadow.
@@ -172,9 +174,11 @@ def renders():
         masks=composite.masks,
         clean=soiled(composite, time=0.0),
         late=soiled(composite, **LATE),
+        paper=soiled(composite, **LATE, **PAPER_EXACT),
         lit=lit,
         model_clean=model_image(composite, lobe_images, time=0.0),
         model_late=model_image(composite, lobe_images, **LATE),
+        model_paper=model_image(composite, lobe_images, **LATE, **PAPER_EXACT),
         areas={name: area & lit for name, area in areas.items()},
     )
 
@@ -198,8 +202,10 @@ def test_baked_masks_put_each_area_where_spec_says(renders):
 
 
 def test_render_matches_model_pixel_by_pixel(renders):
-    for name in ("clean", "late"):
+    """Clean, late with the API's defaults (the black crust on), late with the paper-exact setting."""
+    for name in ("clean", "late", "paper"):
         assert_matches(renders[name], renders[f"model_{name}"], renders["lit"])
+    assert np.abs(renders["late"] - renders["paper"])[renders["areas"]["black"]].max() > 0.02, "the crust shows"
 
 
 def test_white_grey_and_black_areas_at_late_time(renders):

@@ -1,5 +1,6 @@
 """The weathering section of model.py (SPEC 4): exactness at t = 0, bounds and monotone aging;
-and the efflorescence location maps."""
+the extensions beyond the paper (SPEC 6: black crust, wet darkening) and their paper-exact
+settings; and the efflorescence location maps."""
 
 import warnings
 
@@ -10,7 +11,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from helpers import paper_modes
 from porous_weathering import efflorescence_map, imageio, model
+from porous_weathering.modes import wet
 
 SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 TIMES = np.linspace(0.0, 1.0, 41)
@@ -45,6 +48,8 @@ def masks(draw):
         efflorescence_map=draw(unit),
         front_width=draw(st.floats(0.01, 1.0)),
         rain_threshold=draw(unit),
+        crust=draw(unit),
+        wet_darkening=draw(unit),
     )
 
 
@@ -61,6 +66,10 @@ def weathered(stone, modes, **state):
         modes,
         **{name: value for name, value in state.items() if name in used},
     )
+
+
+#: The settings under which the extensions beyond the paper (SPEC 6) vanish.
+PAPER_EXACT = dict(crust=0.0, wet_darkening=0.0)
 
 
 def over_time(stone, modes, **state):
@@ -119,11 +128,12 @@ def test_efflorescence_whitens(stone, state, salt):
 
 
 def test_each_mode_changes_what_the_paper_says():
-    """Soaked pores: eq. (9) diffuse and a water lobe; salt-filled: eq. (11) with s_p = 0;
-    carbon-filled: eq. (7) with s_p = 0, under no deposit (smooth stone, m = 0)."""
+    """With the paper-exact settings (crust = 0, wet_darkening = 0): soaked pores: eq. (9)
+    diffuse and a water lobe; salt-filled: eq. (11) with s_p = 0; carbon-filled: eq. (7) with
+    s_p = 0, under no deposit (smooth stone, m = 0)."""
     kd, ks, alpha = np.array([0.6, 0.5, 0.4]), 0.1, 0.3
     stone = dict(kd=kd, ks=ks, m=0.0, alpha=alpha, sp=3.0, n_dot_l=0.8, n_dot_v=0.9)
-    full = dict(time=1.0, front_width=0.1)
+    full = dict(time=1.0, front_width=0.1, **PAPER_EXACT)
     gp = 1.0  # m = 0: no shadowing at all
     kd_w, ks_w, water_w = weathered(stone, model.WET, rain_map=1.0, **full)
     assert np.allclose(kd_w, kd * (1 - alpha * gp)) and np.allclose(water_w, alpha * gp)
@@ -145,6 +155,93 @@ def test_white_area_stays_clean_and_grey_area_takes_the_deposit():
     coverage = 0.8 / (0.8 + model.DEPOSIT_HALF_ROUGHNESS)
     assert np.allclose(grey[0], clean[0] + coverage * (deposit - clean[0]))
     assert np.isclose(grey[1], clean[1] * (1 - coverage))
+
+
+# --- beyond the paper (SPEC 6): black crust and wet darkening ------------------------------
+
+
+@SETTINGS
+@given(stone=stones(), state=masks(), time=unit, modes=st.sampled_from(MODE_SETS))
+def test_paper_exact_settings_are_the_paper_bit_for_bit(stone, state, time, modes):
+    """crust = 0 and wet_darkening = 0 give, bit for bit, the modes without the layers beyond
+    the paper (their records as the paper writes them)."""
+    with paper_modes(modes) as paper:
+        extended = weathered(stone, modes, time=time, **{**state, **PAPER_EXACT})
+        as_paper = weathered(stone, paper, time=time, **state)
+    for got, want in zip(extended, as_paper):
+        assert np.array_equal(got, want)
+
+
+def fresnel(cos_i, n):
+    """Unpolarised Fresnel reflectance from air into a medium of index ``n``."""
+    cos_t = np.sqrt(1.0 - (1.0 - cos_i**2) / n**2)
+    rs = (cos_i - n * cos_t) / (cos_i + n * cos_t)
+    rp = (n * cos_i - cos_t) / (n * cos_i + cos_t)
+    return (rs**2 + rp**2) / 2.0
+
+
+def test_water_mean_reflectance_is_the_hemispherical_fresnel_integral():
+    """r̄ = 2 ∫ F(θ) cos θ sin θ dθ = 2 ∫_0^1 F(μ) μ dμ (64-point Gauss-Legendre in μ = cos θ)."""
+    nodes, weights = np.polynomial.legendre.leggauss(64)
+    mu = (nodes + 1.0) / 2.0
+    r_mean = np.sum(weights / 2.0 * 2.0 * fresnel(mu, wet.WATER_INDEX) * mu)
+    assert wet.WATER_MEAN_REFLECTANCE == pytest.approx(r_mean, abs=1e-13)
+    assert fresnel(1.0, wet.WATER_INDEX) < r_mean < 0.07  # more than at normal incidence
+    assert wet.WATER_INTERNAL_REFLECTANCE == pytest.approx(0.4746, abs=5e-5)  # docs/model.md
+
+
+def test_wet_darkening_is_lekner_and_dorf():
+    """Over the water-covered fraction w = wet_darkening x water fill, eq. (9)'s diffuse is
+    multiplied by (1 - w) + w (1 - p) / (1 - p k_d) per channel; nothing else changes."""
+    p = wet.WATER_INTERNAL_REFLECTANCE
+    kd, alpha = np.array([0.6, 0.3, 0.1]), 0.3
+    stone = dict(kd=kd, ks=0.1, m=0.0, alpha=alpha, sp=3.0, n_dot_l=0.8, n_dot_v=0.9)
+    for rain_map, fill in ((1.0, 1.0), (0.05, 0.5)):  # soaked, and half full (time 1, width 0.1)
+        state = dict(time=1.0, front_width=0.1, rain_map=rain_map)
+        assert model.pore_fill(rain_map, 1.0, 1.0, 0.1) == fill
+        paper = weathered(stone, model.WET, wet_darkening=0.0, **state)
+        for strength in (1.0, 0.4):
+            covered = strength * fill
+            kd_w, ks_w, water_w = weathered(stone, model.WET, wet_darkening=strength, **state)
+            assert np.allclose(kd_w, paper[0] * ((1 - covered) + covered * (1 - p) / (1 - p * kd)), rtol=1e-14)
+            assert ks_w == paper[1] and np.array_equal(water_w, paper[2])
+    soaked = weathered(stone, model.WET, wet_darkening=1.0, time=1.0, front_width=0.1, rain_map=1.0)
+    assert np.allclose(soaked[0], kd * (1 - alpha) * (1 - p) / (1 - p * kd))
+    darkening = soaked[0] / (kd * (1 - alpha))
+    assert darkening[0] > darkening[1] > darkening[2]  # dark channels darken more: colours deepen
+
+
+def test_crust_covers_a_fully_black_point_with_its_coverage():
+    """At t = 1, level 1, a fully black point (sheltered, edge mask 1): c = crust exactly, laid
+    over all beneath: k_d -> k_d,pollution by c, k_s and the water lobe lose c."""
+    stone = dict(kd=np.array([0.6, 0.5, 0.4]), ks=0.1, m=0.6, alpha=0.3, sp=2.0, n_dot_l=0.7, n_dot_v=0.9)
+    pollution = np.array([0.02, 0.03, 0.04])
+    # E = 0.2: sheltered (threshold 0.5 - width 0.25) yet wet (the water front has reached E = 0)
+    black = dict(time=1.0, rain_map=0.2, edge_map=1.0, pollution_color=pollution)
+    modes = (model.SOILING, model.WET, model.EFFLORESCENCE)
+    beneath = weathered(stone, modes, crust=0.0, efflorescence_map=0.9, **black)
+    assert beneath[2].min() > 0.0, "the water lobe lies beneath the crust too"
+    for crust in (1.0, 0.35):
+        kd_w, ks_w, water_w = weathered(stone, modes, crust=crust, efflorescence_map=0.9, **black)
+        assert np.allclose(kd_w, (1 - crust) * beneath[0] + crust * pollution, rtol=1e-14)
+        assert ks_w == pytest.approx((1 - crust) * beneath[1], rel=1e-14)
+        assert np.allclose(water_w, (1 - crust) * beneath[2], rtol=1e-14)
+
+
+def test_crust_grows_behind_the_carbon_front():
+    """c = crust x sheltered x smoothstep((C - (1 - level t) - w) / (1 - w)): none until a point's
+    pores are full (there the result is the crust-free one bit for bit), then a second front."""
+    stone = dict(kd=np.array([0.6, 0.5, 0.4]), ks=0.1, m=0.6, alpha=0.3, sp=2.0, n_dot_l=0.7, n_dot_v=0.9)
+    edge, width, time, level, crust = np.array([0.4, 0.6, 0.8, 1.0]), 0.25, 0.9, 0.8, 0.7
+    state = dict(time=time, soiling_level=level, rain_map=0.35, edge_map=edge, front_width=width)
+    sheltered = (0.5 - 0.35) / width  # E = 0.35 below the default threshold 0.5
+    _, bare, _ = weathered(stone, model.SOILING, crust=0.0, **state)
+    kd_w, ks_w, _ = weathered(stone, model.SOILING, crust=crust, **state)
+    progress = np.clip((edge - (1 - level * time) - width) / (1 - width), 0.0, 1.0)
+    expected = crust * sheltered * progress**2 * (3 - 2 * progress)
+    assert np.allclose(1.0 - ks_w / bare, expected, rtol=1e-12, atol=1e-15)
+    assert 0.0 < model.pore_fill(edge[0], time, level, width) < 1.0 and ks_w[0] == bare[0] and expected[1:].all()
+    assert np.array_equal(kd_w[0], weathered(stone, model.SOILING, crust=0.0, **state)[0][0])
 
 
 def test_fill_curve_has_three_phases():

@@ -3,7 +3,9 @@
 A weathered pixel must equal k_d D + k_s G + k_water W, where D, G and W are renders of a
 white Lambert, a white GGX of the stone's roughness and a white GGX of the water's
 roughness, and the weights come from model.weathered_coefficients at that pixel's normal
-and mask values (read from probe renders).
+and mask values (read from probe renders).  Each state renders with the API's defaults (the
+extensions beyond the paper on: black crust, wet darkening) and with the paper-exact settings
+(crust = 0, wet_darkening = 0), which must also render bit for bit as the paper's modes do.
 """
 
 import bpy
@@ -21,39 +23,85 @@ from helpers import (
     expected_image,
     lobes,
     model_weights,
+    paper_modes,
     weathered,
 )
 from porous_weathering import model, nodes, studio, weathering
 
-#: Mask values that leave every fill partial, so each term of each mode shows.
+#: Mask values that leave every fill partial, so each term of each mode shows ("soiling crust":
+#: carbon-full pores under a partial crust, on the fringe of the white area).
 STATES = {
     "soiling": dict(time=0.45, rain_map=0.35, edge_map=0.75, pollution_color=(0.05, 0.04, 0.03)),
+    "soiling crust": dict(time=0.9, rain_map=0.35, edge_map=0.9, crust=0.7, pollution_color=(0.05, 0.04, 0.03)),
     "wet": dict(time=0.6, rain_map=0.55, water_specular=0.9),
     "efflorescence": dict(time=0.5, efflorescence_map=0.62, salt_color=(0.85, 0.8, 0.75)),
-    "soiling+wet+efflorescence": dict(time=0.7, rain_map=0.4, edge_map=0.6, efflorescence_map=0.5),
+    "soiling+wet+efflorescence": dict(time=0.9, rain_map=0.3, edge_map=0.9, efflorescence_map=0.8),
 }
+#: The settings under which the extensions beyond the paper (SPEC 6) vanish.
+PAPER_EXACT = dict(crust=0.0, wet_darkening=0.0)
 
 
-@pytest.mark.parametrize("modes", list(STATES))
-def test_key_light_matches_model(fresh_scene, modes):
+def modes_of(state_name):
+    return state_name.split(" ")[0].split("+")
+
+
+def settings_of(modes, state_name, paper):
+    """The state, with the paper-exact settings of ``modes`` if ``paper``."""
+    extra = {name: value for name, value in PAPER_EXACT.items() if name in model.inputs_of(modes)} if paper else {}
+    return {**STATES[state_name], **extra}
+
+
+@pytest.mark.parametrize("paper", [False, True], ids=["defaults", "paper-exact"])
+@pytest.mark.parametrize("state_name", list(STATES))
+def test_key_light_matches_model(fresh_scene, state_name, paper):
+    modes = modes_of(state_name)
+    state = settings_of(modes, state_name, paper)
     sphere = LitSphere(fresh_scene)
-    image = sphere.render(weathered("Weathered", modes.split("+"), key_light=sphere.sun, **STATES[modes]))
+    image = sphere.render(weathered("Weathered", modes, key_light=sphere.sun, **state))
     n_dot_l, n_dot_v = sphere.cosines()
-    expected = expected_image(
-        model_weights(modes.split("+"), n_dot_l, n_dot_v, **STATES[modes]), lobes(sphere.render, STONE["roughness"])
-    )
+    expected = expected_image(model_weights(modes, n_dot_l, n_dot_v, **state), lobes(sphere.render, STONE["roughness"]))
     assert_matches(image, expected, sphere.covered & (n_dot_l > 0.0))
 
 
-def test_ambient_matches_model(fresh_scene):
-    modes = "soiling+wet+efflorescence"
+@pytest.mark.parametrize("paper", [False, True], ids=["defaults", "paper-exact"])
+def test_ambient_matches_model(fresh_scene, paper):
+    state_name = "soiling+wet+efflorescence"
+    modes = modes_of(state_name)
+    state = settings_of(modes, state_name, paper)
     sphere = LitSphere(fresh_scene)
-    image = sphere.render(weathered("Weathered", modes.split("+"), **STATES[modes]))
+    image = sphere.render(weathered("Weathered", modes, **state))
     n_dot_l, n_dot_v = sphere.cosines()
-    expected = expected_image(
-        model_weights(modes.split("+"), None, n_dot_v, **STATES[modes]), lobes(sphere.render, STONE["roughness"])
-    )
+    expected = expected_image(model_weights(modes, None, n_dot_v, **state), lobes(sphere.render, STONE["roughness"]))
     assert_matches(image, expected, sphere.covered & (n_dot_l > 0.0))
+
+
+def test_extensions_show_at_their_defaults(fresh_scene):
+    """The states above do exercise the crust and the wet darkening: at the API's defaults the
+    model's pixels differ from the paper-exact ones by far more than the render tolerance."""
+    sphere = LitSphere(fresh_scene, size=16)
+    n_dot_l, n_dot_v = sphere.cosines()
+    lit = sphere.covered & (n_dot_l > 0.0)
+    for state_name in ("soiling crust", "wet", "soiling+wet+efflorescence"):
+        modes = modes_of(state_name)
+        defaults, paper = (model_weights(modes, n_dot_l, n_dot_v, **settings_of(modes, state_name, p)) for p in (0, 1))
+        assert np.abs(defaults[0] - paper[0])[lit].min() > 0.01, state_name
+
+
+@pytest.mark.parametrize("light", ["key", "ambient"])
+def test_paper_exact_settings_render_the_paper_bit_for_bit(fresh_scene, light):
+    """crust = 0 and wet_darkening = 0 render exactly what the modes without the layers beyond
+    the paper render (the groups built from their records as the paper writes them)."""
+    sphere = LitSphere(fresh_scene, size=32)
+    key_light = sphere.sun if light == "key" else None
+    state = {**STATES["soiling+wet+efflorescence"], **PAPER_EXACT}
+    with paper_modes(model.MODES) as paper:
+        as_paper = sphere.render(weathered("Paper", paper, key_light=key_light, **state))
+    extended = sphere.render(weathered("Extended", model.MODES, key_light=key_light, **state))
+    assert np.array_equal(extended, as_paper)
+    with_defaults = sphere.render(
+        weathered("Defaults", model.MODES, key_light=key_light, **STATES["soiling+wet+efflorescence"])
+    )
+    assert np.abs(with_defaults - as_paper).max() > 0.01  # the comparison can tell them apart
 
 
 @pytest.mark.parametrize("light", ["key", "ambient"])
@@ -141,6 +189,8 @@ def test_materials_hold_only_their_modes_nodes():
     assert {"Edge Map", "Pollution Color"} <= inputs[("soiling",)] and "Salt Color" not in inputs[("soiling",)]
     assert "Rain Map" in inputs[("wet",)] and "Edge Map" not in inputs[("wet",)]
     assert "Rain Map" not in inputs[("efflorescence",)]
+    assert "Crust" in inputs[("soiling",)] and "Wet Darkening" in inputs[("wet",)]  # contract (issue 13)
+    assert "Crust" not in inputs[("wet",)] and "Wet Darkening" not in inputs[("soiling",)]
     for modes, group in groups.items():
         glossy = [node for node in group.nodes if node.type == "BSDF_GLOSSY"]
         assert len(glossy) == (2 if "wet" in modes else 1)

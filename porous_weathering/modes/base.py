@@ -4,7 +4,8 @@ A mode is one ``Mode`` record: its inputs, its asset metadata, and its maths as 
 functions written once against a backend ``xp`` (``backends.py``) that either evaluates
 numpy arrays (the model) or builds shader nodes (the groups).  Layers of every mode a
 material uses run in the order of their ``stage`` on one ``Point``: pore-filling layers
-first (carbon, salt, water), then layers lying over the surface (the grey deposit).
+first (carbon, salt, water), then layers lying over the surface (the grey deposit, then the
+black crust over everything).
 """
 
 from collections.abc import Callable
@@ -13,8 +14,9 @@ from typing import Any
 
 from .. import porous
 
-#: Stages: where a layer runs among those of the other modes.
-FILL_CARBON, FILL_SALT, FILL_WATER, COVER_DEPOSIT = 10, 20, 30, 40
+#: Stages: where a layer runs among those of the other modes.  The extensions beyond the paper
+#: (SPEC 6) are layers of their own: the wet darkening right after the water fill, the crust last.
+FILL_CARBON, FILL_SALT, FILL_WATER, DARKEN_WET, COVER_DEPOSIT, COVER_CRUST = 10, 20, 30, 35, 40, 50
 
 
 @dataclass(frozen=True)
@@ -28,8 +30,10 @@ class Input:
     tooltip: str
     #: A per-point mask: a number, an image or a colour attribute (weathering.mask_source).
     mask: bool = False
-    #: The baked map (maps registry name) that feeds this mask, if the bake makes one.
+    #: The map that feeds this mask: a maps-registry name (baked) or one the panel makes.
     map: str | None = None
+    #: A scalar the artist's panel shows (and its Make button passes), stone presets may set.
+    panel: bool = False
 
     @property
     def socket(self) -> str:
@@ -100,19 +104,29 @@ WATER_ROUGHNESS = Input("water_roughness", 0.05, 0.0, 1.0, "Roughness of the wat
 
 def fill_curve(xp, progress):
     """The three-phase pore fill of Fig. 3 (smoothstep): slow, fast, then saturated at 1."""
-    x = xp.clip(progress, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
+    return xp.smoothstep(0.0, 1.0, progress)
 
 
 def pore_fill(xp, mask, time, level, width):
     """Fill fraction of the pores: a front sweeps the mask down from 1 as time grows
-    (threshold 1 - level * time); behind it a point fills over ``width`` of mask."""
-    return fill_curve(xp, (mask - (1.0 - level * time)) / width)
+    (threshold 1 - level * time); behind it a point fills over ``width`` of mask, along the
+    three-phase curve of Fig. 3 (fill_curve)."""
+    threshold = 1.0 - level * time
+    return xp.smoothstep(threshold, threshold + width, mask)
 
 
-def blend(clean, weathered, fill):
+def past_saturation(xp, mask, time, level, width):
+    """How far the pore-fill front has progressed past saturation, in [0, 1]: a second front
+    one ``width`` behind it (where the pores are full), whose own width 1 - ``width`` is all the
+    mask it can cross by t = 1 at level 1, so that it reaches 1 exactly at mask 1, t = 1, level 1
+    (docs/weathering.md).  Three-phase like the fill, so it starts smoothly where pores fill up."""
+    start = 1.0 - level * time + width
+    return xp.smoothstep(start, start + xp.maximum(1.0 - width, porous.EPSILON), mask)
+
+
+def blend(xp, clean, weathered, fill):
     """``clean`` at fill 0 (exactly), ``weathered`` at fill 1."""
-    return clean + fill * (weathered - clean)
+    return xp.multiply_add(fill, weathered - clean, clean)
 
 
 def filled_absorption(xp, ka, sp, fill, theta_i, theta_r):
@@ -124,7 +138,7 @@ def filled_absorption(xp, ka, sp, fill, theta_i, theta_r):
 def cover(xp, point, color, coverage):
     """Lay a matte layer of ``color`` over a fraction ``coverage`` of the surface: it hides
     the stone's diffuse, glossy and water lobes alike."""
-    point.kd_w = blend(point.kd_w, color, xp.channel(coverage))
+    point.kd_w = blend(xp, point.kd_w, color, xp.channel(coverage))
     point.ks_w = point.ks_w * (1.0 - coverage)
     if point.water_w is not None:
         point.water_w = point.water_w * xp.channel(1.0 - coverage)

@@ -10,6 +10,7 @@ EFFLORESCENCE_MAP = Input(
     1.0,
     "Efflorescence location: salt fills the pores from the highest value down",
     mask=True,
+    map="efflorescence",
 )
 EFFLORESCENCE_LEVEL = Input(
     "efflorescence_level", 1.0, 0.0, 1.0, "How far down the location map the salt reaches at t = 1"
@@ -28,7 +29,7 @@ def fill_with_salt(xp, point):
     salt = pore_fill(xp, s["efflorescence_map"], s["time"], s["efflorescence_level"], s["front_width"])
     ap = filled_absorption(xp, point.ka, point.sp, salt, point.theta_i, point.theta_r)
     salty = efflorescence_diffuse(xp, point.kd, s["salt_color"], point.pore, ap, xp.channel(point.ks_w))
-    point.kd_w = blend(point.kd_w, salty, xp.channel(salt))
+    point.kd_w = blend(xp, point.kd_w, salty, xp.channel(salt))
 
 
 MODE = Mode(

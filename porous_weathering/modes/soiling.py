@@ -1,7 +1,9 @@
 """Soiling by atmospheric pollution (SPEC 4, section 4.1 of the paper): rain-washed white
-areas, sheltered grey areas under a deposit, and black areas whose pores fill with carbon."""
+areas, sheltered grey areas under a deposit, and black areas whose pores fill with carbon and,
+once full, are covered by a black crust (SPEC 6, beyond the paper; ``crust = 0`` is the paper)."""
 
 from .base import (
+    COVER_CRUST,
     COVER_DEPOSIT,
     FILL_CARBON,
     FRONT_WIDTH,
@@ -13,11 +15,18 @@ from .base import (
     blend,
     cover,
     filled_absorption,
+    past_saturation,
     pore_fill,
 )
 
 #: Roughness m at which the grey deposit covers half of what it can (grooves trap particles).
 DEPOSIT_HALF_ROUGHNESS = 0.5
+
+#: Black crust reflects about this share of the clean limestone's visible reflectance (the
+#: measurement: docs/weathering.md).  CRUST_DEFAULT is the coverage that makes a fully developed
+#: black point of the limestone preset reflect it (ambient light, seen face on; tests/test_presets.py).
+CRUST_REFLECTANCE_RATIO = 0.2
+CRUST_DEFAULT = 0.8
 
 RAIN_THRESHOLD = Input("rain_threshold", 0.5, 0.0, 1.0, "E at and above which rain washes the surface (white area)")
 EDGE_MAP = Input(
@@ -39,6 +48,15 @@ POLLUTION_COLOR = Input(
 )
 DEPOSIT_COLOR = Input(
     "deposit_color", (0.30, 0.29, 0.27), 0.0, 1.0, "Colour of the grey-area deposit on sheltered, rough surfaces"
+)
+CRUST = Input(
+    "crust",
+    CRUST_DEFAULT,
+    0.0,
+    1.0,
+    "Black crust (beyond the paper; 0 is the paper): how much of a fully black area a matte crust of the "
+    "pollution colour covers at t = 1. Grows once the pores are full",
+    panel=True,
 )
 
 
@@ -63,8 +81,16 @@ def fill_with_carbon(xp, point):
     sheltered = sheltered_fraction(xp, s["rain_map"], s["rain_threshold"], s["front_width"])
     carbon = sheltered * pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
     ap = filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
-    point.kd_w = blend(point.kd_w, polluted_diffuse(point.kd, s["pollution_color"], point.pore, ap), xp.channel(carbon))
+    point.kd_w = blend(
+        xp, point.kd_w, polluted_diffuse(point.kd, s["pollution_color"], point.pore, ap), xp.channel(carbon)
+    )
     point.notes["sheltered"] = sheltered
+
+
+def crust_coverage(xp, sheltered, edge_map, time, level, width, crust):
+    """c (SPEC 6): ``crust`` times how far the black area's carbon fill has progressed past
+    saturation; ``crust`` itself at a fully black point (sheltered, mask 1) at t = 1, level 1."""
+    return crust * sheltered * past_saturation(xp, edge_map, time, level, width)
 
 
 def lay_deposit(xp, point):
@@ -74,12 +100,36 @@ def lay_deposit(xp, point):
     cover(xp, point, s["deposit_color"], coverage)
 
 
+def lay_crust(xp, point):
+    """The black crust: a matte layer of the pollution colour over whatever lies beneath (pores,
+    deposit, water, salt), last of all layers."""
+    s = point.state
+    coverage = crust_coverage(
+        xp, point.notes["sheltered"], s["edge_map"], s["time"], s["soiling_level"], s["front_width"], s["crust"]
+    )
+    cover(xp, point, s["pollution_color"], coverage)
+
+
 MODE = Mode(
     name="soiling",
     label="Soiling",
     description="Atmospheric soiling: rain-washed white, sheltered grey and carbon-black areas",
-    inputs=(TIME, FRONT_WIDTH, RAIN_MAP, RAIN_THRESHOLD, EDGE_MAP, SOILING_LEVEL, POLLUTION_COLOR, DEPOSIT_COLOR),
-    layers=(Layer(FILL_CARBON, fill_with_carbon), Layer(COVER_DEPOSIT, lay_deposit)),
+    inputs=(
+        TIME,
+        FRONT_WIDTH,
+        RAIN_MAP,
+        RAIN_THRESHOLD,
+        EDGE_MAP,
+        SOILING_LEVEL,
+        POLLUTION_COLOR,
+        DEPOSIT_COLOR,
+        CRUST,
+    ),
+    layers=(
+        Layer(FILL_CARBON, fill_with_carbon),
+        Layer(COVER_DEPOSIT, lay_deposit),
+        Layer(COVER_CRUST, lay_crust),
+    ),
     catalog="Soiling",
     asset_summary="Soiling (white, grey and black areas) from a rain map and an edge map",
     preview=dict(time=1.0, rain_map=0.0, edge_map=1.0),

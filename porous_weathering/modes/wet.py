@@ -1,12 +1,47 @@
 """Wet surfaces (SPEC 4, section 4.2 of the paper): water fills the pores where the rain map
-is highest first, and a near-mirror water lobe of its own reflects the sky."""
+is highest first, and a near-mirror water lobe of its own reflects the sky.  Beyond the paper
+(SPEC 6; ``wet_darkening = 0`` is the paper): the stone under the water darkens as Ångström and
+Lekner & Dorf explain, by light the water's surface sends back down to be absorbed again."""
 
-from .base import FILL_WATER, FRONT_WIDTH, RAIN_MAP, TIME, Input, Layer, Mode, blend, filled_absorption, pore_fill
+from .base import (
+    DARKEN_WET,
+    FILL_WATER,
+    FRONT_WIDTH,
+    RAIN_MAP,
+    TIME,
+    Input,
+    Layer,
+    Mode,
+    blend,
+    filled_absorption,
+    pore_fill,
+)
+
+#: Refractive index of water in the visible (SPEC 6).
+WATER_INDEX = 1.333
+
+#: r̄: the cosine-weighted hemispherical Fresnel reflectance of water seen from air,
+#: 2 ∫_0^{π/2} F(θ) cos θ sin θ dθ for unpolarised light from air (n = 1) into water (n = WATER_INDEX),
+#: integrated numerically once (tests/test_weathering_model.py computes it again).
+WATER_MEAN_REFLECTANCE = 0.0664057647830794
+
+#: p = 1 - (1 - r̄) / n²: the share of the light the stone scatters up into the water that the
+#: water-air surface reflects back down (total internal reflection outside the critical cone).
+WATER_INTERNAL_REFLECTANCE = 1.0 - (1.0 - WATER_MEAN_REFLECTANCE) / WATER_INDEX**2
 
 WET_LEVEL = Input(
     "wet_level", 1.0, 0.0, 1.0, "How far down the rain map the wet area reaches at t = 1 (lower it to dry)"
 )
 WATER_SPECULAR = Input("water_specular", 1.0, 0.0, 1.0, "k_s,water: the water lobe's weight (about 1)")
+WET_DARKENING = Input(
+    "wet_darkening",
+    1.0,
+    0.0,
+    1.0,
+    "Wet darkening (beyond the paper; 0 is the paper): how much of the wet area's diffuse light the water "
+    "traps (Lekner & Dorf 1988). Dark stones darken more and colours deepen",
+    panel=True,
+)
 
 
 def wet_weights(kd, water_specular, pore, ap):
@@ -15,21 +50,35 @@ def wet_weights(kd, water_specular, pore, ap):
     return kd * (1.0 - pore), water_specular * pore * (1.0 - ap)
 
 
+def wet_darkening_factor(kd, covered):
+    """What the diffuse weight is multiplied by, per channel (SPEC 6): 1 on dry stone, and
+    (1 - p) / (1 - p k_d) under water, where light bounces between stone and water surface."""
+    p = WATER_INTERNAL_REFLECTANCE
+    return (1.0 - covered) + covered * ((1.0 - p) / (1.0 - p * kd))
+
+
 def fill_with_water(xp, point):
     s = point.state
     water = pore_fill(xp, s["rain_map"], s["time"], s["wet_level"], s["front_width"])
     ap = filled_absorption(xp, point.ka, point.sp, water, point.theta_i, point.theta_r)
     kd_wet, water_lobe = wet_weights(point.kd, xp.channel(s["water_specular"]), point.pore, ap)
-    point.kd_w = blend(point.kd_w, kd_wet, xp.channel(water))
+    point.kd_w = blend(xp, point.kd_w, kd_wet, xp.channel(water))
     point.water_w = xp.channel(water) * water_lobe
+    point.notes["water"] = water
+
+
+def darken_under_water(xp, point):
+    """Eq. (9)'s wet diffuse, darkened where water covers the stone (w = wet_darkening x fill)."""
+    covered = point.state["wet_darkening"] * point.notes["water"]
+    point.kd_w = point.kd_w * wet_darkening_factor(point.kd, xp.channel(covered))
 
 
 MODE = Mode(
     name="wet",
     label="Wet",
     description="Rain fills the pores with water where the rain map is highest first",
-    inputs=(TIME, FRONT_WIDTH, RAIN_MAP, WET_LEVEL, WATER_SPECULAR),
-    layers=(Layer(FILL_WATER, fill_with_water),),
+    inputs=(TIME, FRONT_WIDTH, RAIN_MAP, WET_LEVEL, WATER_SPECULAR, WET_DARKENING),
+    layers=(Layer(FILL_WATER, fill_with_water), Layer(DARKEN_WET, darken_under_water)),
     catalog="Wet Surfaces",
     asset_summary="Wet surface: water fills the pores where the rain map is highest first",
     preview=dict(time=1.0, rain_map=1.0),

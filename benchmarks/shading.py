@@ -1,0 +1,189 @@
+"""Shading-dominated Cycles speed: the cost of one sample of the porous and weathered materials
+against Diffuse + Glossy, on a sphere that fills the frame (issue 12, item 8).
+
+The sphere of speed.py (same stone, same sun at 45° and overcast sky) seen by an orthographic
+camera whose frame is the sphere's diameter, so its silhouette touches the four edges and
+covers π/4 of the pixels; Cycles CPU, 2 bounces (every bounce off the sphere shades it again),
+fixed seed, no denoising, no adaptive sampling.  The cost of one sample is the slope of the
+wall time of ``bpy.ops.render.render`` between two sample counts (the fixed per-render cost
+drops out), and the same slope of this process's CPU time, which counts Cycles' render
+threads.  Rounds are interleaved as in timing.py, materials in a rotating order (round r
+starts at the r-th), after one warm-up round that is not kept.
+
+    python benchmarks/shading.py [--rounds 5] [--size 160] [--quick] [--out FILE]
+"""
+
+import argparse
+import os
+import pathlib
+import statistics
+import sys
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+import bpy  # noqa: E402
+
+import porous_weathering as pw  # noqa: E402
+from benchmarks import machine, scenes, speed, timing  # noqa: E402
+from porous_weathering import model, render, studio  # noqa: E402
+
+SAMPLES = (8, 40)
+BOUNCES = 2
+#: Orthographic frame width in sphere radii: the unit sphere's diameter.
+FRAME = 2.0
+#: Blender's default pixel filter (render.use_cycles' default samples pixel centres only).
+PIXEL_FILTER = 1.5
+BASELINE = "Diffuse+Glossy"
+#: Masks as constants at t = 0.7, chosen so that every fill lies strictly between 0 and 1
+#: (checked by fills()): at 0 or 1 Cycles would fold part of a mode's live nodes away.
+WEATHERING = dict(time=0.7, rain_map=0.4, edge_map=0.45, efflorescence_map=0.42)
+
+
+def fills():
+    """The weathering fractions that WEATHERING gives, by the model: each must be in (0, 1)."""
+    s = model.weathering_state(model.MODES, WEATHERING)
+
+    def front(mask, level):
+        return float(model.pore_fill(s[mask], s["time"], s[level], s["front_width"]))
+
+    # soiling's sheltered fraction rises linearly from 0 at the rain threshold over the front width
+    return {
+        "sheltered": (s["rain_threshold"] - s["rain_map"]) / s["front_width"],
+        "carbon front": front("edge_map", "soiling_level"),
+        "water": front("rain_map", "wet_level"),
+        "salt": front("efflorescence_map", "efflorescence_level"),
+    }
+
+
+def weathered(modes, key_light):
+    state = {name: value for name, value in WEATHERING.items() if name in model.inputs_of(modes)}
+    return pw.make_weathered_material("+".join(modes), modes=modes, key_light=key_light, **speed.stone(), **state)
+
+
+def materials(sun):
+    return {
+        BASELINE: pw.make_base_material("Base", **speed.stone(False)),
+        "porous key light": pw.make_porous_material("Key", **speed.stone(), key_light=sun),
+        "porous ambient": pw.make_porous_material("Ambient", **speed.stone()),
+        "all three modes, key light": weathered(model.MODES, sun),
+        "all three modes, ambient": weathered(model.MODES, None),
+        **{f"{mode}, key light": weathered((mode,), sun) for mode in model.MODES},
+    }
+
+
+def scene_filling_the_frame(size):
+    """(scene, sphere, sun, fraction of the pixels the sphere covers)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    obj = scenes.build(scene, "SPHERE", (speed.SUN,), speed.SKY)
+    scene.camera.data.ortho_scale = FRAME
+    render.use_cycles(scene, size=size, samples=1, bounces=BOUNCES, pixel_filter=PIXEL_FILTER)
+    coverage = float((render.render_array(scene)[..., 3] > 0.5).mean())
+    return scene, obj, next(o for o in scene.objects if o.type == "LIGHT"), coverage
+
+
+def rotating_rounds(scene, obj, candidates, rounds):
+    """({(name, samples): [wall s]}, the same for CPU s, [1-min load average after each round])."""
+    names = list(candidates)
+    wall = {(name, samples): [] for name in names for samples in SAMPLES}
+    cpu = {key: [] for key in wall}
+    loads = []
+    for round_ in range(1 + rounds):  # round 0 warms up (kernels, caches) and is not kept
+        start = round_ % len(names)
+        for name in names[start:] + names[:start]:
+            studio.assign(obj, candidates[name])
+            for samples in SAMPLES:
+                scene.cycles.samples = samples
+                seconds = timing.wall_and_cpu_seconds(lambda: bpy.ops.render.render(scene=scene.name))
+                if round_:
+                    wall[name, samples].append(seconds[0])
+                    cpu[name, samples].append(seconds[1])
+        if round_:
+            loads.append(os.getloadavg()[0])
+    return wall, cpu, loads
+
+
+def slope_cell(times, name):
+    """Median ms per sample and the spread of the per-round slopes (min..max relative to it)."""
+    low, high = SAMPLES
+    slopes = [(t_high - t_low) / (high - low) for t_low, t_high in zip(times[name, low], times[name, high])]
+    median = statistics.median(slopes)
+    if median <= 0:  # the fixed cost's noise swamped the samples: no spread to speak of
+        return f"{1000 * median:.1f} (—)"
+    return f"{1000 * median:.1f} ({min(slopes) / median - 1:+.0%}..{max(slopes) / median - 1:+.0%})"
+
+
+def busy_threads(wall, cpu):
+    """Median CPU seconds per wall second over the high-sample renders: about the core count
+    when the render threads are counted and have the machine to themselves."""
+    return statistics.median(c / w for key in wall if key[1] == SAMPLES[-1] for w, c in zip(wall[key], cpu[key]))
+
+
+def report(size, rounds):
+    load_start = os.getloadavg()
+    where = machine.describe(bpy.app.version_string)
+    scene, obj, sun, coverage = scene_filling_the_frame(size)
+    candidates = materials(sun)
+    wall, cpu, loads = rotating_rounds(scene, obj, candidates, rounds)
+    load_end = os.getloadavg()
+    by_wall, by_cpu = (timing.costs(times, candidates, SAMPLES, BASELINE) for times in (wall, cpu))
+    rows = [
+        [
+            name,
+            f"{by_wall[name]['fixed s']:.2f}",
+            slope_cell(wall, name),
+            timing.ratio_cell(by_wall[name]),
+            slope_cell(cpu, name),
+            timing.ratio_cell(by_cpu[name]),
+        ]
+        for name in candidates
+    ]
+    header = [
+        "material",
+        "fixed s / render",
+        "wall ms / sample (spread)",
+        "× Diffuse+Glossy, wall (range)",
+        "CPU ms / sample (spread)",
+        "× Diffuse+Glossy, CPU (range)",
+    ]
+    state = ", ".join(f"{name} {value:.2f}" for name, value in fills().items())
+
+    def loadavg(values):
+        return " / ".join(f"{value:.2f}" for value in values)
+
+    return (
+        f"### Shading cost per sample (Cycles CPU, {size} px sphere filling the frame, sun 45° + overcast sky, "
+        f"{BOUNCES} bounces)\n\n{where}.\n\n"
+        f"The sphere covers {coverage:.0%} of the pixels. Cost of one sample = slope of the render time between "
+        f"{SAMPLES[0]} and {SAMPLES[1]} samples; fixed = the rest of a render (wall). Median of {rounds} "
+        f"interleaved rounds, materials in rotating order; the spread is that of the per-round slopes "
+        f"(min..max relative to the median), the range that of the per-round ratios. CPU = this process's CPU "
+        f"time, render threads included (median {busy_threads(wall, cpu):.2f} CPU s per wall s while rendering "
+        f"{SAMPLES[1]} samples on {os.cpu_count()} cores). Weathered materials: masks as constants, "
+        f"{', '.join(f'{k} {v}' for k, v in WEATHERING.items())} (by the model: {state}).\n\n"
+        + scenes.markdown_table(header, rows)
+        + f"\n\nLoad average (1 / 5 / 15 min): {loadavg(load_start)} at the start, {loadavg(load_end)} at the end; "
+        f"1-min after each round: {loadavg(loads)} (this benchmark's own render threads add up to "
+        f"{os.cpu_count()}: above that, other jobs shared the cores)."
+    )
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rounds", type=int, default=5)
+    parser.add_argument("--size", type=int, default=160)
+    parser.add_argument("--quick", action="store_true", help="2 rounds: a smoke check, not a measurement")
+    parser.add_argument("--out", type=pathlib.Path, help="write the markdown here instead of printing it")
+    args = parser.parse_args()
+    outside = {name: value for name, value in fills().items() if not 0.0 < value < 1.0}
+    if outside:
+        parser.error(f"WEATHERING puts {outside} at a bound, where Cycles folds nodes away")
+    markdown = report(args.size, 2 if args.quick else args.rounds)
+    if args.out:
+        args.out.write_text(markdown + "\n")
+    else:
+        print(markdown)
+
+
+if __name__ == "__main__":
+    main()

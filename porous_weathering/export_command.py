@@ -1,0 +1,135 @@
+"""The ``export`` command (porous_weathering/cli.py): the weathered states of objects of a .blend
+as one glTF 2.0 file with material variants and its paradata (``export.iter_export``). Its
+options are generated from the export's option declarations (``export.option_entries``), as the
+export operator's properties are.
+
+Exit codes (docs/export.md): 0 written; 1 the export failed (the file could not be opened, a
+bake or the write failed); 2 bad arguments or input (nothing written); 130 / 143 interrupted by
+SIGINT / SIGTERM (nothing written).
+"""
+
+import os
+import sys
+
+import bpy
+
+from . import bake_command, export, interrupts, options
+from .bake_command import _one_line
+from .progress import ProgressBar
+
+EXIT_FAILED = 1
+EXIT_USAGE = 2
+
+
+def configure_parser(parser):
+    parser.description = (
+        "Bake the clean state and each age of the weathered materials of objects of a .blend to PBR textures, "
+        "and write them as one glTF 2.0 file (OUT/<name>.glb) whose material variants (KHR_materials_variants) "
+        "are the states, with its paradata (OUT/<name>.paradata.json). Exit codes: 0 written, 1 the export "
+        "failed, 2 bad arguments or input (nothing written), 130/143 interrupted (nothing written)."
+    )
+    parser.add_argument("file", metavar="FILE.blend", help="the .blend file whose objects to export")
+    parser.add_argument(
+        "--objects",
+        nargs="+",
+        metavar="NAME",
+        default=(),
+        help="export these objects (default: every mesh object whose materials are all Porous Weathering ones)",
+    )
+    parser.add_argument("--collection", metavar="NAME", help="export the mesh objects of this collection")
+    declared = {entry.dest: entry.option for entry in export.option_entries()}
+    parser.add_argument(
+        "--ages",
+        metavar=declared["ages"].metavar,
+        help=f"{declared['ages'].tooltip} (default: {export.format_ages(export.DEFAULT_AGES)})",
+    )
+    parser.add_argument("--wet", action="store_true", help=declared["wet"].tooltip)
+    options.add_arguments(parser, [entry for entry in export.option_entries() if entry.option.flag])
+    parser.add_argument(
+        "--note",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a line of the paradata's notes, e.g. --note author='A. Conservator' --note survey='scan 2024-05' "
+        "(repeatable)",
+    )
+
+
+def run(args):
+    """The ``export`` command; returns the exit code."""
+    path = os.path.abspath(args.file)
+    try:
+        chosen = export.ExportOptions(
+            ages=export.parse_ages(args.ages) if args.ages is not None else export.DEFAULT_AGES,
+            wet=args.wet,
+            size=args.size,
+            image_format=args.image_format,
+            out_dir=os.path.abspath(args.out_dir),
+            name=args.name,
+            notes=_notes(args.note),
+        )
+        if not os.path.isfile(path):
+            raise FileNotFoundError(f"no such .blend file: {args.file}")
+    except (ValueError, OSError) as error:
+        return _error(error, EXIT_USAGE)
+    try:
+        bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
+    except RuntimeError as error:
+        return _error(f"{path}: {_one_line(error)}", EXIT_FAILED)
+    try:
+        steps = export.iter_export(_chosen_objects(args), chosen)  # checks everything before it starts
+    except (ValueError, OSError) as error:
+        return _error(f"{path}: {_one_line(error)}", EXIT_USAGE)
+    bar = ProgressBar(os.path.basename(path))
+    result = None
+    last_words = lambda signal_name: f"interrupted by {signal_name}: nothing was written"
+    with interrupts.exit_on_signals(last_words):
+        try:
+            for step in steps:
+                bar(step.fraction, step.message)
+                result = step.result or result
+        except ValueError as error:  # bad input found on the way (a mesh that cannot get a lightmap)
+            bar.finish()
+            return _error(f"{path}: {_one_line(error)}", EXIT_USAGE)
+        except (OSError, RuntimeError) as error:
+            bar.finish()
+            return _error(f"{path}: {_one_line(error)}", EXIT_FAILED)
+    bar.finish()
+    print(f"wrote     {result.path} (variants {', '.join(result.variants)})")
+    print(f"wrote     {result.paradata}")
+    return 0
+
+
+def _error(error, code):
+    print(f"error: {error}", file=sys.stderr)
+    return code
+
+
+def _notes(words):
+    notes = {}
+    for word in words:
+        key, equals, value = word.partition("=")
+        if not equals or not key.strip():
+            raise ValueError(f"--note takes KEY=VALUE, not {word!r}")
+        notes[key.strip()] = value
+    return notes
+
+
+def _chosen_objects(args):
+    """--objects or --collection as the bake command takes them, else every mesh object of the
+    scene whose materials are all Porous Weathering ones."""
+    if args.objects or args.collection:
+        return bake_command._chosen_objects(args)
+    objects = sorted(
+        (
+            obj
+            for obj in bpy.context.scene.objects
+            if obj.type == "MESH"
+            and obj.material_slots
+            and all(export.porous_node(slot.material) for slot in obj.material_slots)
+        ),
+        key=lambda obj: obj.name,
+    )
+    if not objects:
+        raise ValueError("no mesh objects with Porous Weathering materials to export (give --objects)")
+    return objects

@@ -1,0 +1,102 @@
+"""The export operator: a thin modal wrapper over ``export.iter_export`` (one step per timer
+tick, progress in the window manager's progress bar, Esc cancels between steps and leaves
+nothing behind). Its properties are generated from the export's option declarations."""
+
+import bpy
+
+from . import export, options
+
+
+class ExportVariantsOperator:
+    """Publish the selected meshes' weathered states as glTF 2.0 with material variants and paradata (Esc cancels)"""
+
+    bl_idname = "porous_weathering.export_variants"
+    bl_label = "Export Weathered States (glTF)"
+    bl_options = {"REGISTER", "UNDO"}  # it may add a lightmap UV map to the meshes
+
+    _steps = None
+    _timer = None
+
+    @classmethod
+    def poll(cls, context):
+        if not any(obj.type == "MESH" for obj in context.selected_objects):
+            cls.poll_message_set("Select the mesh objects to export")
+            return False
+        if not bpy.data.filepath:
+            cls.poll_message_set("Save the .blend first: the paradata names the file it comes from")
+            return False
+        return True
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        try:
+            values = {
+                entry.dest: options.operator_value(entry.option, getattr(self, entry.dest))
+                for entry in export.option_entries()
+                if entry.option.ui
+            }
+            values["ages"] = export.parse_ages(values["ages"])
+            values["out_dir"] = bpy.path.abspath(values["out_dir"])
+            chosen = export.ExportOptions(**values)
+            objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
+            self._steps = export.iter_export(objects, chosen)  # refuses bad objects or folders here
+        except (ValueError, OSError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        context.window_manager.progress_begin(0, 1)
+        if bpy.app.background or context.window is None:  # no event loop: run to the end
+            return self._finish(context, self._run_all(context))
+        self._timer = context.window_manager.event_timer_add(0.05, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._steps.close()  # removes everything the export made; nothing was written
+            self.report({"WARNING"}, "Export cancelled: nothing was written")
+            return self._finish(context, {"CANCELLED"})
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            step = next(self._steps)
+        except StopIteration:
+            return self._finish(context, {"FINISHED"})
+        except (ValueError, OSError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return self._finish(context, {"CANCELLED"})
+        self._show(context, step)
+        return {"RUNNING_MODAL"}
+
+    def _run_all(self, context):
+        try:
+            for step in self._steps:
+                self._show(context, step)
+        except (ValueError, OSError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+    def _show(self, context, step):
+        context.window_manager.progress_update(step.fraction)
+        if step.result is not None:
+            self.report({"INFO"}, f"Wrote {step.result.path} (variants {', '.join(step.result.variants)})")
+
+    def _finish(self, context, result):
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        return result
+
+
+def operator_class():
+    """The export operator, with one property per export option (generated at registration)."""
+    return type(
+        "PW_OT_export_variants",
+        (ExportVariantsOperator, bpy.types.Operator),
+        {
+            "__annotations__": options.operator_properties(bpy.props, export.option_entries()),
+            "__doc__": ExportVariantsOperator.__doc__,
+        },
+    )

@@ -1,0 +1,580 @@
+"""Publishing weathered states (porous_weathering/export.py, docs/export.md): the glTF mapping
+against the glTF specification's BRDF, the baked textures of a tiny wall against the numpy
+model texel by texel, the .glb's variants (and their re-import), the Khronos validator, the
+paradata, the command line, the operator, and bad input that leaves nothing behind."""
+
+import hashlib
+import json
+import os
+import shutil
+import struct
+import subprocess
+import sys
+
+import bpy
+
+import numpy as np
+import pytest
+
+from porous_weathering import export, model, uv, weathering
+from porous_weathering.studio import add_sun
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+SIZE = 32  #: texels: the wall's UV map is the whole square, so every texel is one point of the model
+STONE = dict(base_color=(0.6, 0.55, 0.45), ks=0.1, roughness=0.4, porosity=0.3, pore_depth_ratio=0.5)
+SOILING = dict(rain_threshold=0.6, deposit_color=(0.06, 0.055, 0.05))
+AGES = (0.0, 0.5, 1.0)
+
+
+# --- a tiny wall and its export -------------------------------------------------------------
+
+
+def make_wall(name="Wall", key_light=True, modes=("soiling",)):
+    """A 2 m square of 8 x 8 quads facing +Z, its UV map the whole [0, 1]² square, with a rain
+    map E = u and an edge map C = v (colour attributes), and a weathered material (sun mode)."""
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=2.0)
+    wall = bpy.context.active_object
+    wall.name = name
+    mesh = wall.data
+    uvs = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers.active.data.foreach_get("uv", uvs)
+    uvs = uvs.reshape(-1, 2)
+    for attribute, values in (("pw_rain", uvs[:, 0]), ("pw_edges", uvs[:, 1])):
+        mesh.color_attributes.new(attribute, "FLOAT_COLOR", "CORNER").data.foreach_set("color", np.repeat(values, 4))
+    sun = add_sun(bpy.context.scene, (0.3, -0.5, 0.8)) if key_light else None
+    masks = dict(rain_map="pw_rain", edge_map="pw_edges", **SOILING) if "soiling" in modes else {}
+    if "efflorescence" in modes:
+        masks["efflorescence_map"] = "pw_edges"
+    material = weathering.make_weathered_material(f"{name} Stone", modes=modes, key_light=sun, **STONE, **masks)
+    wall.data.materials.append(material)
+    return wall
+
+
+def save(tmp_path, name="wall.blend"):
+    path = str(tmp_path / name)
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    """The wall exported with ages 0, 0.5, 1 and wet, as PNG and as WebP (made once)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    folder = tmp_path_factory.mktemp("export")
+    wall = make_wall()
+    save(folder)
+    notes = {"author": "test", "survey": None}
+    results = {
+        image_format: export.export_variants(
+            [wall],
+            AGES,
+            wet=True,
+            size=SIZE,
+            out_dir=str(folder / image_format),
+            image_format=image_format,
+            notes=notes,
+        )
+        for image_format in export.IMAGE_FORMATS
+    }
+    return dict(results=results, folder=folder, notes=notes, digest=geometry_digest(wall))
+
+
+def read_glb(path):
+    """(glTF JSON, binary chunk) of a .glb."""
+    with open(path, "rb") as stream:
+        data = stream.read()
+    magic, version, length = struct.unpack("<4sII", data[:12])
+    assert (magic, version, length) == (b"glTF", 2, len(data))
+    json_length = struct.unpack("<I", data[12:16])[0]
+    gltf = json.loads(data[20 : 20 + json_length])
+    binary = data[20 + json_length + 8 :]
+    return gltf, binary
+
+
+def glb_image(gltf, binary, texture_index, tmp_path):
+    """The pixels (H, W, C) uint8 of a texture of a .glb, top row first (OpenImageIO)."""
+    import OpenImageIO as oiio
+
+    image = gltf["images"][gltf["textures"][texture_index].get("source", 0)]
+    extension = gltf["textures"][texture_index].get("extensions", {}).get("EXT_texture_webp")
+    if extension is not None:
+        image = gltf["images"][extension["source"]]
+    view = gltf["bufferViews"][image["bufferView"]]
+    path = tmp_path / f"texture{texture_index}.{image['mimeType'].split('/')[1]}"
+    path.write_bytes(binary[view.get("byteOffset", 0) : view.get("byteOffset", 0) + view["byteLength"]])
+    buffer = oiio.ImageBuf(str(path))
+    pixels = buffer.get_pixels(oiio.UINT8)
+    assert pixels is not None, buffer.geterror()
+    return np.asarray(pixels)
+
+
+def variant_materials(gltf):
+    """{variant name: material} of the .glb's one mesh primitive."""
+    names = [variant["name"] for variant in gltf["extensions"]["KHR_materials_variants"]["variants"]]
+    mappings = gltf["meshes"][0]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"]
+    return {
+        names[index]: gltf["materials"][mapping["material"]] for mapping in mappings for index in mapping["variants"]
+    }
+
+
+def geometry_digest(obj):
+    """sha256 of the world-space vertex positions and face corners, computed here again."""
+    mesh = obj.data
+    positions = np.array([vertex.co[:] for vertex in mesh.vertices], dtype=np.float64)
+    matrix = np.array(obj.matrix_world, dtype=np.float64)
+    world = (positions @ matrix[:3, :3].T + matrix[:3, 3]).astype(np.float32)
+    corners = np.array([loop.vertex_index for loop in mesh.loops], dtype=np.int32)
+    sizes = np.array([polygon.loop_total for polygon in mesh.polygons], dtype=np.int32)
+    return hashlib.sha256(world.tobytes() + corners.tobytes() + sizes.tobytes()).hexdigest()
+
+
+# --- the mapping against the glTF specification -----------------------------------------------
+
+
+def gltf_dielectric(base, specular_factor, specular_colour_factor, v_dot_h):
+    """The weights of glTF's dielectric BRDF (core + KHR_materials_specular, its appendix):
+    (diffuse weight, specular weight) = (base (1 - F), F) with F the Schlick mix of
+    F0 = min(0.04 * colour, 1) * factor and F90 = factor."""
+    f0 = np.minimum(0.04 * specular_colour_factor, 1.0) * specular_factor
+    f90 = specular_factor
+    fresnel = f0 + (f90 - f0) * (1.0 - v_dot_h) ** 5
+    return base * (1.0 - fresnel)[..., None], fresnel
+
+
+def test_mapping_keeps_each_lobe_weight_at_every_angle():
+    """The porous material's Lambert k_d + GGX k_s (+ water) against glTF's Fresnel-weighted
+    layering: with the mapping, the diffuse weight is k_d and the specular weight k_s + water
+    whatever the angle (F0 = F90), for energy-conserving weights."""
+    rng = np.random.default_rng(1)
+    count = 2000
+    kd = rng.uniform(0.0, 1.0, (count, 3))
+    ks = rng.uniform(0.0, 0.3, count)
+    water = rng.uniform(0.0, 0.3, (count, 3)) * rng.integers(0, 2, (count, 1))
+    kd *= np.minimum(1.0, (1.0 - ks - water.mean(axis=1)) / kd.max(axis=1))[:, None]  # k_d + k_s + water <= 1
+    m, water_roughness = rng.uniform(0.0, 1.5, count), rng.uniform(0.0, 0.2, count)
+    base, specular, roughness = export.pbr_from_weights(kd, ks, water, m, water_roughness)
+    assert base.max() <= 1.0 and specular.max() <= 1.0
+    for v_dot_h in (1.0, 0.5, 0.05):
+        diffuse_weight, specular_weight = gltf_dielectric(base, specular, export.SPECULAR_COLOR_FACTOR, v_dot_h)
+        np.testing.assert_allclose(diffuse_weight, kd, atol=1e-9)
+        np.testing.assert_allclose(specular_weight, ks + water.mean(axis=1), atol=1e-9)
+    dry = water.max(axis=1) == 0.0
+    np.testing.assert_allclose(roughness[dry], np.minimum(m[dry], 1.0))  # glTF and Blender: alpha = r²
+    lobes = np.stack([np.minimum(m, 1.0), water_roughness])  # one lobe for two: between them
+    assert np.all(roughness >= lobes.min(axis=0) - 1e-12) and np.all(roughness <= lobes.max(axis=0) + 1e-12)
+
+
+def test_srgb_encoding():
+    linear = np.array([0.0, 0.0031308, 0.2140, 0.5, 1.0])
+    np.testing.assert_allclose(export.linear_to_srgb(linear), [0.0, 0.04045, 0.5, 0.7354, 1.0], atol=2e-4)
+
+
+# --- the textures against the model -----------------------------------------------------------
+
+
+def expected_weights(age, wet, size=SIZE):
+    """The model's weights on the wall's texel centres (top row first), in the ambient mode
+    seen face on, as glTF values: (base colour, S, roughness)."""
+    u = (np.arange(size) + 0.5) / size
+    rain, edges = np.meshgrid(u, u[::-1])  # texel (row, column): E = u, C = v
+    modes = ("soiling", "wet") if wet else ("soiling",)
+    state = dict(time=age, rain_map=rain, edge_map=edges, **SOILING)
+    kd, ks, water = model.weathered_coefficients(
+        STONE["base_color"],
+        STONE["ks"],
+        STONE["roughness"],
+        STONE["porosity"],
+        STONE["pore_depth_ratio"],
+        None,
+        1.0,
+        modes=modes,
+        **state,
+    )
+    ks = np.broadcast_to(ks, rain.shape)
+    return export.pbr_from_weights(kd, ks, water, STONE["roughness"], 0.05)
+
+
+def material_values(material, gltf, binary, tmp_path, size=SIZE):
+    """(base colour, S, roughness) per texel of a glTF material, decoded as a viewer does."""
+    pbr = material["pbrMetallicRoughness"]
+    specular = material["extensions"]["KHR_materials_specular"]
+    assert specular["specularColorFactor"] == [export.SPECULAR_COLOR_FACTOR] * 3
+    assert pbr["metallicFactor"] == 0
+    if "baseColorTexture" in pbr:
+        codes = glb_image(gltf, binary, pbr["baseColorTexture"]["index"], tmp_path)[..., :3] / 255.0
+        base = np.where(codes <= 0.04045, codes / 12.92, ((codes + 0.055) / 1.055) ** 2.4)
+    else:
+        base = np.broadcast_to(pbr["baseColorFactor"][:3], (size, size, 3))
+    s = np.full((size, size), specular.get("specularFactor", 1.0))
+    if "specularTexture" in specular:
+        s = s * glb_image(gltf, binary, specular["specularTexture"]["index"], tmp_path)[..., 3] / 255.0
+    r = np.full((size, size), pbr.get("roughnessFactor", 1.0))
+    if "metallicRoughnessTexture" in pbr:
+        r = r * glb_image(gltf, binary, pbr["metallicRoughnessTexture"]["index"], tmp_path)[..., 1] / 255.0
+    return base, s, r
+
+
+@pytest.mark.parametrize(
+    "variant, age, wet", [("clean", 0.0, False), ("t=0.5", 0.5, False), ("t=1", 1.0, False), ("wet", 1.0, True)]
+)
+def test_textures_match_the_model(exported, tmp_path, variant, age, wet):
+    """Each variant's textures, decoded from the .glb, are the numpy model's weights on the
+    texel centres mapped to glTF (8-bit rounding aside): the bake, the ambient mode the export
+    puts the sun-mode material in, the wet mode it adds, and the writing are all right."""
+    gltf, binary = read_glb(exported["results"]["png"].path)
+    base, s, r = material_values(variant_materials(gltf)[variant], gltf, binary, tmp_path)
+    want_base, want_s, want_r = expected_weights(age, wet)
+    srgb = export.linear_to_srgb
+    assert np.abs(srgb(base) - srgb(want_base)).max() <= 1.5 / 255
+    assert np.abs(s - want_s).max() <= want_s.max() / 255 + 1e-6
+    assert np.abs(r - want_r).max() <= 1.5 / 255
+    if variant == "clean":  # the clean state is uniform: factors, no textures
+        assert not {"baseColorTexture", "metallicRoughnessTexture"} & set(
+            variant_materials(gltf)[variant]["pbrMetallicRoughness"]
+        )
+    if variant == "t=1":  # weathered: the soiled wall varies (else the test would prove little)
+        assert np.ptp(srgb(want_base)) > 0.2 and np.ptp(want_s) > 0.01
+
+
+def test_webp_textures_match_the_png_ones(exported, tmp_path):
+    png, png_binary = read_glb(exported["results"]["png"].path)
+    webp, webp_binary = read_glb(exported["results"]["webp"].path)
+    assert "EXT_texture_webp" in webp["extensionsUsed"]
+    for variant in ("t=1", "wet"):
+        lossless = material_values(variant_materials(png)[variant], png, png_binary, tmp_path)
+        lossy = material_values(variant_materials(webp)[variant], webp, webp_binary, tmp_path)
+        for exact, compressed in zip(lossless, lossy):
+            assert np.abs(export.linear_to_srgb(exact) - export.linear_to_srgb(compressed)).mean() < 3 / 255
+
+
+# --- the .glb, its re-import and the validator -----------------------------------------------
+
+
+def test_glb_holds_the_variants(exported):
+    gltf, _ = read_glb(exported["results"]["png"].path)
+    assert {"KHR_materials_variants", "KHR_materials_specular"} <= set(gltf["extensionsUsed"])
+    assert list(variant_materials(gltf)) == ["clean", "t=0.5", "t=1", "wet"]
+    primitive = gltf["meshes"][0]["primitives"][0]
+    assert gltf["materials"][primitive["material"]]["name"] == "Wall clean"  # the default: the clean state
+    assert set(primitive["attributes"]) == {"POSITION", "NORMAL", "TEXCOORD_0"}  # the masks are in the textures
+    assert [node["name"] for node in gltf["nodes"]] == ["Wall"]  # the user's name, not the scratch copy's
+    assert gltf["scenes"][0]["extras"]["porous_weathering"]["kind"] == "visualisation"
+    images = gltf["images"]
+    assert len({image["name"] for image in images}) == len(images)  # one image per distinct texture
+
+
+def test_glb_reimports_with_its_variants(exported):
+    preferences = bpy.context.preferences.addons["io_scene_gltf2"].preferences
+    enabled = preferences.KHR_materials_variants_ui
+    preferences.KHR_materials_variants_ui = True
+    try:
+        bpy.ops.import_scene.gltf(filepath=exported["results"]["png"].path)
+        variants = [item.name for item in bpy.data.scenes[0].gltf2_KHR_materials_variants_variants]
+        wall = bpy.data.objects["Wall"]
+        mapped = {
+            variants[item.variant.variant_idx]: entry.material.name
+            for entry in wall.data.gltf2_variant_mesh_data
+            for item in entry.variants
+        }
+    finally:
+        preferences.KHR_materials_variants_ui = enabled
+    assert variants == ["clean", "t=0.5", "t=1", "wet"]
+    assert mapped == {name: f"Wall {name}" for name in variants}
+    principled = bpy.data.materials["Wall wet"].node_tree.nodes["Principled BSDF"]
+    assert principled.inputs["Specular Tint"].default_value[0] == pytest.approx(export.SPECULAR_COLOR_FACTOR)
+    assert principled.inputs["Base Color"].is_linked and principled.inputs["Roughness"].is_linked
+
+
+def validator():
+    """The Khronos glTF validator (npm package gltf-validator, which scripts/env.sh installs
+    beside the virtual environment when npm exists), or a skip saying what is missing."""
+    node = shutil.which("node")
+    package = os.environ.get("PW_GLTF_VALIDATOR") or os.path.join(sys.prefix, "node", "node_modules", "gltf-validator")
+    if node is None:
+        pytest.skip("Node.js is not installed: the glTF validator cannot run")
+    if not os.path.isfile(os.path.join(package, "package.json")):
+        pytest.skip(f"gltf-validator is not installed in {package} (scripts/env.sh installs it when npm exists)")
+    return node, package
+
+
+VALIDATE = """
+const fs = require('fs');
+const validator = require(process.argv[1]);
+validator.validateBytes(new Uint8Array(fs.readFileSync(process.argv[2])), {maxIssues: 100})
+  .then((report) => process.stdout.write(JSON.stringify(report)))
+  .catch((error) => { console.error(String(error)); process.exit(1); });
+"""
+
+
+def validate(path):
+    node, package = validator()
+    done = subprocess.run([node, "-e", VALIDATE, package, path], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
+@pytest.mark.parametrize("image_format", export.IMAGE_FORMATS)
+def test_validator_reports_no_errors(exported, image_format):
+    report = validate(exported["results"][image_format].path)
+    assert report["issues"]["numErrors"] == 0, report["issues"]["messages"]
+    assert report["issues"]["numWarnings"] == 0, report["issues"]["messages"]
+    assert "KHR_materials_variants" in report["info"]["extensionsUsed"]
+
+
+def test_validator_catches_a_broken_file(tmp_path, exported):
+    """The check above can fail: a .glb whose variant names a missing material is an error."""
+    gltf, binary = read_glb(exported["results"]["png"].path)
+    mappings = gltf["meshes"][0]["primitives"][0]["extensions"]["KHR_materials_variants"]["mappings"]
+    mappings[0]["material"] = len(gltf["materials"]) + 5
+    text = json.dumps(gltf).encode()
+    text += b" " * (-len(text) % 4)
+    body = struct.pack("<I4s", len(text), b"JSON") + text + struct.pack("<I4s", len(binary), b"BIN\0") + binary
+    broken = tmp_path / "broken.glb"
+    broken.write_bytes(struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body)
+    assert validate(str(broken))["issues"]["numErrors"] > 0
+
+
+# --- paradata ---------------------------------------------------------------------------------
+
+
+def test_paradata_says_what_made_it(exported):
+    result = exported["results"]["png"]
+    with open(result.paradata, encoding="utf-8") as stream:
+        paradata = json.load(stream)
+    assert paradata["kind"] == "visualisation" and "not a survey" in paradata["statement"]
+    assert paradata["generator"]["blender"] == bpy.app.version_string
+    assert paradata["generator"]["extension"].startswith("Porous Weathering ")
+    assert paradata["source"]["blend_file"] == str(exported["folder"] / "wall.blend")
+    with open(result.path, "rb") as stream:
+        assert paradata["export"]["sha256"] == hashlib.sha256(stream.read()).hexdigest()
+    assert paradata["export"]["texture_size"] == SIZE
+    assert [(v["name"], v["age"], v["wet"]) for v in paradata["variants"]] == [
+        ("clean", 0.0, False),
+        ("t=0.5", 0.5, False),
+        ("t=1", 1.0, False),
+        ("wet", 1.0, True),
+    ]
+    (wall,) = paradata["objects"]
+    assert wall["geometry_sha256"] == exported["digest"]
+    assert wall["uv_map"] == {"name": "UVMap", "made_by_export": False}
+    (stone,) = wall["materials"]
+    assert stone["modes"] == ["soiling", "wet"] and stone["light_mode_of_the_material"] == "SUN"
+    assert stone["inputs"]["Porosity"] == pytest.approx(STONE["porosity"])
+    assert stone["inputs"]["Rain Threshold"] == pytest.approx(SOILING["rain_threshold"])
+    assert stone["maps"]["Rain Map"]["attribute"] == "pw_rain"
+    assert paradata["notes"] == exported["notes"]
+
+
+# --- the user's data, lightmaps, bad input ----------------------------------------------------
+
+
+def test_leaves_the_users_data_as_it_was(tmp_path):
+    wall = make_wall()
+    save(tmp_path)
+    preferences = bpy.context.preferences.addons["io_scene_gltf2"].preferences
+    before = (
+        sorted(bpy.data.objects.keys()),
+        sorted(bpy.data.meshes.keys()),
+        sorted(bpy.data.materials.keys()),
+        sorted(bpy.data.scenes.keys()),
+        sorted(bpy.data.images.keys()),
+        [layer.name for layer in wall.data.uv_layers],
+        sorted(wall.data.color_attributes.keys()),
+        preferences.KHR_materials_variants_ui,
+        bpy.context.window.scene.name,
+    )
+    export.export_variants([wall], (0.0, 1.0), size=16, out_dir=str(tmp_path / "out"))
+    after = (
+        sorted(bpy.data.objects.keys()),
+        sorted(bpy.data.meshes.keys()),
+        sorted(bpy.data.materials.keys()),
+        sorted(bpy.data.scenes.keys()),
+        sorted(bpy.data.images.keys()),
+        [layer.name for layer in wall.data.uv_layers],
+        sorted(wall.data.color_attributes.keys()),
+        preferences.KHR_materials_variants_ui,
+        bpy.context.window.scene.name,
+    )
+    assert after == before
+    assert wall.data.materials[0].node_tree.nodes["Porous"].node_tree.name.endswith("(Sun)")
+
+
+def test_keeps_the_users_own_glTF_variants(tmp_path, capfd):
+    """With the glTF add-on's variants already on and variants of the user's own, the export
+    writes its variants only and gives the user's back (and never registers the add-on's UI twice)."""
+    preferences = bpy.context.preferences.addons["io_scene_gltf2"].preferences
+    enabled = preferences.KHR_materials_variants_ui
+    preferences.KHR_materials_variants_ui = True
+    try:
+        wall = make_wall()
+        save(tmp_path)
+        mine = bpy.data.scenes[0].gltf2_KHR_materials_variants_variants.add()
+        mine.name, mine.variant_idx = "mine", 0
+        result = export.export_variants([wall], (1.0,), size=16, out_dir=str(tmp_path))
+        assert [item.name for item in bpy.data.scenes[0].gltf2_KHR_materials_variants_variants] == ["mine"]
+        assert preferences.KHR_materials_variants_ui
+    finally:
+        preferences.KHR_materials_variants_ui = enabled
+    assert list(variant_materials(read_glb(result.path)[0])) == ["clean", "t=1"]
+    assert "already registered" not in capfd.readouterr().err
+
+
+def test_a_mesh_without_uvs_gets_a_lightmap(tmp_path):
+    """A scan without UVs gets the lightmap the bake would make (on the export's copy only)."""
+    wall = make_wall()
+    wall.data.uv_layers.remove(wall.data.uv_layers[0])
+    save(tmp_path)
+    result = export.export_variants([wall], (1.0,), size=64, out_dir=str(tmp_path))
+    gltf, _ = read_glb(result.path)
+    assert "TEXCOORD_0" in gltf["meshes"][0]["primitives"][0]["attributes"]
+    with open(result.paradata, encoding="utf-8") as stream:
+        assert json.load(stream)["objects"][0]["uv_map"] == {"name": uv.LIGHTMAP_UV, "made_by_export": True}
+    assert not wall.data.uv_layers
+
+
+def test_a_broken_lightmap_is_refused_in_one_line(tmp_path):
+    wall = make_wall()
+    broken = wall.data.uv_layers.new(name=uv.LIGHTMAP_UV)
+    broken.data.foreach_set("uv", np.zeros(len(wall.data.loops) * 2, dtype=np.float32))  # every face on one point
+    wall.data.uv_layers.remove(wall.data.uv_layers["UVMap"])
+    save(tmp_path)
+    with pytest.raises(ValueError, match=uv.LIGHTMAP_UV) as error:
+        export.export_variants([wall], (1.0,), size=16, out_dir=str(tmp_path / "out"))
+    assert "\n" not in str(error.value)
+    assert not os.listdir(tmp_path / "out")
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("unsaved", "not saved"),
+        ("no porous material", "not a Porous Weathering material"),
+        ("size", "power of two"),
+        ("too big", "from 16 to 8192"),
+        ("age", r"\[0, 1\]"),
+        ("wet without rain", "no rain map"),
+        ("format", "must be one of"),
+    ],
+)
+def test_bad_input_is_one_line_and_writes_nothing(tmp_path, case, message):
+    wall = make_wall(modes=("efflorescence",) if case == "wet without rain" else ("soiling",))
+    if case != "unsaved":
+        save(tmp_path)
+    if case == "no porous material":
+        wall.data.materials[0] = bpy.data.materials.new("Plain")
+    arguments = dict(ages=(0.0, 1.0), size=16, out_dir=str(tmp_path / "out"))
+    arguments.update(
+        {
+            "size": dict(size=1000),
+            "too big": dict(size=16384),
+            "age": dict(ages=(0.5, 1.5)),
+            "wet without rain": dict(wet=True),
+            "format": dict(image_format="ktx2"),
+        }.get(case, {})
+    )
+    ages = arguments.pop("ages")
+    with pytest.raises(ValueError, match=message) as error:
+        export.export_variants([wall], ages, **arguments)
+    assert "\n" not in str(error.value)
+    assert not os.path.exists(tmp_path / "out") or not os.listdir(tmp_path / "out")
+
+
+def test_an_interrupted_export_leaves_nothing(tmp_path):
+    """Stopped while it writes (the last step), the export leaves no file and no scratch data."""
+    wall = make_wall()
+    save(tmp_path)
+    scenes, images = len(bpy.data.scenes), len(bpy.data.images)
+
+    def stop_at_the_write(fraction, message):
+        if message.startswith("writing"):
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        export.export_variants([wall], (1.0,), size=16, out_dir=str(tmp_path / "out"), progress=stop_at_the_write)
+    assert not os.listdir(tmp_path / "out")
+    assert (len(bpy.data.scenes), len(bpy.data.images)) == (scenes, images)
+    steps = export.iter_export([wall], export.ExportOptions(ages=(1.0,), size=16, out_dir=str(tmp_path / "out")))
+    next(steps), next(steps)
+    steps.close()  # the operator's Esc
+    assert not os.listdir(tmp_path / "out") and len(bpy.data.scenes) == scenes
+
+
+# --- the command line and the operator --------------------------------------------------------
+
+
+def run_cli(*words):
+    return subprocess.run(
+        [sys.executable, "-m", "porous_weathering", "export", *words],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=300,
+    )
+
+
+def test_command_line(tmp_path):
+    make_wall()
+    blend = save(tmp_path)
+    out = tmp_path / "out"
+    done = run_cli(
+        blend, "--objects", "Wall", "--ages", "0,1", "--wet", "--size", "16", "--out", str(out), "--note", "author=me"
+    )
+    assert done.returncode == 0, done.stderr
+    assert sorted(os.listdir(out)) == ["wall.glb", "wall.paradata.json"]
+    assert "variants clean, t=1, wet" in done.stdout
+    with open(out / "wall.paradata.json", encoding="utf-8") as stream:
+        assert json.load(stream)["notes"] == {"author": "me"}
+    for words, message in (
+        (["--objects", "Nope"], "no object named Nope"),
+        (["--size", "3000"], "power of two"),
+        (["--ages", "0,x"], "not 'x'"),
+    ):
+        done = run_cli(blend, *words, "--out", str(tmp_path / "bad"))
+        errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+        assert done.returncode == 2 and len(errors) == 1 and message in errors[0], done.stderr
+        assert not os.path.exists(tmp_path / "bad") or not os.listdir(tmp_path / "bad")
+    done = run_cli(str(tmp_path / "missing.blend"))
+    assert done.returncode == 2 and "no such .blend file" in done.stderr
+    (tmp_path / "broken.blend").write_bytes(b"not a blend file")
+    done = run_cli(str(tmp_path / "broken.blend"), "--out", str(tmp_path / "bad"))
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert done.returncode == 1 and len(errors) == 1 and "broken.blend" in errors[0], done.stderr
+
+
+class Recorder:
+    """A stand-in for a panel's layout that records what is drawn (no window is open here)."""
+
+    def __init__(self, calls):
+        object.__setattr__(self, "calls", calls)
+
+    def __getattr__(self, name):
+        def draw(*args, **kwargs):
+            self.calls.append((name, args))
+            return Recorder(self.calls)
+
+        return draw
+
+    def __setattr__(self, name, value):  # use_property_split, an operator's properties, ...
+        pass
+
+
+def test_operator_and_panel_button(tmp_path):
+    import porous_weathering
+    from porous_weathering import ui
+
+    porous_weathering.register()
+    try:
+        wall = make_wall()
+        save(tmp_path)
+        wall.select_set(True)
+        bpy.context.view_layer.objects.active = wall
+        calls = []
+        ui.draw_panel(Recorder(calls), bpy.context)
+        assert ("operator", ("porous_weathering.export_variants",)) in calls
+        operator = bpy.ops.porous_weathering.export_variants
+        declared = {entry.dest for entry in export.option_entries() if entry.option.ui}
+        assert declared <= {prop.identifier for prop in operator.get_rna_type().properties}
+        assert operator(ages="1", size=16, out_dir=str(tmp_path / "out"), name="panel") == {"FINISHED"}
+        assert sorted(os.listdir(tmp_path / "out")) == ["panel.glb", "panel.paradata.json"]
+    finally:
+        porous_weathering.unregister()

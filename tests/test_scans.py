@@ -1,0 +1,164 @@
+"""Scans as they come (issue 16, docs/scans.md): the bake warns, one line naming the object,
+when a scan's up axis looks wrong for rain or when it is flat-shaded as a scan saved without
+normals is; objects set up right, the sample scenes' included, get no warning. A smooth scan's
+rain attribute is baked per vertex, as its corners would be."""
+
+import math
+import pathlib
+import subprocess
+import sys
+import warnings
+
+import bpy
+
+import numpy as np
+import pytest
+
+from generators import load_script
+from porous_weathering import bake, ops_bake, rain, scan_checks
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+SCAN = load_script("sample_blends/scan_generator.py")
+SAMPLES = sorted((ROOT / "sample_blends").glob("*.blend"))
+
+#: How a Z-up scan comes in when read as Y-up (OBJ and PLY importers' default), and the reverse.
+TURNED = {"Z-up read as Y-up": (math.pi / 2, 0, 0), "Y-up read as Z-up": (-math.pi / 2, 0, 0)}
+
+
+@pytest.fixture(scope="module")
+def bust_mm():
+    return SCAN.bust_mesh(20_000, seed=0)
+
+
+def bust(bust_mm, rotation=(0.0, 0.0, 0.0), name="Bust"):
+    obj = SCAN.add_to_scene(name, *bust_mm)
+    obj.rotation_euler = rotation
+    bpy.context.view_layer.update()
+    return obj
+
+
+def test_a_standing_scan_gets_no_warning(bust_mm):
+    assert scan_checks.problems(bust(bust_mm)) == []
+    assert scan_checks.problems(bust(bust_mm, (0, 0, 1.0), "Turned about Z")) == []
+
+
+@pytest.mark.parametrize("rotation", TURNED.values(), ids=TURNED.keys())
+def test_a_scan_on_its_side_is_named_in_one_warning(bust_mm, rotation):
+    [message] = scan_checks.problems(bust(bust_mm, rotation))
+    assert message.startswith("object 'Bust' looks as if it lies on its side") and "docs/scans.md" in message
+    assert "\n" not in message
+
+
+def test_a_surface_facing_the_ground_is_warned_about(fresh_scene):
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=4, y_subdivisions=4, rotation=(math.pi, 0, 0))
+    [message] = scan_checks.problems(bpy.context.active_object)
+    assert message.startswith("object 'Grid' faces the ground: 100% of its area")
+
+
+def test_the_up_axis_is_not_checked_when_no_rain_is_baked(bust_mm):
+    assert scan_checks.problems(bust(bust_mm, TURNED["Z-up read as Y-up"]), rain=False) == []
+
+
+@pytest.mark.parametrize("sample", SAMPLES, ids=[path.stem for path in SAMPLES])
+def test_the_sample_scenes_get_no_warning(sample):
+    """Façades and walls are longest across and mostly face sideways: a heuristic that warned on
+    those alone would warn on every building."""
+    bpy.ops.wm.open_mainfile(filepath=str(sample), load_ui=False)
+    for obj in bpy.context.scene.objects:
+        if obj.type == "MESH":
+            assert scan_checks.problems(obj) == [], obj.name
+
+
+def test_a_flat_shaded_scan_without_normals_is_warned_about(bust_mm):
+    obj = bust(bust_mm)
+    assert not scan_checks.looks_faceted(obj.data)  # smooth, as the generator makes it
+    obj.data.shade_flat()
+    [message] = scan_checks.problems(obj)
+    assert message.startswith("object 'Bust' is flat-shaded with no custom normals")
+
+
+def test_flat_shading_with_custom_normals_or_hard_edges_is_not_warned_about(bust_mm, fresh_scene):
+    obj = bust(bust_mm)
+    obj.data.shade_flat()
+    normals = [vertex.normal.copy() for vertex in obj.data.vertices]
+    obj.data.normals_split_custom_set_from_vertices(normals)  # a scan saved with its normals
+    assert not scan_checks.looks_faceted(obj.data)
+    bpy.ops.mesh.primitive_cube_add()
+    bpy.ops.object.modifier_add(type="SUBSURF")
+    bpy.ops.object.modifier_apply(modifier="Subdivision")
+    bpy.context.active_object.data.shade_flat()
+    assert not scan_checks.looks_faceted(bpy.context.active_object.data)  # a rounded box of 24 faces: 30° bends
+    bpy.ops.mesh.primitive_cube_add()
+    assert not scan_checks.looks_faceted(bpy.context.active_object.data)
+
+
+def test_the_bake_warns_once_per_problem(bust_mm, tmp_path):
+    obj = bust(bust_mm, TURNED["Z-up read as Y-up"])
+    obj.data.shade_flat()
+    options = bake.BakeOptions(target="attribute", maps=("rain",))
+    with warnings.catch_warnings(record=True) as given:
+        warnings.simplefilter("always")
+        bake.bake_maps([obj], options, dry_run=True)
+    messages = [str(w.message) for w in given if issubclass(w.category, scan_checks.ScanWarning)]
+    assert len(messages) == 2 and all(m.startswith("object 'Bust'") for m in messages)
+
+
+def test_the_command_line_prints_each_warning_as_one_line(bust_mm, tmp_path):
+    bust(bust_mm, TURNED["Z-up read as Y-up"])
+    path = tmp_path / "lying.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    run = subprocess.run(
+        [sys.executable, "-m", "porous_weathering", "bake", str(path), "--target", "attribute", "--dry-run"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr
+    lines = run.stderr.replace("\r", "\n").splitlines()
+    [warning] = [line for line in lines if "lies on its side" in line]
+    assert warning.startswith("warning: object 'Bust' looks as if it lies on its side")
+    assert not any("scan_checks" in line or "warnings.warn" in line for line in lines)  # no source line
+
+
+def test_the_operator_reports_the_warnings(bust_mm, tmp_path, capfd):
+    obj = bust(bust_mm, TURNED["Z-up read as Y-up"])
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    ops_bake.register()
+    try:
+        result = bpy.ops.porous_weathering.bake_maps(
+            maps={"rain"}, target="attribute", samples=1, out_dir=str(tmp_path)
+        )
+    finally:
+        ops_bake.unregister()
+    assert result == {"FINISHED"}
+    assert "object 'Bust' looks as if it lies on its side" in capfd.readouterr().out
+
+
+# --- the rain of a smooth scan, per vertex ---------------------------------------------------------
+
+
+def test_a_smooth_scan_is_baked_per_vertex_as_its_corners_would_be(bust_mm, monkeypatch):
+    """Corners at a vertex share its position and normal: baked once per vertex (six times fewer
+    samples), E is the per-corner bake's, within its noise."""
+    obj = bust(bust_mm)
+    assert rain.smooth_at_vertices(obj)
+    settings = rain.RainSettings(samples=16)
+    per_vertex = rain.bake_rain_corners(obj, settings)
+    corner_vertex = np.array([loop.vertex_index for loop in obj.data.loops])
+    assert np.array_equal(per_vertex, per_vertex[np.unique(corner_vertex, return_index=True)[1]][corner_vertex])
+    monkeypatch.setattr(rain, "smooth_at_vertices", lambda obj: False)
+    per_corner = rain.bake_rain_corners(obj, settings)
+    assert abs(per_vertex.mean() - per_corner.mean()) < 2e-3  # no bias
+    assert np.corrcoef(per_vertex, per_corner)[0, 1] > 0.99
+    assert np.sqrt(np.mean((per_vertex - per_corner) ** 2)) < 0.02  # 16 samples' noise
+
+
+def test_corners_that_shade_apart_are_baked_per_corner(bust_mm):
+    obj = bust(bust_mm)
+    obj.data.shade_flat()
+    assert not rain.smooth_at_vertices(obj)
+    obj.data.shade_smooth()
+    obj.modifiers.new("Displace", "DISPLACE")
+    assert not rain.smooth_at_vertices(obj)
