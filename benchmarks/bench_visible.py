@@ -17,8 +17,9 @@ stone's colour, without the light: the water lobe's sheen of the sky, shadows an
 Targets (issue 13): black area <= 0.35x, grey area 0.5-0.9x, white area 0.98-1.02x; wet area,
 away from the mirror direction of the sun (> 25 degrees from it), <= 0.8x on limestone and on
 brick; efflorescence >= 1.5x where salted, <= 1.05x on bare stone. ``VARIANTS`` adds rows for the
-recipe settings a miss comes from (a recipe may be tuned; the model's defaults are not changed
-here): each names what it changes.
+recipe's weathering inputs a result comes from and ``BAKE_VARIANTS`` rows baked with other
+edge-mask settings (a recipe may be tuned; the model's defaults are not changed here): each
+names what it changes.
 
 ``--areas DIR`` writes, per sample and mode, the t = 1 picture with each area tinted, to check
 that the areas are where their names say. Prints a Markdown table and the machine line.
@@ -284,18 +285,24 @@ AREAS = {
     },
 }
 
-#: The hemispherical mean Fresnel reflectance of water seen from air (docs/model.md, SPEC 6).
-WATER_FRESNEL = 0.066
-
 #: Extra rows: (sample, mode, what changes, {weathering input: value}) on top of the recipe, for
-#: the settings of the recipe or the model a miss comes from (nothing here changes a default).
+#: the settings of the recipe or the model a result comes from (nothing here changes a default).
 VARIANTS = (
-    ("brick_wall", model.SOILING, "deposit_color 0.05, darker than the brick", {"deposit_color": (0.05, 0.04, 0.035)}),
+    ("brick_wall", model.SOILING, "deposit_color 0.30, the API's", {"deposit_color": (0.30, 0.29, 0.27)}),
     ("sculpted_stone", model.SOILING, "deposit_color 0.30, the API's", {"deposit_color": (0.30, 0.29, 0.27)}),
-    ("limestone_facade", model.WET, "water_specular 0.066, water's mean Fresnel", {"water_specular": WATER_FRESNEL}),
-    ("brick_wall", model.WET, "water_specular 0.066, water's mean Fresnel", {"water_specular": WATER_FRESNEL}),
-    ("bust", model.WET, "water_specular 0.066, water's mean Fresnel", {"water_specular": WATER_FRESNEL}),
-    ("bust", model.SOILING, "front_width 0.1", {"front_width": 0.1}),
+    ("brick_wall", model.WET, "wet_darkening 0, the paper's equations", {"wet_darkening": 0.0}),
+    (
+        "bust",
+        model.SOILING,
+        "the API's deposit_color 0.30, front_width 0.25 and rain_threshold 0.5",
+        {"deposit_color": (0.30, 0.29, 0.27), "front_width": 0.25, "rain_threshold": 0.5},
+    ),
+)
+#: Extra rows that bake the sample's edge mask again: (sample, mode, what changes, the recipe's
+#: ``edges``, edges.EdgeSettings fields, replaced by these).
+BAKE_VARIANTS = (
+    ("limestone_facade", model.SOILING, "edge mask scale 0.025, cavity weight 1", {"scale": 0.025}),
+    ("bust", model.SOILING, "edge mask at its defaults (cavity weight 1)", {}),
 )
 
 
@@ -306,7 +313,7 @@ def luminance(image):
     return image[..., :3] @ LUMINANCE
 
 
-def probe_geometry(sample, size, aspect):
+def probe_geometry(sample):
     """Position and normal probes of the weathered objects (others held out)."""
     scene = sample.scene
     holdout = holdout_material()
@@ -369,11 +376,12 @@ def holdout_material():
     return material
 
 
-def check_defaults(material, mode):
-    """The material's crust and wet darkening are the API's defaults."""
+def check_defaults(material, mode, changed=()):
+    """The material's crust and wet darkening are the API's defaults (but those a variant
+    names in ``changed``)."""
     group = material.node_tree.nodes["Porous"]
     for name in ("crust", "wet_darkening"):
-        if name in model.inputs_of(mode):
+        if name in model.inputs_of(mode) and name not in changed:
             default = model.WEATHERING_INPUTS[name][0]
             value = group.inputs[nodes.socket_name(name)].default_value
             assert abs(value - default) < 1e-6, f"{name} is {value}, not the API's default {default}"
@@ -425,8 +433,8 @@ def measure(name, mode, args, work, inputs=None, label="", areas_dir=None, sampl
     aspect = scene.render.resolution_x / scene.render.resolution_y
     render.use_cycles(scene, size=args.size, samples=args.samples, bounces=4, pixel_filter=0.01)
     scene.render.resolution_x = round(args.size * aspect)
-    check_defaults(sample.material(mode, **inputs), mode)
-    geometry = probe_geometry(sample, args.size, aspect)
+    check_defaults(sample.material(mode, **inputs), mode, inputs)
+    geometry = probe_geometry(sample)
     maps = probe_maps(sample, mode)
     sample.show(mode, 0.0, **inputs)
     clean = luminance(render.render_array(scene))
@@ -509,15 +517,26 @@ def main(argv=None):
             for mode in modes:
                 if mode not in demo.RECIPES[name].masks:
                     continue
-                found, sample = measure(name, mode, args, work, areas_dir=args.areas, sample=sample)
+                runs = [({}, "")] + [
+                    (inputs, label)
+                    for sample_name, variant_mode, label, inputs in VARIANTS
+                    if (sample_name, variant_mode) == (name, mode)
+                ]
+                for inputs, label in runs:
+                    found, sample = measure(name, mode, args, work, inputs, label, args.areas, sample)
+                    rows += found
+                    print("\n".join(table(found).splitlines()[2:]), flush=True)  # progress
+            for sample_name, mode, label, edge_settings in BAKE_VARIANTS:
+                if sample_name != name:
+                    continue
+                recipe = demo.RECIPES[name]
+                demo.RECIPES[name] = dataclasses.replace(recipe, edges=edge_settings)
+                try:
+                    found, _ = measure(name, mode, args, work, {}, label, args.areas)
+                finally:
+                    demo.RECIPES[name] = recipe
                 rows += found
-                for variant_name, variant_mode, label, inputs in VARIANTS:
-                    if (variant_name, variant_mode) == (name, mode):
-                        found, sample = measure(
-                            name, mode, args, work, inputs, label, areas_dir=args.areas, sample=sample
-                        )
-                        rows += found
-                print(table(rows), flush=True)
+                print("\n".join(table(found).splitlines()[2:]), flush=True)
     print()
     print(table(rows))
     print(

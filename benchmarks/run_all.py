@@ -18,6 +18,7 @@ BENCHMARKS = (
     ["accuracy.py", *IMAGES],
     ["stability.py"],
     ["speed.py", *IMAGES],
+    ["shading.py"],
     ["node_cost.py"],
     ["bench_modes.py"],
     ["osl_variant.py"],

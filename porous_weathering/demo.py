@@ -49,19 +49,35 @@ POROUS = dict(porosity=0.4, pore_depth_ratio=3.0)
 #: it washes the open wall (E = sin 25 = 0.42 there), while cornices, sills and window heads
 #: keep what lies below dry. Vertical rain would leave every wall face unwashed (E = 0).
 DRIVEN_RAIN = dict(wind_azimuth=-90.0, wind_tilt=25.0)
-#: Soiling in a polluted city: a wall open to driven rain counts as washed (E >= 0.3), and the
-#: deposit is dark, so the sheltered areas stand out at a glance.
-CITY_SOILING = dict(rain_threshold=0.3, deposit_color=(0.06, 0.055, 0.05))
+#: Soiling in a polluted city: a surface open to driven rain counts as washed (E >= 0.3), and the
+#: deposit is a dark, soot-laden grey (luminance 0.1), so the sheltered areas stand out at a
+#: glance while staying lighter than the crusts (benchmarks/bench_visible.py: the sculpted
+#: stone's sheltered flanks 0.51x the clean stone, its hollows' crusts 0.34x).
+CITY_SOILING = dict(rain_threshold=0.3, deposit_color=(0.11, 0.105, 0.095))
 #: The façade's: washed where E >= 0.36 (the open wall gets 0.41 from the driven rain, the band
 #: the cornice shelters from 0 up to that over about 1.5 m), a narrow front (0.1) so that the
 #: sheltered band below the cornice, the window heads and the sills is grey right down to where
 #: the rain washes the wall, and a deposit a little lighter (the grey area stays between the
 #: washed wall and the crusts: 0.5-0.9x the clean stone).
-FACADE_SOILING = dict(CITY_SOILING, rain_threshold=0.36, front_width=0.1, deposit_color=(0.15, 0.14, 0.125))
+FACADE_SOILING = dict(CITY_SOILING, rain_threshold=0.36, front_width=0.1, deposit_color=(0.17, 0.16, 0.14))
+#: The bust's: the city's, with the façade's narrow front (0.1), so that the crust fills the
+#: eye sockets, the ears and the corner under the brim, and a lighter deposit (0.15), so that the
+#: sheltered face stays grey. Washed where E >= 0.3: the driven rain reaches the chest with 0.33.
+BUST_SOILING = dict(CITY_SOILING, front_width=0.1, deposit_color=(0.15, 0.14, 0.125))
+#: Brick soils darker than it is: the API's grey deposit (luminance 0.29) is lighter than a red
+#: brick (#A0523C, luminance 0.13) and would make sheltered brick lighter; a soot-laden deposit
+#: (luminance 0.04) darkens it.
+BRICK_SOILING = dict(deposit_color=(0.05, 0.04, 0.035))
 #: A soft, porous limestone (Lecce or Caen stone: the top of the preset's porosity range) with
 #: shallow pores. Deep pores are nearly black when clean (A_p near 1), so carbon, water or salt
 #: in them would hardly change how the stone looks.
 SOFT_LIMESTONE = dict(presets.PRESETS["LIMESTONE"].material_params(), porosity=0.3, pore_depth_ratio=0.5)
+#: The façade's stone: the soft limestone, its rain water a film that follows the stone's grain
+#: (water roughness 0.2) rather than the API's near mirror (0.05, standing water). Water reflects
+#: 2% face on (docs/weathering.md, "Wet darkening"), so a wet wall shows the sun's glint only near
+#: its mirror direction: 0.2 spreads it over a bay of the wall as a sheen, where 0.05 makes a
+#: spot a few centimetres wide.
+FACADE_STONE = dict(SOFT_LIMESTONE, water_roughness=0.2)
 #: The brick sample's efflorescence map: salt along the joints of its bond, reaching a few
 #: millimetres into each brick. Rows and bricks per row are the sample's courses and bricks per
 #: course, whose UV map build_samples.py projects onto the bond.
@@ -84,7 +100,8 @@ class View:
 
 @dataclass(frozen=True)
 class Recipe:
-    """How a sample scene weathers: the objects (None: every mesh but the ground), their stone,
+    """How a sample scene weathers: the objects (None: every mesh but the ground), their stone
+    (``stone``: make_weathered_material's material keywords, the water roughness among them),
     for each mode the map each mask reads: "rain" or "edges" (baked as colour attributes) or
     "joints" (JOINT_MAP, an image on the bricks' UV map), the rain of the bake (``rain``:
     rain.RainSettings fields), the edge mask's settings that differ from their defaults
@@ -111,17 +128,31 @@ class Recipe:
 
 
 RAIN_AND_EDGES = dict(rain_map="rain", edge_map="edges")
-#: The façade from the front left, from eye height, so the undersides of the cornice and the
-#: sills show; a low sun from the front right rakes the wall (and lights the band the cornice
-#: shelters) and is near the mirror direction of the right-hand bay, where wet stone glints.
+#: The façade's edge mask (edges.EdgeSettings): a radius of 1.5% of its size (16 cm), the concave
+#: part weighted 2.5. Black crusts fill a building's sheltered recesses (the window heads, the
+#: corner under a sill), wider than the band where a right-angled inner corner reaches C = 1 at
+#: weight 1 (|H| r is 0.6 on it and 0.33 half a radius away; C = 1 needs 0.45, with 2.5 only
+#: 0.18). At 2.5% (27 cm) a 8 cm sill's convex front edges and the concave corner under it fall
+#: within one radius and cancel (C = 0.14 there); at 1-1.25% the crust spreads less over the
+#: window heads (docs/weathering.md, "The façade's recipe").
+FACADE_EDGES = dict(scale=0.015, cavity_weight=2.5)
+#: The bust's edge mask: the default radius (1%, 7 mm) and the concave part weighted 3. A
+#: sculpture's hollows are rounded: at the default radius its eye sockets, ears and the corner
+#: under the brim have |H| r mostly under 0.2 (a building's right-angled corner 0.6), and rims
+#: and curls share those areas, so at weight 1 they reach C = 0.3-0.55 (docs/weathering.md).
+BUST_EDGES = dict(cavity_weight=3.0)
+#: The façade from the front left at eye height (the undersides of the cornice and the sills
+#: show), 16:9. A low sun from the front right (10.5 degrees up) lights the wall and the band the
+#: cornice shelters, and its mirror direction meets the wall at the right-hand pilaster (x = 3.6 m,
+#: 4 m up), so that wet stone there shows the water's sheen.
 FACADE_VIEW = View(
-    location=(-3.0, -10.8, 1.3), target=(1.0, 0.0, 3.1), lens=30.0, sun=(0.58, -0.78, 0.2), sun_strength=3.0
+    location=(-2.6, -12.5, 1.4), target=(-0.2, 0.0, 3.1), lens=33.0, sun=(0.437, -0.881, 0.183), sun_strength=3.0
 )
 RECIPES = {
     # Efflorescence follows the rain map on the façade: salts crystallise where rain soaks in.
     FACADE: Recipe(
         None,
-        SOFT_LIMESTONE,
+        FACADE_STONE,
         {
             model.SOILING: RAIN_AND_EDGES,
             model.WET: dict(rain_map="rain"),
@@ -129,12 +160,11 @@ RECIPES = {
         },
         inputs=FACADE_SOILING,
         view=FACADE_VIEW,
-        edges=dict(scale=0.025),
+        edges=FACADE_EDGES,
         unite="Facade",
         cell=0.1,
     ),
-    # Soiling with the API's defaults (benchmarks/bench_visible.py): the default grey deposit
-    # (0.30) is lighter than the brick (luminance 0.13), so the sheltered brick gets lighter.
+    # The brick preset, soiled by a soot-laden deposit darker than the brick (BRICK_SOILING).
     "brick_wall": Recipe(
         ("Bricks",),
         presets.PRESETS["BRICK"].material_params(),
@@ -143,17 +173,21 @@ RECIPES = {
             model.WET: dict(rain_map="rain"),
             model.EFFLORESCENCE: dict(efflorescence_map="joints"),
         },
+        inputs=BRICK_SOILING,
     ),
     # Vertical rain: the hollows and the undersides of the ridges are the sheltered places.
     "sculpted_stone": Recipe(
         ("Sculpted Stone",), SOFT_LIMESTONE, {model.SOILING: RAIN_AND_EDGES}, rain={}, inputs=CITY_SOILING
     ),
-    # The scan-like bust (millimetres, no UV map) with the limestone preset and the API's
-    # defaults: driven rain washes the hat and the chest, the brim shelters the face.
+    # The scan-like bust (millimetres, no UV map) with the limestone preset: driven rain washes
+    # the hat and the chest, the brim shelters the face; its rounded hollows baked with cavity
+    # weight 3 (BUST_EDGES).
     "bust": Recipe(
         ("Bust",),
         presets.PRESETS["LIMESTONE"].material_params(),
         {model.SOILING: RAIN_AND_EDGES, model.WET: dict(rain_map="rain")},
+        inputs=BUST_SOILING,
+        edges=BUST_EDGES,
         view=View(location=(-520.0, -900.0, 200.0), target=(0.0, 0.0, 300.0), lens=55.0, aspect=1.0, sun_strength=2.5),
     ),
 }
@@ -314,7 +348,7 @@ def configure_parser(parser):
         "instead (--out is ignored)",
     )
     parser.add_argument(
-        "--samples", type=int, default=8, help="Cycles samples per pixel, denoised (default: 8; Fig. 11: 4x)"
+        "--samples", type=int, default=4, help="Cycles samples per pixel, denoised (default: 4; Fig. 11: 2x)"
     )
     parser.add_argument("--size", type=int, default=540, help="picture height in pixels (default: 540)")
     parser.add_argument("--bake-samples", type=int, default=32, help="rain samples per face corner (default: 32)")
@@ -326,7 +360,7 @@ def run(args):
         written = docs_pictures(args)
     else:
         os.makedirs(args.out, exist_ok=True)
-        written = [render_porous_vs_base(os.path.join(args.out, "porous_vs_base.png"), args.size, args.samples * 4)]
+        written = [render_porous_vs_base(os.path.join(args.out, "porous_vs_base.png"), args.size, args.samples * 2)]
         aging = render_aging(args.out, args.size, args.samples, args.bake_samples)
         labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in AGES]
         written += aging + [side_by_side(aging, len(AGES), os.path.join(args.out, "comparison.png"), labels)]
@@ -337,13 +371,13 @@ def run(args):
 def docs_pictures(args):
     """Every picture of docs/images/; the façade's single ages go to a temporary folder."""
     os.makedirs(DOCS_IMAGES, exist_ok=True)
-    written = [render_porous_vs_base(os.path.join(DOCS_IMAGES, "porous_vs_base.png"), args.size, args.samples * 4)]
+    written = [render_porous_vs_base(os.path.join(DOCS_IMAGES, "porous_vs_base.png"), args.size, args.samples * 2)]
     with tempfile.TemporaryDirectory(prefix="pw_docs_") as work:
-        aging = render_aging(work, args.size, args.samples, args.bake_samples)
-        # The README's sheet: new and fully weathered, a row per mode (four ages are in out/).
-        ends = [path for index, path in enumerate(aging) if index % len(AGES) in (0, len(AGES) - 1)]
-        labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in (AGES[0], AGES[-1])]
-        written.append(side_by_side(ends, 2, os.path.join(DOCS_IMAGES, "facade_aging.png"), labels, DOCS_SCALE))
+        # The README's sheet: new and fully weathered, a row per mode (the main job's has four ages).
+        ends = (AGES[0], AGES[-1])
+        aging = render_aging(work, args.size, args.samples, args.bake_samples, ends)
+        labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in ends]
+        written.append(side_by_side(aging, 2, os.path.join(DOCS_IMAGES, "facade_aging.png"), labels, DOCS_SCALE))
         modes_of = {}  # sample -> the modes it shows: each sample is opened and baked once
         for mode, name in DOCS_BEFORE_AFTER.items():
             modes_of.setdefault(name, []).append(mode)
@@ -388,16 +422,16 @@ def render_porous_vs_base(path, size=256, samples=64):
     return render.render_picture(scene, path)
 
 
-def render_aging(out, size, samples, bake_samples):
-    """Bake the façade's maps, then render each weathering mode at each age."""
+def render_aging(out, size, samples, bake_samples, ages=AGES):
+    """Bake the façade's maps, then render each weathering mode at each of ``ages``."""
     facade = Sample(FACADE, bake_samples=bake_samples, map_dir=out, progress=True)
     facade.use_cycles(size, samples)
     modes = list(facade.recipe.masks)
     pictures = []
     progress = ProgressBar("rendering the aging sequence")
     for row, mode in enumerate(modes):
-        for column, age in enumerate(AGES):
-            progress((row * len(AGES) + column) / (len(modes) * len(AGES)), f"{mode}, t = {age:.2f}")
+        for column, age in enumerate(ages):
+            progress((row * len(ages) + column) / (len(modes) * len(ages)), f"{mode}, t = {age:.2f}")
             pictures.append(facade.render(mode, age, os.path.join(out, f"{mode}_t{age:.2f}.png")))
     progress(1.0, "done")
     progress.finish()

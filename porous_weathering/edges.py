@@ -52,6 +52,12 @@ SAMPLE_SPACING = 0.5
 #: small for the object (64 bytes each, plus their grid cells).
 MAX_ADDED_SAMPLES = 1 << 23
 
+#: The image mask is read at the vertices and drawn across the triangles when the mesh's
+#: median edge is at most this many smoothing radii (a scan): the smoothed field then hardly
+#: bends within a triangle, and reading it at every texel would cost minutes at 4096²
+#: (docs/maps.md).  Coarser meshes (a façade's large faces) are read at every texel.
+VERTEX_SPACING = 0.25
+
 #: Default smoothing radius, as a fraction of the object's bounding-box diagonal (docs/maps.md:
 #: measured on the bundled samples and the scan-like bust).
 DEFAULT_EDGE_SCALE = 0.01
@@ -623,9 +629,12 @@ def edge_mask_image(obj, uv_map_name, resolution, settings: EdgeSettings | None 
     Every texel of a UV island gets the mask of the curvature field ``curvature`` gives the
     vertices, read at the texel's own world position (``bake_texel_geometry``), so the
     image and the attribute agree at the same surface points and the texel size does not
-    matter.  Around every UV island C is extended ``margin`` texels outwards (each texel
-    taking the mean of its neighbours already set), so texture filtering never pulls in empty
-    texels; further out it is 0.
+    matter.  On a mesh much finer than the radius (``VERTEX_SPACING``: a scan) the field is
+    read at the vertices and drawn across the triangles (``bake_point_values``) instead.
+
+    Around every UV island C is extended ``margin`` texels outwards (each texel taking the
+    mean of its neighbours already set), so texture filtering never pulls in empty texels;
+    further out it is 0.
 
     A faceted scan (``scan_checks.looks_faceted``: flat-shaded, no custom normals, facets
     bending a little, as a scan saved without normals is) is read with smooth normals (its mesh
@@ -641,10 +650,14 @@ def edge_mask_image(obj, uv_map_name, resolution, settings: EdgeSettings | None 
     depsgraph = bpy.context.evaluated_depsgraph_get()
     radius = effective_radius(obj, settings, depsgraph)
     found = surface(obj, radius, depsgraph)
-    smooth_normals = scan_checks.looks_faceted(obj.data)
-    positions, normals, islands = bake_texel_geometry(obj, uv_map_name, resolution, smooth_normals=smooth_normals)
-    values = np.zeros((resolution, resolution), dtype=np.float32)
-    values[islands] = smooth_over_radius(found.sources, positions[islands], _unit(normals[islands]), radius)
+    if not obj.modifiers and _median_edge(obj) <= VERTEX_SPACING * radius:
+        at_vertices = smooth_over_radius(found.sources, found.vertices.points, found.vertices.normals, radius)
+        values, islands = bake_point_values(obj, uv_map_name, resolution, at_vertices)
+    else:
+        smooth_normals = scan_checks.looks_faceted(obj.data)
+        positions, normals, islands = bake_texel_geometry(obj, uv_map_name, resolution, smooth_normals=smooth_normals)
+        values = np.zeros((resolution, resolution), dtype=np.float32)
+        values[islands] = smooth_over_radius(found.sources, positions[islands], _unit(normals[islands]), radius)
     mask, known = _settings_mask(values, radius, settings), islands
     for _ in range(margin):
         mask, known = grow(mask, known)
@@ -675,32 +688,69 @@ def _box3x3(image):
     return result
 
 
+def _median_edge(obj):
+    """The median length of ``obj``'s mesh edges in world space."""
+    mesh = obj.data
+    points = mesh_arrays.attribute(mesh, "position", np.float32, 3).astype(np.float64)
+    points = points @ np.array(obj.matrix_world)[:3, :3].T
+    ends = mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2)
+    return float(np.median(np.linalg.norm(points[ends[:, 0]] - points[ends[:, 1]], axis=1))) if len(ends) else math.inf
+
+
 def bake_texel_geometry(obj, uv_map_name, resolution, *, smooth_normals=False):
     """(positions, normals, islands): the world-space position and shading normal (smooth
     ones with ``smooth_normals``) of ``obj`` at the centre of every texel of ``uv_map_name``,
     float32 (H, W, 3), and the (H, W) bool map of the texels on a UV island (the others are 0).
-    All top row first.
+    All top row first."""
+    position, normal = _emit_bakes(
+        obj,
+        uv_map_name,
+        resolution,
+        [lambda graph, geometry, name=name: geometry.outputs[name] for name in ("Position", "Normal")],
+        prepare=(lambda mesh: mesh.shade_smooth()) if smooth_normals else None,
+    )
+    return position[..., :3].copy(), normal[..., :3].copy(), position[..., 3] > 0
 
-    Exact Cycles EMIT bakes of probe materials that emit the position and the normal, on a copy
-    of the object in a temporary scene: the user's scene, mesh, materials and selection are
-    untouched.
-    """
-    image = bpy.data.images.new("PW Geometry Bake", resolution, resolution, alpha=True, float_buffer=True)
-    probes = [
-        scratch_scene.emission_probe(f"{name} Probe", lambda graph, geometry, name=name: geometry.outputs[name])
-        for name in ("Position", "Normal")
-    ]
-    scene = bpy.data.scenes.new("PW Geometry Bake")
+
+def bake_point_values(obj, uv_map_name, resolution, values):
+    """(image, islands): ``values`` (one per vertex of ``obj``'s mesh) drawn into a float32
+    (H, W) image of ``uv_map_name``, each texel interpolating its triangle's corners, and the
+    (H, W) bool map of the texels on a UV island. Top row first."""
+    name = "PW Point Values"
+
+    def prepare(mesh):
+        colours = np.ones((len(mesh.vertices), 4), dtype=np.float32)
+        colours[:, :3] = np.asarray(values, dtype=np.float32)[:, None]
+        mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT").data.foreach_set("color", colours.ravel())
+
+    (baked,) = _emit_bakes(
+        obj,
+        uv_map_name,
+        resolution,
+        [lambda graph, geometry: graph.node("ShaderNodeAttribute", attribute_name=name).outputs["Color"]],
+        prepare=prepare,
+    )
+    return baked[..., 0].copy(), baked[..., 3] > 0
+
+
+def _emit_bakes(obj, uv_map_name, resolution, emitted, prepare=None):
+    """One float RGBA (H, W, 4) array, top row first, per ``emitted(graph, geometry)``: exact
+    Cycles EMIT bakes (one sample, the texel centre) of probe materials emitting it, on a copy
+    of the object (its mesh first given to ``prepare``) in a temporary scene: the user's
+    scene, mesh, materials and selection are untouched. Texels off every UV island have alpha 0."""
+    image = bpy.data.images.new("PW Texel Bake", resolution, resolution, alpha=True, float_buffer=True)
+    probes = [scratch_scene.emission_probe(f"PW Texel Probe {index}", build) for index, build in enumerate(emitted)]
+    scene = bpy.data.scenes.new("PW Texel Bake")
     copy = None
     try:
         copy = scratch_scene.placed_copy(obj, scene, probes[0], own_mesh=True)
-        if smooth_normals:
-            copy.data.shade_smooth()
+        if prepare is not None:
+            prepare(copy.data)
         scene.render.engine = "CYCLES"
         scene.cycles.device = "CPU"
         scene.cycles.samples = 1  # deterministic: the texel centre
         context = scratch_scene.only_selected(copy)
-        pixels = np.empty((2, resolution, resolution, 4), dtype=np.float32)
+        pixels = np.empty((len(probes), resolution, resolution, 4), dtype=np.float32)
         for index, probe in enumerate(probes):
             texture = probe.node_tree.nodes.new("ShaderNodeTexImage")
             texture.image = image
@@ -718,8 +768,7 @@ def bake_texel_geometry(obj, uv_map_name, resolution, *, smooth_normals=False):
                     use_selected_to_active=False,
                 )
             image.pixels.foreach_get(pixels[index].ravel())
-        pixels = pixels[:, ::-1]  # Blender stores the bottom row first
-        return pixels[0, ..., :3].copy(), pixels[1, ..., :3].copy(), pixels[0, ..., 3] > 0
+        return list(pixels[:, ::-1])  # Blender stores the bottom row first
     finally:
         if copy is not None:
             mesh = copy.data

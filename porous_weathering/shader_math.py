@@ -133,6 +133,9 @@ class Expr:
     def __rmul__(self, other):
         return self.graph.math("MULTIPLY", other, self)
 
+    def __neg__(self):
+        return self.graph.math("SUBTRACT", 0.0, self)
+
     def __truediv__(self, other):
         return self.graph.math("DIVIDE", self, other)
 

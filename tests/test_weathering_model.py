@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 
 from helpers import paper_modes
 from porous_weathering import efflorescence_map, imageio, model
+from porous_weathering.backends import NumpyOps
 from porous_weathering.modes import wet
 
 SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -192,7 +193,9 @@ def test_water_mean_reflectance_is_the_hemispherical_fresnel_integral():
 
 def test_wet_darkening_is_lekner_and_dorf():
     """Over the water-covered fraction w = wet_darkening x water fill, eq. (9)'s diffuse is
-    multiplied by (1 - w) + w (1 - p) / (1 - p k_d) per channel; nothing else changes."""
+    multiplied by (1 - w) + w (1 - p) / (1 - p k_d) per channel, and the water lobe by
+    (1 - d) + d F(N.V) for d = wet_darkening (water's Fresnel reflectance, Schlick's form,
+    F_0 = (0.333 / 2.333)^2); the stone's glossy lobe does not change."""
     p = wet.WATER_INTERNAL_REFLECTANCE
     kd, alpha = np.array([0.6, 0.3, 0.1]), 0.3
     stone = dict(kd=kd, ks=0.1, m=0.0, alpha=alpha, sp=3.0, n_dot_l=0.8, n_dot_v=0.9)
@@ -204,11 +207,30 @@ def test_wet_darkening_is_lekner_and_dorf():
             covered = strength * fill
             kd_w, ks_w, water_w = weathered(stone, model.WET, wet_darkening=strength, **state)
             assert np.allclose(kd_w, paper[0] * ((1 - covered) + covered * (1 - p) / (1 - p * kd)), rtol=1e-14)
-            assert ks_w == paper[1] and np.array_equal(water_w, paper[2])
+            schlick = 0.0203732 + (1 - 0.0203732) * (1 - 0.9) ** 5  # at N.V = 0.9
+            assert ks_w == paper[1] and np.allclose(water_w, paper[2] * ((1 - strength) + strength * schlick))
     soaked = weathered(stone, model.WET, wet_darkening=1.0, time=1.0, front_width=0.1, rain_map=1.0)
     assert np.allclose(soaked[0], kd * (1 - alpha) * (1 - p) / (1 - p * kd))
     darkening = soaked[0] / (kd * (1 - alpha))
     assert darkening[0] > darkening[1] > darkening[2]  # dark channels darken more: colours deepen
+
+
+def test_the_water_lobe_reflects_as_water_does():
+    """With wet_darkening = 1 the water lobe's weight is eq. (8)'s times water's reflectance:
+    Schlick's form, within 0.01 of the exact Fresnel for N.V >= 0.5 and 0.06 at grazing angles,
+    2% face on, the paper's weight at N.V = 0 (docs/model.md)."""
+    cosines = np.linspace(0.0, 1.0, 2001)
+    schlick = 1.0 - wet.water_transmittance(NumpyOps(colour=False), cosines)
+    exact = fresnel(cosines, wet.WATER_INDEX)
+    assert np.abs(schlick - exact)[cosines >= 0.5].max() < 0.01
+    assert np.abs(schlick - exact).max() < 0.06
+    assert schlick[-1] == pytest.approx(exact[-1], abs=1e-12) and schlick[0] == 1.0
+    stone = dict(kd=np.array([0.6, 0.3, 0.1]), ks=0.1, m=0.3, alpha=0.3, sp=3.0, n_dot_l=0.8)
+    soaked = dict(modes=model.WET, time=1.0, rain_map=1.0)
+    for index in (2000, 1000, 10):  # N.V = 1, 0.5, 0.005
+        paper = model.weathered_coefficients(**stone, n_dot_v=cosines[index], wet_darkening=0.0, **soaked)
+        water = model.weathered_coefficients(**stone, n_dot_v=cosines[index], **soaked)[2]
+        assert paper[2].min() > 0.0 and np.allclose(water, paper[2] * schlick[index], rtol=1e-12)
 
 
 def test_crust_covers_a_fully_black_point_with_its_coverage():

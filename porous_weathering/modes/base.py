@@ -57,6 +57,7 @@ class Point:
     pore: Any  #: alpha * G_p, per channel
     theta_i: Any
     theta_r: Any
+    n_dot_v: Any  #: N.V, clamped to [0, 1]
     kd_w: Any  #: diffuse weight
     ks_w: Any  #: glossy weight (roughness m)
     state: dict  #: {input name: value}, clamped to each input's range

@@ -1,7 +1,8 @@
 """Wet surfaces (SPEC 4, section 4.2 of the paper): water fills the pores where the rain map
 is highest first, and a near-mirror water lobe of its own reflects the sky.  Beyond the paper
 (SPEC 6; ``wet_darkening = 0`` is the paper): the stone under the water darkens as Ångström and
-Lekner & Dorf explain, by light the water's surface sends back down to be absorbed again."""
+Lekner & Dorf explain, by light the water's surface sends back down to be absorbed again, and
+the water's surface reflects as water does, by Fresnel (this project's decision: docs/model.md)."""
 
 from .base import (
     DARKEN_WET,
@@ -29,6 +30,9 @@ WATER_MEAN_REFLECTANCE = 0.0664057647830794
 #: water-air surface reflects back down (total internal reflection outside the critical cone).
 WATER_INTERNAL_REFLECTANCE = 1.0 - (1.0 - WATER_MEAN_REFLECTANCE) / WATER_INDEX**2
 
+#: F_0 = ((n - 1) / (n + 1))^2: water's reflectance at normal incidence, 0.0204.
+WATER_NORMAL_REFLECTANCE = ((WATER_INDEX - 1.0) / (WATER_INDEX + 1.0)) ** 2
+
 WET_LEVEL = Input(
     "wet_level", 1.0, 0.0, 1.0, "How far down the rain map the wet area reaches at t = 1 (lower it to dry)"
 )
@@ -39,7 +43,8 @@ WET_DARKENING = Input(
     0.0,
     1.0,
     "Wet darkening (beyond the paper; 0 is the paper): how much of the wet area's diffuse light the water "
-    "traps (Lekner & Dorf 1988). Dark stones darken more and colours deepen",
+    "traps (Lekner & Dorf 1988), and how far the water lobe follows water's Fresnel reflectance (2% face on, "
+    "a mirror at grazing angles). Dark stones darken more and colours deepen",
     panel=True,
 )
 
@@ -57,6 +62,16 @@ def wet_darkening_factor(kd, covered):
     return (1.0 - covered) + covered * ((1.0 - p) / (1.0 - p * kd))
 
 
+def water_transmittance(xp, n_dot_v):
+    """1 - F: the share of the light seen at N.V that water's surface does not reflect, F its
+    Fresnel reflectance (0.02 face on, rising to 1 at grazing angles).  Schlick's form of F, as
+    glTF's BRDF: three nodes where the exact unpolarised Fresnel takes a dozen; within 0.01 of
+    it for N.V >= 0.5, 0.06 at most (near N.V = 0.1); cosine-weighted mean 0.0670 against
+    r̄ = 0.0664 (docs/model.md)."""
+    f0 = WATER_NORMAL_REFLECTANCE
+    return xp.multiply_add(f0 - 1.0, xp.power(1.0 - n_dot_v, 5.0), 1.0 - f0)
+
+
 def fill_with_water(xp, point):
     s = point.state
     water = pore_fill(xp, s["rain_map"], s["time"], s["wet_level"], s["front_width"])
@@ -68,9 +83,15 @@ def fill_with_water(xp, point):
 
 
 def darken_under_water(xp, point):
-    """Eq. (9)'s wet diffuse, darkened where water covers the stone (w = wet_darkening x fill)."""
-    covered = point.state["wet_darkening"] * point.notes["water"]
+    """Eq. (9)'s wet diffuse, darkened where water covers the stone (w = wet_darkening x fill);
+    and eq. (8)'s water lobe, whose k_s,water ~ 1 holds only at grazing angles, weighted by
+    water's Fresnel reflectance F: by (1 - d) + d F for d = wet_darkening (docs/model.md)."""
+    strength = point.state["wet_darkening"]
+    covered = strength * point.notes["water"]
     point.kd_w = point.kd_w * wet_darkening_factor(point.kd, xp.channel(covered))
+    # (1 - d) + d F = 1 - d (1 - F): -d folds to a constant, (1 - F) is one node
+    fresnel = xp.multiply_add(-strength, water_transmittance(xp, point.n_dot_v), 1.0)
+    point.water_w = point.water_w * xp.channel(fresnel)
 
 
 MODE = Mode(
