@@ -4,6 +4,7 @@
     python benchmarks/bench_export.py accuracy [--size 1024] [--height 240] [--samples 256]
     python benchmarks/bench_export.py picture [--size 1024] [--out docs/images/export_variants.png]
     python benchmarks/bench_export.py lobes [--height 48] [--samples 512]
+    python benchmarks/bench_export.py water [--height 48] [--samples 512]
 
 speed: the export of the façade sample (sample_blends/limestone_facade.blend, its 11 objects,
 soiling at ages 0, 0.5, 1 and wet) at ``--size``², per stage (the lightmaps, the bakes of each
@@ -22,6 +23,9 @@ picture: the exported façade, re-imported and rendered under the neutral sky, o
 variant (the docs picture).
 
 lobes: the roughness of the one glossy lobe that carries the stone's and the water's (``lobes``).
+
+water: the water lobe weighted by water's Fresnel reflectance (wet_darkening), against the
+mapping, a Fresnel rise in its one lobe and a clearcoat (``water``).
 """
 
 import argparse
@@ -40,8 +44,10 @@ import bpy  # noqa: E402
 
 import machine  # noqa: E402  (benchmarks/machine.py)
 import numpy as np  # noqa: E402
+from mathutils import Vector  # noqa: E402
 
 from porous_weathering import compat, demo, export, model, render, scratch_scene, weathering  # noqa: E402
+from porous_weathering.modes.wet import WATER_NORMAL_REFLECTANCE  # noqa: E402
 from porous_weathering.shader_math import Graph  # noqa: E402
 
 AGES = (0.0, 0.5, 1.0)
@@ -139,8 +145,9 @@ def rmse_share(image, reference):
 
 def accuracy(args):
     """The table of docs/export.md, "Error": the node render (seed 0) against the published one
-    (seed 1), and against itself with seed 1 (the noise floor, once per scene); with independent
-    noise of the same size in both, the mapping's own error is sqrt(raw² - floor²)."""
+    (seed 1), and against itself with seed 1 (the noise floor, per variant: the relative noise
+    changes with the variant); with independent noise of the same size in both, the
+    mapping's own error is sqrt(raw² - floor²)."""
     print(machine.describe(bpy.app.version_string))
     print(f"textures {args.size}², pictures {args.height} px high, {args.samples} samples, 2 bounces, neutral sky")
     print("| sample | variant | RMSE / mean | noise floor | mapping error |")
@@ -156,14 +163,12 @@ def accuracy(args):
             scene.cycles.use_denoising = False
             scene.cycles.max_bounces = 2
             imported = import_variants(result.path)
-            floor = None
             for state in export.states(AGES, True):
                 reference = node_material(sample, state)
                 show(imported[state.name], None)
                 show(sample.objects, lambda _obj, reference=reference: reference)
                 node = render_with_seed(scene, 0)
-                if floor is None:
-                    floor = rmse_share(render_with_seed(scene, 1), node)
+                floor = rmse_share(render_with_seed(scene, 1), node)
                 show(sample.objects, None)
                 show(imported[state.name], imported[state.name].get)
                 raw = rmse_share(render_with_seed(scene, 1), node)
@@ -182,19 +187,8 @@ def lobes(args):
     wall seen from eye level under the neutral sky (its horizon is the sharpest thing a wet wall
     reflects), the node material's two lobes (limestone k_s 0.03, m 0.6; water m 0.05) against
     the Principled BSDF of the mapping with each candidate roughness, for three water weights."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    neutral_sky(scene)
-    wall = bpy.data.objects.new("Wall", bpy.data.meshes.new("Wall"))
-    wall.data.from_pydata([(-2, 0, 0), (2, 0, 0), (2, 0, 4), (-2, 0, 4)], [], [(0, 1, 2, 3)])
-    scene.collection.objects.link(wall)
-    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    camera.data.lens = 30.0
-    camera.location, camera.rotation_euler = (1.5, -6.0, 1.2), (np.radians(88.0), 0.0, np.radians(14.0))
-    scene.collection.objects.link(camera)
-    scene.camera = camera
-    render.use_cycles(scene, size=args.height, samples=args.samples, bounces=1, pixel_filter=1.5)
-    kd, ks, m, m_water = np.array([0.35, 0.32, 0.27]), 0.03, 0.6, 0.05
+    scene, wall = _eye_level_wall(args)
+    kd, ks, m, m_water = WALL_STONE
     candidates = {
         "alphas by weight": lambda w: np.sqrt((ks * m**2 + w * m_water**2) / (ks + w)),
         "roughness by weight": lambda w: (ks * m + w * m_water) / (ks + w),
@@ -217,18 +211,110 @@ def lobes(args):
         print(f"| {name} | " + " | ".join(cells) + " |")
 
 
-def _two_lobes(obj, kd, ks, m, water, m_water):
+#: The water lobe's weights W of the water study (its weight at grazing views: the filled pores' share).
+WATER_WEIGHTS = (0.05, 0.15, 0.3)
+#: The stone of the lobes and water studies: limestone k_d, k_s 0.03, m 0.6; water roughness 0.05.
+WALL_STONE = (np.array([0.35, 0.32, 0.27]), 0.03, 0.6, 0.05)
+
+
+def _eye_level_wall(args):
+    """An empty scene under the neutral sky with a 4 m vertical wall seen from eye level, 6 m
+    away and a little to the side (N.V from about 0.2 to 1): (scene, wall)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    neutral_sky(scene)
+    wall = bpy.data.objects.new("Wall", bpy.data.meshes.new("Wall"))
+    wall.data.from_pydata([(-2, 0, 0), (2, 0, 0), (2, 0, 4), (-2, 0, 4)], [], [(0, 1, 2, 3)])
+    scene.collection.objects.link(wall)
+    camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    camera.data.lens = 30.0
+    camera.location, camera.rotation_euler = (1.5, -6.0, 1.2), (np.radians(88.0), 0.0, np.radians(14.0))
+    scene.collection.objects.link(camera)
+    scene.camera = camera
+    render.use_cycles(scene, size=args.height, samples=args.samples, bounces=1, pixel_filter=1.5)
+    return scene, wall
+
+
+def water(args):
+    """The water lobe with water's Fresnel reflectance (wet_darkening 1): the node material's
+    lobes, the water's weighted by W F(N.V) (F Schlick's, 2% face on), against what a glTF
+    material can make of them, on the eye-level wall: the mapping (one lobe, F0 = F90 =
+    k_s + w0 with w0 = W F0 the face-on weight the bake sees), a Fresnel rise in the one lobe
+    (F0 = k_s + w0, F90 = k_s + W: a specular colour of F0 / (0.04 F90)), and the water as
+    KHR_materials_clearcoat (F0 0.04, F90 1, its own roughness) of weight W F0 / 0.04 (its
+    face-on reflectance right) or W (its grazing one). The noise floor is the node material
+    rendered with another seed."""
+    scene, wall = _eye_level_wall(args)
+    kd, ks, m, m_water = WALL_STONE
+    f0_water = WATER_NORMAL_REFLECTANCE
+    print(machine.describe(bpy.app.version_string))
+    print(f"{args.height} px, {args.samples} samples; RMSE / mean against the node lobes (water weighted by F)")
+    print("| glTF material | " + " | ".join(f"W {w}" for w in WATER_WEIGHTS) + " |")
+    print("|---|---|---|---|")
+    rows = {}
+    for w in WATER_WEIGHTS:
+        tree = _two_lobes(wall, kd, ks, m, w, m_water, fresnel=f0_water)
+        reference = render_with_seed(scene, 0)
+        rows.setdefault("noise floor (the node material, another seed)", []).append(
+            rmse_share(render_with_seed(scene, 1), reference)
+        )
+        face_on = w * f0_water
+        base, specular, roughness = export.pbr_from_weights(kd, ks, (face_on,) * 3, m, m_water)
+        stone_base, stone_specular, stone_roughness = export.pbr_from_weights(kd, ks, (0.0,) * 3, m, m_water)
+        rise_f0, rise_f90 = ks + face_on, ks + w
+        candidates = {
+            "one lobe, F0 = F90 = k_s + w0 (the mapping)": dict(
+                base=base, specular=float(specular), roughness=float(roughness)
+            ),
+            "one lobe, F0 = k_s + w0, F90 = k_s + W": dict(
+                base=np.minimum(kd / (1.0 - rise_f0), 1.0),
+                specular=rise_f90,
+                roughness=float(roughness),
+                tint=rise_f0 / (export.DIELECTRIC_F0 * rise_f90),
+            ),
+        }
+        for label, coat in (("W F0 / 0.04", face_on / export.DIELECTRIC_F0), ("W", w)):
+            candidates[f"clearcoat of weight {label}"] = dict(
+                base=np.minimum(stone_base / (1.0 - export.DIELECTRIC_F0 * coat), 1.0),
+                specular=float(stone_specular),
+                roughness=float(stone_roughness),
+                coat=coat,
+                coat_roughness=m_water,
+            )
+        for name, material in candidates.items():
+            _principled(tree, **material)
+            rows.setdefault(name, []).append(rmse_share(render_with_seed(scene, 1), reference))
+    for name, cells in rows.items():
+        print(f"| {name} | " + " | ".join(f"{100 * cell:.1f}%" for cell in cells) + " |")
+
+
+def _two_lobes(obj, kd, ks, m, water, m_water, fresnel=None):
     """Give ``obj`` a material of Lambert k_d + GGX(m) k_s + GGX(m_water) water (the porous
-    material's lobes, weights fixed); its node tree."""
+    material's lobes, weights fixed; with ``fresnel`` = F0, the water's weight times Schlick's
+    F0 + (1 - F0)(1 - N.V)^5, as the wet mode weights it); its node tree."""
     material = compat.new_material("Two Lobes")
     obj.data.materials.clear()
     obj.data.materials.append(material)
     tree = material.node_tree
     tree.nodes.clear()
     graph = Graph(tree)
+    water_weight = (water,) * 3 + (1.0,)
+    if fresnel is not None:
+        geometry = graph.node("ShaderNodeNewGeometry")
+        n_dot_v = graph.node(
+            "ShaderNodeVectorMath", [geometry.outputs["Normal"], geometry.outputs["Incoming"]], operation="DOT_PRODUCT"
+        )
+        grazing = graph.node(
+            "ShaderNodeMath", {0: 1.0, 1: n_dot_v.outputs["Value"]}, operation="SUBTRACT", use_clamp=True
+        )
+        power = graph.node("ShaderNodeMath", {0: grazing.outputs[0], 1: 5.0}, operation="POWER")
+        schlick = graph.node(
+            "ShaderNodeMath", {0: power.outputs[0], 1: 1.0 - fresnel, 2: fresnel}, operation="MULTIPLY_ADD"
+        )
+        water_weight = graph.node("ShaderNodeMath", {0: schlick.outputs[0], 1: water}, operation="MULTIPLY").outputs[0]
     diffuse = graph.node("ShaderNodeBsdfDiffuse", {"Color": (*kd, 1.0)})
     stone = graph.node("ShaderNodeBsdfGlossy", {"Color": (ks,) * 3, "Roughness": m}, distribution="GGX")
-    wet = graph.node("ShaderNodeBsdfGlossy", {"Color": (water,) * 3, "Roughness": m_water}, distribution="GGX")
+    wet = graph.node("ShaderNodeBsdfGlossy", {"Color": water_weight, "Roughness": m_water}, distribution="GGX")
     both = graph.node("ShaderNodeAddShader", [diffuse.outputs[0], stone.outputs[0]])
     graph.node(
         "ShaderNodeOutputMaterial",
@@ -237,8 +323,10 @@ def _two_lobes(obj, kd, ks, m, water, m_water):
     return tree
 
 
-def _principled(tree, base, specular, roughness):
-    """Make ``tree`` the Principled BSDF of the mapping (as the glTF importer builds it)."""
+def _principled(tree, base, specular, roughness, tint=export.SPECULAR_COLOR_FACTOR, coat=0.0, coat_roughness=0.0):
+    """Make ``tree`` the Principled BSDF of a glTF material as the glTF importer builds it: the
+    mapping's (specular factor ``specular``, specular colour factor ``tint``), with a clearcoat
+    of weight ``coat`` (IOR 1.5, as glTF's) if given."""
     tree.nodes.clear()
     graph = Graph(tree)
     principled = graph.node("ShaderNodeBsdfPrincipled")
@@ -247,7 +335,10 @@ def _principled(tree, base, specular, roughness):
         ("Metallic", 0.0),
         ("Roughness", roughness),
         ("Specular IOR Level", specular / 2),
-        ("Specular Tint", (export.SPECULAR_COLOR_FACTOR,) * 3 + (1.0,)),
+        ("Specular Tint", (tint,) * 3 + (1.0,)),
+        ("Coat Weight", coat),
+        ("Coat Roughness", coat_roughness),
+        ("Coat IOR", 1.5),
     ):
         principled.inputs[name].default_value = value
     graph.node("ShaderNodeOutputMaterial", {"Surface": principled.outputs[0]})
@@ -336,6 +427,20 @@ def speed(args):
     )
 
 
+#: The picture's camera, as a viewer opens the façade: from the front, a little to the right, at
+#: eye level (location and target in metres, lens in mm, width over height).
+PICTURE_VIEW = dict(location=(3.5, -15.0, 2.5), target=(0.0, 0.0, 2.9), lens=45.0, aspect=4 / 3)
+
+
+def frame(scene, view):
+    camera = scene.camera
+    camera.data.lens = view["lens"]
+    camera.location = view["location"]
+    direction = np.subtract(view["target"], view["location"])
+    camera.rotation_euler = Vector(direction).to_track_quat("-Z", "Y").to_euler()
+    scene.render.resolution_x = round(scene.render.resolution_y * view["aspect"])
+
+
 def picture(args):
     with tempfile.TemporaryDirectory(prefix="pw_bench_export_") as folder:
         work = pathlib.Path(folder)
@@ -346,6 +451,7 @@ def picture(args):
         show(sample.objects, None)
         imported = import_variants(result.path)
         sample.use_cycles(args.height, args.samples)
+        frame(scene, PICTURE_VIEW)
         tiles = []
         for state in export.states(AGES, True):  # every variant maps the same imported objects
             show(imported[state.name], imported[state.name].get)
@@ -356,7 +462,7 @@ def picture(args):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("what", choices=("speed", "accuracy", "picture", "lobes"))
+    parser.add_argument("what", choices=("speed", "accuracy", "picture", "lobes", "water"))
     parser.add_argument("--size", type=int, default=None, help="texture size (speed 2048, accuracy 1024, picture 1024)")
     parser.add_argument("--height", type=int, default=240, help="picture height in pixels")
     parser.add_argument("--samples", type=int, default=256, help="Cycles samples per pixel")
@@ -364,7 +470,7 @@ def main():
     parser.add_argument("--scenes", nargs="+", choices=SCENES, default=SCENES, help="accuracy: the samples")
     args = parser.parse_args()
     args.size = args.size or (2048 if args.what == "speed" else 1024)
-    {"speed": speed, "accuracy": accuracy, "picture": picture, "lobes": lobes}[args.what](args)
+    {"speed": speed, "accuracy": accuracy, "picture": picture, "lobes": lobes, "water": water}[args.what](args)
     sys.stdout.flush()
     os._exit(0)  # bpy 4.5 can hang at interpreter exit (cli.exit_with)
 
