@@ -10,17 +10,15 @@ import warnings
 import bpy
 
 from . import bake, maps, options
+from .ops_steps import SteppedOperator
 
 
-class BakeMapsOperator:
+class BakeMapsOperator(SteppedOperator):
     """Bake the weathering maps (rain exposure, edge/cavity mask, ...) of the selected meshes (Esc cancels)"""
 
     bl_idname = "porous_weathering.bake_maps"
     bl_label = "Bake Weathering Maps"
     bl_options = {"REGISTER", "UNDO"}
-
-    _steps = None
-    _timer = None
 
     @classmethod
     def poll(cls, context):
@@ -49,39 +47,10 @@ class BakeMapsOperator:
             return {"CANCELLED"}
         self._objects, self._options = objects, chosen
         self._outcomes = []
-        context.window_manager.progress_begin(0, 1)
-        if bpy.app.background or context.window is None:  # no event loop: run to the end
-            return self._finish(context, self._run_all(context))
-        self._timer = context.window_manager.event_timer_add(0.05, window=context.window)
-        context.window_manager.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+        return self.start(context)
 
-    def modal(self, context, event):
-        if event.type == "ESC":
-            self._steps.close()  # stops an unwrap at once; undoes the unfinished object's new lightmap
-            self.report({"WARNING"}, f"Bake cancelled after {len(self._outcomes)} map(s)")
-            return self._finish(context, {"CANCELLED"})
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        try:
-            step = self._next_step()
-        except StopIteration:
-            return self._finish(context, {"FINISHED"})
-        except (ValueError, OSError, RuntimeError) as error:
-            self.report({"ERROR"}, str(error))
-            return self._finish(context, {"CANCELLED"})
-        self._show(context, step)
-        return {"RUNNING_MODAL"}
-
-    def _run_all(self, context):
-        try:
-            while True:
-                self._show(context, self._next_step())
-        except StopIteration:
-            return {"FINISHED"}
-        except (ValueError, OSError, RuntimeError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
+    def _cancelled_message(self):
+        return f"Bake cancelled after {len(self._outcomes)} map(s)"
 
     def _next_step(self):
         """The next Step; the warnings the bake gave meanwhile (a scan set up wrongly, ...) are
@@ -90,7 +59,7 @@ class BakeMapsOperator:
         try:
             with warnings.catch_warnings(record=True) as given:
                 warnings.simplefilter("always", UserWarning)
-                return next(self._steps)
+                return super()._next_step()
         finally:
             for warning in given:
                 if issubclass(warning.category, UserWarning):
@@ -107,9 +76,7 @@ class BakeMapsOperator:
             self.report({"INFO"}, f"{step.object}: {step.map} {step.outcome.status} ({step.outcome.where})")
 
     def _finish(self, context, result):
-        if self._timer is not None:
-            context.window_manager.event_timer_remove(self._timer)
-        context.window_manager.progress_end()
+        super()._finish(context, result)
         if context.workspace is not None:
             context.workspace.status_text_set(None)
         if result == {"FINISHED"} and self.target == "image":

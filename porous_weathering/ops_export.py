@@ -5,17 +5,15 @@ nothing behind). Its properties are generated from the export's option declarati
 import bpy
 
 from . import export, options
+from .ops_steps import SteppedOperator
 
 
-class ExportVariantsOperator:
+class ExportVariantsOperator(SteppedOperator):
     """Publish the selected meshes' weathered states as glTF 2.0 with material variants and paradata (Esc cancels)"""
 
     bl_idname = "porous_weathering.export_variants"
     bl_label = "Export Weathered States (glTF)"
     bl_options = {"REGISTER", "UNDO"}  # it may add a lightmap UV map to the meshes
-
-    _steps = None
-    _timer = None
 
     @classmethod
     def poll(cls, context):
@@ -45,49 +43,15 @@ class ExportVariantsOperator:
         except (ValueError, OSError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
-        context.window_manager.progress_begin(0, 1)
-        if bpy.app.background or context.window is None:  # no event loop: run to the end
-            return self._finish(context, self._run_all(context))
-        self._timer = context.window_manager.event_timer_add(0.05, window=context.window)
-        context.window_manager.modal_handler_add(self)
-        return {"RUNNING_MODAL"}
+        return self.start(context)
 
-    def modal(self, context, event):
-        if event.type == "ESC":
-            self._steps.close()  # removes everything the export made; nothing was written
-            self.report({"WARNING"}, "Export cancelled: nothing was written")
-            return self._finish(context, {"CANCELLED"})
-        if event.type != "TIMER":
-            return {"PASS_THROUGH"}
-        try:
-            step = next(self._steps)
-        except StopIteration:
-            return self._finish(context, {"FINISHED"})
-        except (ValueError, OSError, RuntimeError) as error:
-            self.report({"ERROR"}, str(error))
-            return self._finish(context, {"CANCELLED"})
-        self._show(context, step)
-        return {"RUNNING_MODAL"}
-
-    def _run_all(self, context):
-        try:
-            for step in self._steps:
-                self._show(context, step)
-        except (ValueError, OSError, RuntimeError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        return {"FINISHED"}
+    def _cancelled_message(self):
+        return "Export cancelled: nothing was written"
 
     def _show(self, context, step):
         context.window_manager.progress_update(step.fraction)
         if step.result is not None:
             self.report({"INFO"}, f"Wrote {step.result.path} (variants {', '.join(step.result.variants)})")
-
-    def _finish(self, context, result):
-        if self._timer is not None:
-            context.window_manager.event_timer_remove(self._timer)
-        context.window_manager.progress_end()
-        return result
 
 
 def operator_class():

@@ -1,0 +1,57 @@
+"""What the bake and export operators share: running a generator of steps modally (one step
+per timer tick, progress in the window manager's progress bar, Esc closes the generator between
+steps), or to its end where there is no event loop (background, no window)."""
+
+import bpy
+
+
+class SteppedOperator:
+    """Mixin: ``start`` runs ``self._steps``; subclasses say what a step shows (``_show``) and
+    what Esc reports (``_cancelled_message``), and may wrap ``_next_step`` and ``_finish``."""
+
+    _steps = None
+    _timer = None
+
+    def start(self, context):
+        context.window_manager.progress_begin(0, 1)
+        if bpy.app.background or context.window is None:  # no event loop: run to the end
+            return self._finish(context, self._run_all(context))
+        self._timer = context.window_manager.event_timer_add(0.05, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._steps.close()  # the generator undoes what its unfinished step made
+            self.report({"WARNING"}, self._cancelled_message())
+            return self._finish(context, {"CANCELLED"})
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            step = self._next_step()
+        except StopIteration:
+            return self._finish(context, {"FINISHED"})
+        except (ValueError, OSError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return self._finish(context, {"CANCELLED"})
+        self._show(context, step)
+        return {"RUNNING_MODAL"}
+
+    def _run_all(self, context):
+        try:
+            while True:
+                self._show(context, self._next_step())
+        except StopIteration:
+            return {"FINISHED"}
+        except (ValueError, OSError, RuntimeError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+
+    def _next_step(self):
+        return next(self._steps)
+
+    def _finish(self, context, result):
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+        context.window_manager.progress_end()
+        return result
