@@ -630,7 +630,8 @@ def edge_mask_image(obj, uv_map_name, resolution, settings: EdgeSettings | None 
     vertices, read at the texel's own world position (``bake_texel_geometry``), so the
     image and the attribute agree at the same surface points and the texel size does not
     matter.  On a mesh much finer than the radius (``VERTEX_SPACING``: a scan) the field is
-    read at the vertices and drawn across the triangles (``bake_point_values``) instead.
+    read at the vertices and drawn across the triangles (``scratch_scene.bake_point_values``)
+    instead.
 
     Around every UV island C is extended ``margin`` texels outwards (each texel taking the
     mean of its neighbours already set), so texture filtering never pulls in empty texels;
@@ -652,7 +653,7 @@ def edge_mask_image(obj, uv_map_name, resolution, settings: EdgeSettings | None 
     found = surface(obj, radius, depsgraph)
     if not obj.modifiers and _median_edge(obj) <= VERTEX_SPACING * radius:
         at_vertices = smooth_over_radius(found.sources, found.vertices.points, found.vertices.normals, radius)
-        values, islands = bake_point_values(obj, uv_map_name, resolution, at_vertices)
+        values, islands = scratch_scene.bake_point_values(obj, uv_map_name, resolution, at_vertices)
     else:
         smooth_normals = scan_checks.looks_faceted(obj.data)
         positions, normals, islands = bake_texel_geometry(obj, uv_map_name, resolution, smooth_normals=smooth_normals)
@@ -702,7 +703,7 @@ def bake_texel_geometry(obj, uv_map_name, resolution, *, smooth_normals=False):
     ones with ``smooth_normals``) of ``obj`` at the centre of every texel of ``uv_map_name``,
     float32 (H, W, 3), and the (H, W) bool map of the texels on a UV island (the others are 0).
     All top row first."""
-    position, normal = _emit_bakes(
+    position, normal = scratch_scene.emit_bakes(
         obj,
         uv_map_name,
         resolution,
@@ -710,71 +711,3 @@ def bake_texel_geometry(obj, uv_map_name, resolution, *, smooth_normals=False):
         prepare=(lambda mesh: mesh.shade_smooth()) if smooth_normals else None,
     )
     return position[..., :3].copy(), normal[..., :3].copy(), position[..., 3] > 0
-
-
-def bake_point_values(obj, uv_map_name, resolution, values):
-    """(image, islands): ``values`` (one per vertex of ``obj``'s mesh) drawn into a float32
-    (H, W) image of ``uv_map_name``, each texel interpolating its triangle's corners, and the
-    (H, W) bool map of the texels on a UV island. Top row first."""
-    name = "PW Point Values"
-
-    def prepare(mesh):
-        colours = np.ones((len(mesh.vertices), 4), dtype=np.float32)
-        colours[:, :3] = np.asarray(values, dtype=np.float32)[:, None]
-        mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT").data.foreach_set("color", colours.ravel())
-
-    (baked,) = _emit_bakes(
-        obj,
-        uv_map_name,
-        resolution,
-        [lambda graph, geometry: graph.node("ShaderNodeAttribute", attribute_name=name).outputs["Color"]],
-        prepare=prepare,
-    )
-    return baked[..., 0].copy(), baked[..., 3] > 0
-
-
-def _emit_bakes(obj, uv_map_name, resolution, emitted, prepare=None):
-    """One float RGBA (H, W, 4) array, top row first, per ``emitted(graph, geometry)``: exact
-    Cycles EMIT bakes (one sample, the texel centre) of probe materials emitting it, on a copy
-    of the object (its mesh first given to ``prepare``) in a temporary scene: the user's
-    scene, mesh, materials and selection are untouched. Texels off every UV island have alpha 0."""
-    image = bpy.data.images.new("PW Texel Bake", resolution, resolution, alpha=True, float_buffer=True)
-    probes = [scratch_scene.emission_probe(f"PW Texel Probe {index}", build) for index, build in enumerate(emitted)]
-    scene = bpy.data.scenes.new("PW Texel Bake")
-    copy = None
-    try:
-        copy = scratch_scene.placed_copy(obj, scene, probes[0], own_mesh=True)
-        if prepare is not None:
-            prepare(copy.data)
-        scene.render.engine = "CYCLES"
-        scene.cycles.device = "CPU"
-        scene.cycles.samples = 1  # deterministic: the texel centre
-        context = scratch_scene.only_selected(copy)
-        pixels = np.empty((len(probes), resolution, resolution, 4), dtype=np.float32)
-        for index, probe in enumerate(probes):
-            texture = probe.node_tree.nodes.new("ShaderNodeTexImage")
-            texture.image = image
-            probe.node_tree.nodes.active = texture
-            for slot in copy.material_slots:
-                slot.material = probe
-            image.pixels.foreach_set(np.zeros(resolution * resolution * 4, dtype=np.float32))
-            with bpy.context.temp_override(**context):
-                bpy.ops.object.bake(
-                    type="EMIT",
-                    target="IMAGE_TEXTURES",
-                    uv_layer=uv_map_name,
-                    margin=0,
-                    use_clear=False,
-                    use_selected_to_active=False,
-                )
-            image.pixels.foreach_get(pixels[index].ravel())
-        return list(pixels[:, ::-1])  # Blender stores the bottom row first
-    finally:
-        if copy is not None:
-            mesh = copy.data
-            bpy.data.objects.remove(copy)
-            bpy.data.meshes.remove(mesh)
-        bpy.data.scenes.remove(scene)
-        for probe in probes:
-            bpy.data.materials.remove(probe)
-        bpy.data.images.remove(image)

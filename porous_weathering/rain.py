@@ -122,21 +122,28 @@ def bake_rain_image(obj, uv_map, size, settings=RainSettings(), occluders=(), ma
     ``margin`` texels around every UV island are filled from the island's edge (Blender's
     bake margin, EXTEND), so that filtering and mip-mapping never pull in empty texels.
     A mesh smooth at its vertices whose image has at most TEXELS_PER_VERTEX texels per vertex
-    (a scan) is baked at its vertices and drawn across its triangles (``_draw_vertex_values``).
+    (a scan) is baked at its vertices and drawn across its triangles
+    (``scratch_scene.bake_point_values``).
     """
     if obj.type != "MESH" or uv_map not in obj.data.uv_layers:
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map}'")
+    with _bake_scene(obj, occluders, settings) as copy:
+        if smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices):
+            at_vertices = _bake_vertices(obj, copy)
+        else:
+            return _bake_image(copy, uv_map, size, margin)
+    return scratch_scene.bake_point_values(obj, uv_map, size, at_vertices, margin=margin)[0]
+
+
+def _bake_image(copy, uv_map, size, margin):
+    """E baked at every texel of ``copy``'s UV map ``uv_map`` (size, size), top row first."""
     image = bpy.data.images.new("PW Rain Bake", size, size, alpha=False, float_buffer=True)
     try:
-        with _bake_scene(obj, occluders, settings) as copy:
-            copy.data.uv_layers.active = copy.data.uv_layers[uv_map]
-            if smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices):
-                _draw_vertex_values(copy, _bake_vertices(obj, copy), image, margin)
-            else:
-                texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
-                texture.image = image
-                copy.active_material.node_tree.nodes.active = texture
-                _bake(copy, target="IMAGE_TEXTURES", margin=margin)
+        copy.data.uv_layers.active = copy.data.uv_layers[uv_map]
+        texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
+        texture.image = image
+        copy.active_material.node_tree.nodes.active = texture
+        _bake(copy, target="IMAGE_TEXTURES", margin=margin)
         pixels = np.empty(size * size * 4, dtype=np.float32)
         image.pixels.foreach_get(pixels)
         return pixels.reshape(size, size, 4)[::-1, :, 0].copy()  # Blender stores the bottom row first
@@ -224,34 +231,6 @@ def _bake_vertices(target, copy):
         bpy.data.objects.remove(probe)
         bpy.data.meshes.remove(probe_mesh)
         bpy.data.images.remove(image)
-
-
-def _draw_vertex_values(copy, values, image, margin):
-    """Draw ``values`` (one per vertex of ``copy``'s mesh) into ``image`` on its active UV map,
-    each triangle interpolating its corners', as an exact EMIT bake of a point attribute (one
-    sample a texel, the bake's margin around the islands)."""
-    name = "PW Rain Vertices"
-    colours = np.ones((len(values), 4), dtype=np.float32)
-    colours[:, :3] = values[:, None]
-    copy.data.color_attributes.new(name, "FLOAT_COLOR", "POINT").data.foreach_set("color", colours.ravel())
-    probe = scratch_scene.emission_probe(
-        "PW Rain Vertices", lambda graph, geometry: graph.node("ShaderNodeAttribute", attribute_name=name).outputs[0]
-    )
-    scene = copy.users_scene[0]
-    samples, scene.cycles.samples = scene.cycles.samples, 1  # the texel centre: the values are exact
-    try:
-        texture = probe.node_tree.nodes.new("ShaderNodeTexImage")
-        texture.image = image
-        probe.node_tree.nodes.active = texture
-        for slot in copy.material_slots:
-            slot.material = probe
-        with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
-            bpy.ops.object.bake(
-                type="EMIT", target="IMAGE_TEXTURES", margin=margin, margin_type="EXTEND", use_clear=True
-            )
-    finally:
-        scene.cycles.samples = samples
-        bpy.data.materials.remove(probe)
 
 
 def _bake(copy, target, margin):

@@ -1,9 +1,11 @@
 """Copies of the user's objects in temporary scenes, where the bakes work: the user's
-scene, meshes, materials and selection are never touched; and the probe materials and
-light aiming those scenes use."""
+scene, meshes, materials and selection are never touched; the probe materials and light
+aiming those scenes use; and exact texel bakes (EMIT, one sample a texel) of what a probe
+emits on an object's UV map."""
 
-import bpy  # noqa: F401  (mathutils is importable only once bpy is)
+import bpy
 
+import numpy as np
 from mathutils import Vector
 
 from . import compat
@@ -83,3 +85,77 @@ def emission_probe(name, build):
 def normal_probe():
     """Emits the world-space shading normal, encoded as N / 2 + 1/2."""
     return emission_probe("Normal Probe", lambda graph, geometry: graph.wrap(geometry.outputs["Normal"]) * 0.5 + 0.5)
+
+
+def bake_point_values(obj, uv_map_name, resolution, values, *, margin=0):
+    """(image, islands): ``values`` (one per vertex of ``obj``'s mesh) drawn into a float32
+    (H, W) image of ``uv_map_name``, each texel interpolating its triangle's corners, and the
+    (H, W) bool map of the texels on a UV island or its ``margin``. Top row first.
+
+    ``margin`` texels around every island are filled from the island's edge (Blender's bake
+    margin, EXTEND)."""
+    name = "PW Point Values"
+
+    def prepare(mesh):
+        colours = np.ones((len(mesh.vertices), 4), dtype=np.float32)
+        colours[:, :3] = np.asarray(values, dtype=np.float32)[:, None]
+        mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT").data.foreach_set("color", colours.ravel())
+
+    (baked,) = emit_bakes(
+        obj,
+        uv_map_name,
+        resolution,
+        [lambda graph, geometry: graph.node("ShaderNodeAttribute", attribute_name=name).outputs["Color"]],
+        prepare=prepare,
+        margin=margin,
+    )
+    return baked[..., 0].copy(), baked[..., 3] > 0
+
+
+def emit_bakes(obj, uv_map_name, resolution, emitted, prepare=None, margin=0):
+    """One float RGBA (H, W, 4) array, top row first, per ``emitted(graph, geometry)``: exact
+    Cycles EMIT bakes (one sample, the texel centre) of probe materials emitting it, on a copy
+    of the object (its mesh first given to ``prepare``) in a temporary scene: the user's
+    scene, mesh, materials and selection are untouched. Texels off every UV island and its
+    ``margin`` (filled by EXTEND) have alpha 0."""
+    image = bpy.data.images.new("PW Texel Bake", resolution, resolution, alpha=True, float_buffer=True)
+    probes = [emission_probe(f"PW Texel Probe {index}", build) for index, build in enumerate(emitted)]
+    scene = bpy.data.scenes.new("PW Texel Bake")
+    copy = None
+    try:
+        copy = placed_copy(obj, scene, probes[0], own_mesh=True)
+        if prepare is not None:
+            prepare(copy.data)
+        scene.render.engine = "CYCLES"
+        scene.cycles.device = "CPU"
+        scene.cycles.samples = 1  # deterministic: the texel centre
+        context = only_selected(copy)
+        pixels = np.empty((len(probes), resolution, resolution, 4), dtype=np.float32)
+        for index, probe in enumerate(probes):
+            texture = probe.node_tree.nodes.new("ShaderNodeTexImage")
+            texture.image = image
+            probe.node_tree.nodes.active = texture
+            for slot in copy.material_slots:
+                slot.material = probe
+            image.pixels.foreach_set(np.zeros(resolution * resolution * 4, dtype=np.float32))
+            with bpy.context.temp_override(**context):
+                bpy.ops.object.bake(
+                    type="EMIT",
+                    target="IMAGE_TEXTURES",
+                    uv_layer=uv_map_name,
+                    margin=margin,
+                    margin_type="EXTEND",
+                    use_clear=False,
+                    use_selected_to_active=False,
+                )
+            image.pixels.foreach_get(pixels[index].ravel())
+        return list(pixels[:, ::-1])  # Blender stores the bottom row first
+    finally:
+        if copy is not None:
+            mesh = copy.data
+            bpy.data.objects.remove(copy)
+            bpy.data.meshes.remove(mesh)
+        bpy.data.scenes.remove(scene)
+        for probe in probes:
+            bpy.data.materials.remove(probe)
+        bpy.data.images.remove(image)

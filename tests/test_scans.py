@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from generators import load_script
-from porous_weathering import bake, edges, ops_bake, rain, scan_checks, uv
+from porous_weathering import bake, edges, ops_bake, rain, scan_checks, scratch_scene, uv
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCAN = load_script("sample_blends/scan_generator.py")
@@ -193,8 +193,10 @@ def test_a_scan_finer_than_the_edge_radius_gets_its_image_mask_drawn_through_its
     settings = edges.EdgeSettings(scale=0.05)
     assert edges._median_edge(obj) <= edges.VERTEX_SPACING * edges.effective_radius(obj, settings)
     drawn_through = []
-    original = edges.bake_point_values
-    monkeypatch.setattr(edges, "bake_point_values", lambda *args: drawn_through.append(1) or original(*args))
+    original = scratch_scene.bake_point_values
+    monkeypatch.setattr(
+        scratch_scene, "bake_point_values", lambda *args, **kw: drawn_through.append(1) or original(*args, **kw)
+    )
     drawn = edges.edge_mask_image(obj, uv.LIGHTMAP_UV, 256, settings)
     assert drawn_through == [1]
     monkeypatch.setattr(edges, "VERTEX_SPACING", 0.0)
