@@ -129,7 +129,7 @@ def bake_rain_image(obj, uv_map, size, settings=RainSettings(), occluders=(), ma
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map}'")
     with _bake_scene(obj, occluders, settings) as copy:
         if smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices):
-            at_vertices = _bake_vertices(obj, copy)
+            at_vertices = _bake_vertices(obj, copy, settings)
         else:
             return _bake_image(copy, uv_map, size, margin)
     return scratch_scene.bake_point_values(obj, uv_map, size, at_vertices, margin=margin)[0]
@@ -159,7 +159,7 @@ def bake_rain_corners(obj, settings=RainSettings(), occluders=()):
     position and normal, so they share E, and a vertex has about six corners."""
     with _bake_scene(obj, occluders, settings) as copy:
         if smooth_at_vertices(obj):
-            return _bake_vertices(obj, copy)[mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)]
+            return _bake_vertices(obj, copy, settings)[mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)]
         attribute = copy.data.color_attributes.new(RAIN_ATTRIBUTE, "FLOAT_COLOR", "CORNER")
         copy.data.color_attributes.active_color = attribute
         _bake(copy, target="VERTEX_COLORS", margin=0)
@@ -180,24 +180,39 @@ def smooth_at_vertices(obj):
     return bool(smooth.all()) and not sharp
 
 
-def _bake_vertices(target, copy):
+def _bake_vertices(target, copy, settings):
     """E at every vertex of ``target`` (V,), baked in ``copy``'s scene: one texel per vertex of an
     image, each on a probe, a tiny triangle across the vertex's normal (a hundredth of an edge
     across, a hundredth of an edge above the surface, so that the mesh does not shade it where
-    its faces meet), whose UVs hold that texel's centre alone."""
+    its faces meet), whose UVs hold that texel's centre alone.
+
+    A vertex whose normal turns away from every direction of the rain cone (more than 90° plus
+    the cone's half-angle from its axis: a third of a bust at 15°) gets no probe: E is exactly 0
+    there, as the bake would give it (the diffuse surface takes no light from behind)."""
     mesh = target.data
-    count = len(mesh.vertices)
     matrix = unit_placing(target) @ np.array(target.matrix_world, dtype=np.float64)  # into the bake's scene
     points = mesh_arrays.attribute(mesh, "position", np.float32, 3) @ matrix[:3, :3].T + matrix[:3, 3]
-    normals = np.empty(count * 3, dtype=np.float32)
+    normals = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
     mesh.vertex_normals.foreach_get("vector", normals)
     normals = normals.reshape(-1, 3) @ np.linalg.inv(matrix[:3, :3])  # normals go by the inverse transpose
     if mesh_arrays.is_inside_out(mesh):  # baked from outside, as renders shade it (see _bake)
         normals = -normals
     ends = points[mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2)]
     step = PROBE_SIZE * np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1).mean()
+    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+    lit = normals @ np.array(settings.towards_rain()) > -math.sin(math.radians(settings.cone)) - 1e-6
+    exposure = np.zeros(len(points), dtype=np.float32)
+    if lit.any():
+        exposure[lit] = _bake_probes(copy, points[lit], normals[lit], step)
+    return exposure
+
+
+def _bake_probes(copy, points, normals, step):
+    """E baked at ``points`` (P, 3) on probes across their unit ``normals``, ``step`` in size
+    (``_bake_vertices``), in ``copy``'s scene."""
+    count = len(points)
     u, v = np.moveaxis(uv.tangent_bases(normals), 1, 0)
-    centre = points + step * normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+    centre = points + step * normals
     across = 0.75**0.5 * v
     corners = np.stack([centre + step * u, centre - step * (u / 2 - across), centre - step * (u / 2 + across)], axis=1)
 

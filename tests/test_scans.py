@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from generators import load_script
-from porous_weathering import bake, edges, ops_bake, rain, scan_checks, scratch_scene, uv
+from porous_weathering import bake, edges, mesh_arrays, ops_bake, rain, scan_checks, scratch_scene, uv
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCAN = load_script("sample_blends/scan_generator.py")
@@ -162,6 +162,29 @@ def test_corners_that_shade_apart_are_baked_per_corner(bust_mm):
     obj.data.shade_smooth()
     obj.modifiers.new("Displace", "DISPLACE")
     assert not rain.smooth_at_vertices(obj)
+
+
+def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_corner_bake_gives(bust_mm, monkeypatch):
+    """Slanting rain (30° from +X): a vertex more than 90° + the cone from its axis gets no probe
+    and E = 0, exactly what Cycles gives it baked per corner; the others agree within noise."""
+    obj = bust(bust_mm)
+    settings = rain.RainSettings(samples=16, cone=10.0, wind_tilt=30.0)
+    probes = []
+    original = rain._bake_probes
+    monkeypatch.setattr(
+        rain, "_bake_probes", lambda copy, points, *rest: probes.append(len(points)) or original(copy, points, *rest)
+    )
+    through_vertices = rain.bake_rain_corners(obj, settings)
+    normals = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
+    obj.data.vertex_normals.foreach_get("vector", normals)
+    turned_away = (normals.reshape(-1, 3) @ settings.towards_rain() < -math.sin(math.radians(12.0)))[
+        mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)
+    ]
+    assert 0.2 < turned_away.mean() < 0.6 and probes[0] < 0.8 * len(obj.data.vertices)
+    monkeypatch.setattr(rain, "smooth_at_vertices", lambda obj: False)
+    per_corner = rain.bake_rain_corners(obj, settings)
+    assert np.all(per_corner[turned_away] == 0.0) and np.all(through_vertices[turned_away] == 0.0)
+    assert abs(through_vertices.mean() - per_corner.mean()) < 5e-3
 
 
 def test_an_image_hardly_finer_than_the_scan_is_drawn_through_its_vertices(bust_mm, monkeypatch):
