@@ -16,7 +16,7 @@ from .backends import NODE_OPS
 from .shader_math import Graph, dot, normalize
 
 #: Bumped whenever the maths or the interface of a group changes, so old files rebuild.
-BUILD_VERSION = 3
+BUILD_VERSION = 4
 
 #: Light modes (SPEC 3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"

@@ -7,8 +7,12 @@ the way the node groups clamp theirs; ``model.py`` sanitises (and warns) before 
 
 import math
 
-#: Guards the denominator of g() at m = 0 and grazing x = 0 (SPEC 2: g = 0 there).
+#: Guards denominators that may reach 0 (the crust's second front).
 EPSILON = 1e-6
+#: The least k in g(): its denominator x (1 - k) + k is then never 0, so no shader node guards
+#: it at every point (k folds into a constant), and g = 0 at grazing x = 0 even for m = 0
+#: (SPEC 2), while any x a float holds still gives g = 1 there (1e-30 is under half an ulp of it).
+K_FLOOR = 1e-30
 
 #: Three-point Gauss-Legendre rule on [0, 1], used for the ambient mean of g
 #: (docs/model.md: its largest error against the exact mean is 1.6e-3).
@@ -32,9 +36,10 @@ def shadowing_k(m):
 
 
 def shadowing_g(xp, x, k):
-    """One factor of G_p, eq. (4): x / (x(1-k) + k), 0 at x = 0 even when k = 0."""
+    """One factor of G_p, eq. (4): x / (x(1-k) + k), 0 at x = 0 even when k = 0 (K_FLOOR)."""
     x = xp.clip(x, 0.0, 1.0)
-    return x / xp.maximum(xp.multiply_add(x, 1.0 - k, k), EPSILON)
+    k = xp.maximum(k, K_FLOOR)
+    return x / xp.multiply_add(x, 1.0 - k, k)
 
 
 def ambient_g(xp, k):
@@ -45,9 +50,9 @@ def ambient_g(xp, k):
 
 def bounce_count(xp, sp, theta_i, theta_r):
     """n_b, eq. (6): mean number of bounces inside a pore, never negative.  Written as
-    s_p (3.7 + 4 pi / (s_p + 6)) - s_p (theta_i + theta_r), so that a shader folds the first
-    term of a constant s_p and evaluates three operations per point."""
-    return xp.maximum(0.0, sp * (3.7 + 4.0 * math.pi / (sp + 6.0)) - sp * (theta_i + theta_r))
+    (theta_i + theta_r) (-s_p) + s_p (3.7 + 4 pi / (s_p + 6)), so that a shader folds every
+    term of a constant s_p and evaluates three operations per point (add, multiply-add, max)."""
+    return xp.maximum(0.0, xp.multiply_add(theta_i + theta_r, -sp, sp * (3.7 + 4.0 * math.pi / (sp + 6.0))))
 
 
 def pore_absorption(xp, ka, nb):
@@ -58,10 +63,11 @@ def pore_absorption(xp, ka, nb):
 def porous_weights(xp, kd, ks, alpha, gp, ap):
     """(k_d,poro, k_s,poro), eqs. (2) and (3); eq. (3) gathered as
     k_d + alpha G_p ((1 - A_p)(k_d + k_s) - k_d), which takes a shader three operations per
-    point (1 - A_p is the pore's power term itself, so no node computes 1 - A_p)."""
+    point (1 - A_p is the pore's power term itself, so no node computes 1 - A_p), and eq. (2)
+    as alpha G_p (-k_s) + k_s, one."""
     pore = xp.channel(alpha * gp)
     kd_poro = xp.multiply_add(pore, (1.0 - ap) * (kd + xp.channel(ks)) - kd, kd)
-    ks_poro = ks * (1.0 - alpha * gp)
+    ks_poro = xp.multiply_add(alpha * gp, -ks, ks)
     return kd_poro, ks_poro
 
 
