@@ -33,7 +33,7 @@ import bpy
 import numpy as np
 
 from . import imageio, maps, scan_checks, uv
-from .imageio import HASH_KEY, MAP_KEY, OBJECT_KEY, SOURCE_KEY, UV_MAP_KEY  # noqa: F401  (public: docs/api.md)
+from .imageio import HASH_KEY, MAP_KEY, OBJECT_KEY, SOURCE_KEY, UV_MAP_KEY, image_path  # noqa: F401  (public: docs/api.md)
 from .mesh_arrays import write_corner_attribute  # noqa: F401  (public)
 from .options import Entry, check, check_value, declared, entries, option, to_argv
 
@@ -230,21 +230,6 @@ class Step:
         """The progress line: "<object>: <map>", with its stage, and its status once it ended."""
         stage = f": {self.stage}" if self.stage else ""
         return f"{self.object}: {self.map}{stage}" + (f" {self.outcome.status}" if self.outcome else "")
-
-
-#: Characters that a file name cannot hold on some system (Windows refuses the most), as "_".
-_TO_FILE_NAME = str.maketrans(dict.fromkeys([*map(chr, range(32)), *'<>:"/\\|?*'], "_"))
-
-
-def image_path(out_dir: str, object_name: str, map_name: str) -> str:
-    """``OUT/<object>.<map>.exr``. An object name that a file name cannot hold as it is has its
-    unsafe characters replaced by "_" and gets "-" and the first 8 hex digits of the sha256 of
-    its exact (UTF-8) name, so that names that read alike stay apart: "Wall/1" gives
-    ``Wall_1-<hash>.rain.exr`` and "Wall_1" ``Wall_1.rain.exr``."""
-    safe = object_name.translate(_TO_FILE_NAME)
-    if safe != object_name:
-        safe += "-" + hashlib.sha256(object_name.encode()).hexdigest()[:8]
-    return os.path.join(out_dir, f"{safe}.{map_name}.exr")
 
 
 @dataclass(frozen=True)

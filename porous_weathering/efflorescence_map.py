@@ -87,12 +87,14 @@ def normalise(height, clip_percent=0.0):
 
 
 def default_path(name):
-    """``<folder of the .blend>/<name>.efflorescence.exr``; ValueError if the .blend is unsaved."""
+    """``<folder of the .blend>/<name>.efflorescence.exr``, named as a bake names its maps
+    (``imageio.image_path``: a name a file name cannot hold gets a hash suffix, so that two
+    objects never share a file); ValueError if the .blend is unsaved."""
     import bpy
 
     if not bpy.data.filepath:
         raise ValueError("save the .blend first: the efflorescence map is saved beside it")
-    return os.path.join(os.path.dirname(bpy.data.filepath), f"{bpy.path.clean_name(name)}.efflorescence.exr")
+    return imageio.image_path(os.path.dirname(bpy.data.filepath), name, "efflorescence")
 
 
 def save_map(height, path):

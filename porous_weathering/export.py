@@ -685,7 +685,7 @@ class _Textures:
         key = hashlib.sha256(codes.tobytes() + str(codes.shape).encode() + colorspace.encode()).hexdigest()
         if key not in self.images:
             # the exporter names a glTF image after its file: "<object> <label>", in a folder per object
-            path = os.path.join(self.folder, f"{self.object_name} {label}".translate(_TO_FILE_NAME) + ".png")
+            path = os.path.join(self.folder, imageio.safe_file_name(f"{self.object_name} {label}") + ".png")
             _write_png(path, codes)
             image = bpy.data.images.load(path)
             image.name = f"{self.object_name} {label}"
@@ -693,10 +693,6 @@ class _Textures:
             self.scratch.made["images"].append(image)
             self.images[key] = image
         return self.images[key]
-
-
-#: Characters that some file system refuses in a name, as "_".
-_TO_FILE_NAME = str.maketrans(dict.fromkeys([*map(chr, range(32)), *'<>:"/\\|?*'], "_"))
 
 
 def _codes(values, covered):

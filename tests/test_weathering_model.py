@@ -2,6 +2,7 @@
 the extensions beyond the paper (SPEC 6: black crust, wet darkening) and their paper-exact
 settings; and the efflorescence location maps."""
 
+import os
 import warnings
 
 import bpy
@@ -351,6 +352,9 @@ def test_map_is_saved_beside_the_blend(tmp_path):
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
     path = efflorescence_map.save_map(efflorescence_map.brick_joint_map(32), efflorescence_map.default_path("Wall"))
     assert path == str(tmp_path / "Wall.efflorescence.exr")
+    # names a file name cannot hold as they are stay apart, as bake names its maps
+    apart = {efflorescence_map.default_path(name) for name in ("Wall/1", "Wall_1", "Wall:1", "Wall.001", "Wall_001")}
+    assert len(apart) == 5 and all(os.path.dirname(p) == str(tmp_path) for p in apart)
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temporary left
     pixels, _ = imageio.read_image(path)
     assert np.array_equal(pixels[..., 0], efflorescence_map.brick_joint_map(32))
