@@ -316,7 +316,7 @@ def luminance(image):
 def probe_geometry(sample):
     """Position and normal probes of the weathered objects (others held out)."""
     scene = sample.scene
-    holdout = holdout_material()
+    holdout = studio.holdout_material()
     originals = {obj.name: list(obj.data.materials) for obj in scene.objects if obj.type == "MESH"}
     for obj in scene.objects:
         if obj.type == "MESH" and obj not in sample.objects:
@@ -363,17 +363,6 @@ def probe_maps(sample, mode):
             studio.assign(obj, material)
         values[mask] = render.render_array(sample.scene)[..., 0]
     return values
-
-
-def holdout_material():
-    from porous_weathering import compat
-
-    material = compat.new_material("Holdout")
-    material.node_tree.nodes.clear()
-    holdout = material.node_tree.nodes.new("ShaderNodeHoldout")
-    output = material.node_tree.nodes.new("ShaderNodeOutputMaterial")
-    material.node_tree.links.new(holdout.outputs[0], output.inputs["Surface"])
-    return material
 
 
 def check_defaults(material, mode, changed=()):

@@ -32,11 +32,7 @@ class BakeMapsOperator(SteppedOperator):
 
     def execute(self, context):
         try:
-            values = {
-                entry.dest: options.operator_value(entry.option, getattr(self, entry.dest))
-                for entry in bake.option_entries()
-                if entry.option.ui
-            }
+            values = options.operator_values(self, bake.option_entries())
             values["maps"] = tuple(name for name in maps.names() if name in self.maps)
             values["out_dir"] = bpy.path.abspath(self.out_dir)
             chosen = bake.options_from_values(values)

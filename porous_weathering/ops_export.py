@@ -30,11 +30,7 @@ class ExportVariantsOperator(SteppedOperator):
 
     def execute(self, context):
         try:
-            values = {
-                entry.dest: options.operator_value(entry.option, getattr(self, entry.dest))
-                for entry in export.option_entries()
-                if entry.option.ui
-            }
+            values = options.operator_values(self, export.option_entries())
             values["ages"] = export.parse_ages(values["ages"])
             values["out_dir"] = bpy.path.abspath(values["out_dir"])
             chosen = export.ExportOptions(**values)

@@ -198,3 +198,11 @@ def operator_properties(props, items: list[Entry]) -> dict:
 def operator_value(opt: Option, value):
     """``value`` as read from the operator: its stand-in for None (``opt.auto``) is None again."""
     return None if opt.auto is not None and value == opt.auto else value
+
+
+def operator_values(operator, items: list[Entry]) -> dict:
+    """{dest: value} of the entries ``operator_properties`` gave ``operator``, each as
+    ``operator_value`` reads it."""
+    return {
+        entry.dest: operator_value(entry.option, getattr(operator, entry.dest)) for entry in items if entry.option.ui
+    }

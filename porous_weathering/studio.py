@@ -4,6 +4,7 @@ shading quantities out as pixels."""
 
 import bpy
 
+from . import compat
 from .scratch_scene import aim_sun, emission_probe, normal_probe  # noqa: F401  (part of the kit)
 
 #: The camera looks down -Z, so the unit vector towards the viewer is +Z everywhere.
@@ -79,3 +80,13 @@ def position_probe(scale=0.1):
     return emission_probe(
         "Position Probe", lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) * scale + 0.5
     )
+
+
+def holdout_material():
+    """Cuts what it covers out of a render (alpha 0): to see one object of a scene alone."""
+    material = compat.new_material("Holdout")
+    material.node_tree.nodes.clear()
+    holdout = material.node_tree.nodes.new("ShaderNodeHoldout")
+    output = material.node_tree.nodes.new("ShaderNodeOutputMaterial")
+    material.node_tree.links.new(holdout.outputs[0], output.inputs["Surface"])
+    return material

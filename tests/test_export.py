@@ -377,30 +377,23 @@ def test_leaves_the_users_data_as_it_was(tmp_path):
     wall = make_wall()
     save(tmp_path)
     preferences = bpy.context.preferences.addons["io_scene_gltf2"].preferences
-    before = (
-        sorted(bpy.data.objects.keys()),
-        sorted(bpy.data.meshes.keys()),
-        sorted(bpy.data.materials.keys()),
-        sorted(bpy.data.scenes.keys()),
-        sorted(bpy.data.images.keys()),
-        [layer.name for layer in wall.data.uv_layers],
-        sorted(wall.data.color_attributes.keys()),
-        preferences.KHR_materials_variants_ui,
-        bpy.context.window.scene.name,
-    )
+
+    def state():
+        return (
+            sorted(bpy.data.objects.keys()),
+            sorted(bpy.data.meshes.keys()),
+            sorted(bpy.data.materials.keys()),
+            sorted(bpy.data.scenes.keys()),
+            sorted(bpy.data.images.keys()),
+            [layer.name for layer in wall.data.uv_layers],
+            sorted(wall.data.color_attributes.keys()),
+            preferences.KHR_materials_variants_ui,
+            bpy.context.window.scene.name,
+        )
+
+    before = state()
     export.export_variants([wall], (0.0, 1.0), size=16, out_dir=str(tmp_path / "out"))
-    after = (
-        sorted(bpy.data.objects.keys()),
-        sorted(bpy.data.meshes.keys()),
-        sorted(bpy.data.materials.keys()),
-        sorted(bpy.data.scenes.keys()),
-        sorted(bpy.data.images.keys()),
-        [layer.name for layer in wall.data.uv_layers],
-        sorted(wall.data.color_attributes.keys()),
-        preferences.KHR_materials_variants_ui,
-        bpy.context.window.scene.name,
-    )
-    assert after == before
+    assert state() == before
     assert wall.data.materials[0].node_tree.nodes["Porous"].node_tree.name.endswith("(Sun)")
 
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import TOLERANCE, LitSphere, assert_matches
+from helpers import TOLERANCE, LitSphere, assert_matches, porous
 from porous_weathering import model, render, studio
 from porous_weathering.model import PorousInputWarning
 
@@ -21,18 +21,6 @@ HARD_CASES = {
     "large m and s_p": dict(m=1.5, sp=10.0),
     "black": dict(kd=(0.0, 0.0, 0.0), ks=0.0),
 }
-
-
-def porous(params, key_light):
-    return pw.make_porous_material(
-        "Porous",
-        base_color=params["kd"],
-        ks=params["ks"],
-        roughness=params["m"],
-        porosity=params["alpha"],
-        pore_depth_ratio=params["sp"],
-        key_light=key_light,
-    )
 
 
 @pytest.mark.parametrize("case", HARD_CASES, ids=list(HARD_CASES))

@@ -4,22 +4,10 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import LitSphere, assert_matches
+from helpers import LitSphere, assert_matches, porous
 
 DIFFUSE = dict(kd=(0.62, 0.55, 0.45), ks=0.05, m=0.6, alpha=0.35, sp=2.5)
 GLOSSY = dict(kd=(0.25, 0.22, 0.2), ks=0.6, m=0.25, alpha=0.3, sp=1.5)
-
-
-def porous(params, key_light=None):
-    return pw.make_porous_material(
-        "Porous",
-        base_color=params["kd"],
-        ks=params["ks"],
-        roughness=params["m"],
-        porosity=params["alpha"],
-        pore_depth_ratio=params["sp"],
-        key_light=key_light,
-    )
 
 
 @pytest.mark.parametrize("params", [DIFFUSE, GLOSSY], ids=["diffuse", "glossy"])

@@ -6,6 +6,7 @@ import pytest
 import porous_weathering as pw
 from benchmarks import reference as ref
 from benchmarks import scenes
+from helpers import porous
 from porous_weathering import render, studio
 
 DIFFUSE = dict(kd=(0.62, 0.55, 0.45), ks=0.05, m=0.6, alpha=0.35, sp=2.5)
@@ -84,18 +85,6 @@ def render_against_reference(scene, surface, material, reference_material, light
     assert mask.sum() > 0.5 * expected.covered.sum()
     assert np.isfinite(image).all()
     return ref.errors(image, expected.rgb, mask)
-
-
-def porous(params, key_light=None):
-    return pw.make_porous_material(
-        "Porous",
-        base_color=params["kd"],
-        ks=params["ks"],
-        roughness=params["m"],
-        porosity=params["alpha"],
-        pore_depth_ratio=params["sp"],
-        key_light=key_light,
-    )
 
 
 @pytest.mark.parametrize(

@@ -18,7 +18,7 @@ import pytest
 import porous_weathering
 from generators import OLDEST_LINE, load_script
 from helpers import assert_matches, expected_image
-from porous_weathering import compat, demo, model, nodes, render, studio, ui, weathering
+from porous_weathering import demo, model, nodes, render, studio, ui, weathering
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_blends"
@@ -105,7 +105,7 @@ class Weathered:
         clean = render.render_array(scene)
         sample.show(mode, age)
         self.ratio = luminance(render.render_array(scene)) / np.maximum(luminance(clean), 1e-4)
-        holdout = holdout_material()
+        holdout = studio.holdout_material()
         for obj in scene.objects:
             if obj.type == "MESH" and obj not in sample.objects:
                 studio.assign(obj, holdout)
@@ -162,15 +162,6 @@ def mask_probe(source):
     """Emits a mask source (an attribute name or an image path) as the material reads it."""
     mask = weathering.mask_source("efflorescence_map", source)
     return studio.emission_probe("Mask Probe", lambda graph, geometry: weathering.mask_socket(graph, mask))
-
-
-def holdout_material():
-    material = compat.new_material("Holdout")
-    material.node_tree.nodes.clear()
-    holdout = material.node_tree.nodes.new("ShaderNodeHoldout")
-    output = material.node_tree.nodes.new("ShaderNodeOutputMaterial")
-    material.node_tree.links.new(holdout.outputs[0], output.inputs["Surface"])
-    return material
 
 
 def luminance(image):
@@ -264,7 +255,7 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
     scene.world = None
     render.use_cycles(scene, size=48, samples=1)
     scene.render.resolution_x = 64
-    holdout = holdout_material()
+    holdout = studio.holdout_material()
     for obj in scene.objects:
         if obj.type == "MESH" and obj not in sample.objects:
             studio.assign(obj, holdout)
