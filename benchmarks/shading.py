@@ -10,7 +10,7 @@ drops out), and the same slope of this process's CPU time, which counts Cycles' 
 threads.  Rounds are interleaved as in timing.py, materials in a rotating order (round r
 starts at the r-th), after one warm-up round that is not kept.
 
-    python benchmarks/shading.py [--rounds 5] [--size 160] [--quick] [--out FILE]
+    python benchmarks/shading.py [--rounds 5] [--size 160] [--threads N] [--quick] [--out FILE]
 """
 
 import argparse
@@ -71,13 +71,16 @@ def materials(sun):
     }
 
 
-def scene_filling_the_frame(size):
-    """(scene, sphere, sun, fraction of the pixels the sphere covers)."""
+def scene_filling_the_frame(size, threads=0):
+    """(scene, sphere, sun, fraction of the pixels the sphere covers); ``threads`` render
+    threads (0: one per core)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     obj = scenes.build(scene, "SPHERE", (speed.SUN,), speed.SKY)
     scene.camera.data.ortho_scale = FRAME
     render.use_cycles(scene, size=size, samples=1, bounces=BOUNCES, pixel_filter=PIXEL_FILTER)
+    if threads:
+        scene.render.threads_mode, scene.render.threads = "FIXED", threads
     coverage = float((render.render_array(scene)[..., 3] > 0.5).mean())
     return scene, obj, next(o for o in scene.objects if o.type == "LIGHT"), coverage
 
@@ -131,10 +134,10 @@ def busy_threads(wall, cpu):
     return statistics.median(c / w for key in wall if key[1] == SAMPLES[-1] for w, c in zip(wall[key], cpu[key]))
 
 
-def report(size, rounds):
+def report(size, rounds, threads=0):
     load_start = os.getloadavg()
     where = machine.describe(bpy.app.version_string)
-    scene, obj, sun, coverage = scene_filling_the_frame(size)
+    scene, obj, sun, coverage = scene_filling_the_frame(size, threads)
     candidates = materials(sun)
     wall, cpu, loads = rotating_rounds(scene, obj, candidates, rounds)
     load_end = os.getloadavg()
@@ -174,13 +177,14 @@ def report(size, rounds):
         f"(min..max relative to the median), the range that of the per-round ratios; best of rounds = the slope "
         f"between the fastest render at each sample count (the estimate other jobs disturb least). "
         f"CPU = this process's CPU time, render threads included (median {busy_threads(wall, cpu):.2f} CPU s "
-        f"per wall s while rendering {SAMPLES[1]} samples on {os.cpu_count()} cores). "
+        f"per wall s while rendering {SAMPLES[1]} samples with {threads or os.cpu_count()} render threads on "
+        f"{os.cpu_count()} cores). "
         f"Weathered materials: masks as constants, "
         f"{', '.join(f'{k} {v}' for k, v in WEATHERING.items())} (by the model: {state}).\n\n"
         + scenes.markdown_table(header, rows)
         + f"\n\nLoad average (1 / 5 / 15 min): {loadavg(load_start)} at the start, {loadavg(load_end)} at the end; "
         f"1-min after each round: {loadavg(loads)} (this benchmark's own render threads add up to "
-        f"{os.cpu_count()}: above that, other jobs shared the cores)."
+        f"{threads or os.cpu_count()}: above that, other jobs shared the cores)."
     )
 
 
@@ -188,13 +192,19 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--size", type=int, default=160)
+    parser.add_argument(
+        "--threads",
+        type=int,
+        default=0,
+        help="render threads (default: one per core); 1 leaves a core to the rest of a shared machine",
+    )
     parser.add_argument("--quick", action="store_true", help="2 rounds: a smoke check, not a measurement")
     parser.add_argument("--out", type=pathlib.Path, help="write the markdown here instead of printing it")
     args = parser.parse_args()
     outside = {name: value for name, value in fills().items() if not 0.0 < value < 1.0}
     if outside:
         parser.error(f"WEATHERING puts {outside} at a bound, where Cycles folds nodes away")
-    markdown = report(args.size, 2 if args.quick else args.rounds)
+    markdown = report(args.size, 2 if args.quick else args.rounds, args.threads)
     if args.out:
         args.out.write_text(markdown + "\n")
     else:
