@@ -63,7 +63,7 @@ def test_material_inputs_out_of_range_are_clamped_with_a_named_warning(fresh_sce
 
 
 def test_base_colour_nan_and_out_of_range_channels_are_clamped(fresh_scene):
-    with pytest.warns(PorousInputWarning, match="'k_d'"):
+    with pytest.warns(PorousInputWarning, match="'k_d'"), pytest.warns(PorousInputWarning, match="k_s \\+ k_d > 1"):
         material = pw.make_porous_material("M", base_color=(NAN, -1.0, 7.0), ks=0.1)
     assert tuple(material.node_tree.nodes["Porous"].inputs["Base Color"].default_value) == pytest.approx(
         (0.0, 0.0, 0.9, 1.0)
