@@ -324,7 +324,7 @@ def _check_vertices_kept(obj):
         )
 
 
-def check_writable_folder(folder):
+def check_writable_folder(folder: str) -> None:
     """Create ``folder`` if needed; raise OSError saying why it cannot take the maps."""
     try:
         os.makedirs(folder, exist_ok=True)
@@ -526,7 +526,7 @@ def _inputs_hash(obj, map_name, options, uvs, digests):
 # --- linking the maps into the .blend ----------------------------------------------------------
 
 
-def occluder_collection(name):
+def occluder_collection(name: str | bpy.types.Collection | None) -> bpy.types.Collection | None:
     """The collection whose objects are the rain occluders (given, or named), or None (every
     other object) for none."""
     if not name:

@@ -14,11 +14,13 @@ and the convex part (edges) apart.
 """
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import bpy
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import mesh_arrays, scan_checks, scratch_scene
 from .options import check, option
@@ -126,7 +128,7 @@ class EdgeSettings:
 # --- the radius --------------------------------------------------------------------------------
 
 
-def object_size(obj, depsgraph=None) -> float:
+def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None) -> float:
     """The diagonal of ``obj``'s evaluated bounding box, in world units (it turns with the
     object, so a rotation does not change it)."""
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
@@ -135,7 +137,9 @@ def object_size(obj, depsgraph=None) -> float:
     return float(np.linalg.norm(np.array(evaluated.matrix_world)[:3, :3] @ (corners[6] - corners[0])))
 
 
-def effective_radius(obj, settings: EdgeSettings, depsgraph=None) -> float:
+def effective_radius(
+    obj: bpy.types.Object, settings: EdgeSettings, depsgraph: bpy.types.Depsgraph | None = None
+) -> float:
     """The smoothing radius of ``obj``'s edge mask in scene units: ``settings.radius`` when
     given, else ``settings.scale`` times ``object_size``."""
     if settings.radius is not None:
@@ -181,7 +185,7 @@ class Surface:
     sources: Samples
 
 
-def surface(obj, radius, depsgraph=None) -> Surface:
+def surface(obj: bpy.types.Object, radius: float, depsgraph: bpy.types.Depsgraph | None = None) -> Surface:
     """The ``Surface`` of ``obj``'s evaluated mesh (modifiers applied) for smoothing ``radius``."""
     if not np.isfinite(radius) or radius <= 0:
         raise ValueError(f"curvature radius must be a positive number of scene units, not {radius}")
@@ -424,7 +428,9 @@ def _blocks(count, size=None):
 # --- smoothing over a radius ---------------------------------------------------------------------
 
 
-def smooth_over_radius(sources: Samples, points, normals, radius, shifts=SHIFTS):
+def smooth_over_radius(
+    sources: Samples, points: np.ndarray, normals: np.ndarray, radius: float, shifts: Sequence[np.ndarray] = SHIFTS
+) -> np.ndarray:
     """H at ``points`` (n, 3) with unit ``normals``: sum(w * curvature) / sum(w * area) over the
     ``sources`` around each point, as float32 (n,).
 
@@ -536,7 +542,7 @@ def _corner_weights(corner_cells, fraction, features):
 # --- the attribute target ------------------------------------------------------------------------
 
 
-def curvature(obj, radius: float, depsgraph=None) -> np.ndarray:
+def curvature(obj: bpy.types.Object, radius: float, depsgraph: bpy.types.Depsgraph | None = None) -> np.ndarray:
     """Signed mean curvature H (1 / scene units) at every vertex of ``obj``'s evaluated mesh
     (modifiers applied) in world space, as float32 (V,): convex > 0, concave < 0, and a
     sphere of radius r gives 1 / r.
@@ -553,13 +559,13 @@ def curvature(obj, radius: float, depsgraph=None) -> np.ndarray:
 
 
 def curvature_mask(
-    curvature_values,
-    radius,
+    curvature_values: ArrayLike,
+    radius: float,
     *,
-    cavity_weight=DEFAULT_CAVITY_WEIGHT,
-    edge_weight=DEFAULT_EDGE_WEIGHT,
-    saturation=DEFAULT_SATURATION,
-):
+    cavity_weight: float = DEFAULT_CAVITY_WEIGHT,
+    edge_weight: float = DEFAULT_EDGE_WEIGHT,
+    saturation: float = DEFAULT_SATURATION,
+) -> np.ndarray:
     """C in [0, 1] from signed curvature: the dimensionless H * radius / ``saturation``, its
     convex part (H > 0) times ``edge_weight`` plus its concave part (H < 0) times
     ``cavity_weight``, clipped to [0, 1]."""
@@ -577,7 +583,7 @@ def _settings_mask(values, radius, settings):
     return curvature_mask(values, radius, cavity_weight=settings.cavity_weight, edge_weight=settings.edge_weight)
 
 
-def write_edge_attribute(obj, mask, name=EDGE_ATTRIBUTE):
+def write_edge_attribute(obj: bpy.types.Object, mask: ArrayLike, name: str = EDGE_ATTRIBUTE) -> None:
     """Store ``mask`` (one value per vertex of ``obj``'s mesh) as the grey colour attribute
     ``name`` (FLOAT_COLOR, per point), replacing any old one only once the new one is whole."""
     if obj.type != "MESH":
@@ -606,7 +612,11 @@ def write_edge_attribute(obj, mask, name=EDGE_ATTRIBUTE):
 
 
 def write_curvature_attribute(
-    obj, radius: float | None = None, *, settings: EdgeSettings | None = None, depsgraph=None
+    obj: bpy.types.Object,
+    radius: float | None = None,
+    *,
+    settings: EdgeSettings | None = None,
+    depsgraph: bpy.types.Depsgraph | None = None,
 ) -> np.ndarray:
     """The mask of ``settings`` (default ``EdgeSettings()``; ``radius``, in scene units,
     replaces its radius) at every vertex, written to ``pw_edges``; returns the mask."""
@@ -623,7 +633,9 @@ def write_curvature_attribute(
 # --- the image target ----------------------------------------------------------------------------
 
 
-def edge_mask_image(obj, uv_map_name, resolution, settings: EdgeSettings | None = None, *, margin=4) -> np.ndarray:
+def edge_mask_image(
+    obj: bpy.types.Object, uv_map_name: str, resolution: int, settings: EdgeSettings | None = None, *, margin: int = 4
+) -> np.ndarray:
     """C as a float32 (resolution, resolution) array in [0, 1], top row first (v = 1).
 
     Every texel of a UV island gets the mask of the curvature field ``curvature`` gives the
@@ -665,7 +677,7 @@ def edge_mask_image(obj, uv_map_name, resolution, settings: EdgeSettings | None 
     return np.where(known, mask, 0.0).astype(np.float32)
 
 
-def grow(values, known):
+def grow(values: np.ndarray, known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(values, known) grown by one ring: each unknown texel next to known ones (8-neighbours)
     takes the mean of their values.  ``values`` is (H, W) or (H, W, C)."""
     weight = known.astype(np.float32)
@@ -698,7 +710,9 @@ def _median_edge(obj):
     return float(np.median(np.linalg.norm(points[ends[:, 0]] - points[ends[:, 1]], axis=1))) if len(ends) else math.inf
 
 
-def bake_texel_geometry(obj, uv_map_name, resolution, *, smooth_normals=False):
+def bake_texel_geometry(
+    obj: bpy.types.Object, uv_map_name: str, resolution: int, *, smooth_normals: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(positions, normals, islands): the world-space position and shading normal (smooth
     ones with ``smooth_normals``) of ``obj`` at the centre of every texel of ``uv_map_name``,
     float32 (H, W, 3), and the (H, W) bool map of the texels on a UV island (the others are 0).

@@ -20,7 +20,16 @@ LUMA = (0.2126, 0.7152, 0.0722)
 CLIP_PERCENT = 1.0
 
 
-def brick_joint_map(size=512, *, rows=8, bricks_per_row=4, mortar=0.015, reach=0.025, noise=0.4, seed=0):
+def brick_joint_map(
+    size: int = 512,
+    *,
+    rows: int = 8,
+    bricks_per_row: int = 4,
+    mortar: float = 0.015,
+    reach: float = 0.025,
+    noise: float = 0.4,
+    seed: int = 0,
+) -> np.ndarray:
     """A (size, size) location map for a running-bond brick texture of ``rows`` courses.
 
     1 on the mortar joints (``mortar`` wide, in texture units), falling off exponentially over
@@ -37,7 +46,7 @@ def brick_joint_map(size=512, *, rows=8, bricks_per_row=4, mortar=0.015, reach=0
     return normalise(height * (1.0 - noise + noise * smooth_noise(size, seed)))
 
 
-def smooth_noise(size, seed, cells=12):
+def smooth_noise(size: int, seed: int, cells: int = 12) -> np.ndarray:
     """(size, size) value noise in [0, 1]: a random ``cells``² grid resized smoothly (OpenImageIO)."""
     import OpenImageIO as oiio
 
@@ -46,7 +55,7 @@ def smooth_noise(size, seed, cells=12):
     return np.clip(resized.get_pixels(oiio.FLOAT)[..., 0], 0.0, 1.0)
 
 
-def photo_map(photo_path, *, denoise_width=5, size=None):
+def photo_map(photo_path: str | os.PathLike, *, denoise_width: int = 5, size: int | None = None) -> np.ndarray:
     """A location map from a photograph of efflorescence: its luminance (Rec. 709 weights of
     the stored values), median-filtered over ``denoise_width`` pixels to remove grain and
     small specks, resized to ``size``² if given, and normalised to [0, 1] between its 1st and
@@ -70,7 +79,7 @@ def photo_map(photo_path, *, denoise_width=5, size=None):
     return normalise(buffer.get_pixels(oiio.FLOAT)[..., 0], CLIP_PERCENT)
 
 
-def normalise(height, clip_percent=0.0):
+def normalise(height: np.ndarray, clip_percent: float = 0.0) -> np.ndarray:
     """``height`` stretched to [0, 1] between its ``clip_percent`` and 100 - ``clip_percent``
     percentiles, NaN taken as the lowest value; a flat field becomes all 0."""
     height = np.asarray(height, dtype=np.float64)
@@ -86,7 +95,7 @@ def normalise(height, clip_percent=0.0):
     return np.clip((height - low) / (high - low), 0.0, 1.0).astype(np.float32)
 
 
-def default_path(name):
+def default_path(name: str) -> str:
     """``<folder of the .blend>/<name>.efflorescence.exr``, named as a bake names its maps
     (``imageio.image_path``: a name a file name cannot hold gets a hash suffix, so that two
     objects never share a file); ValueError if the .blend is unsaved."""
@@ -97,7 +106,7 @@ def default_path(name):
     return imageio.image_path(os.path.dirname(bpy.data.filepath), name, "efflorescence")
 
 
-def save_map(height, path):
+def save_map(height: np.ndarray, path: str | os.PathLike) -> str:
     """Write a location map as a single-channel float EXR, atomically; returns the path."""
     imageio.write_image(path, np.asarray(height, dtype=np.float32))
     return os.fspath(path)

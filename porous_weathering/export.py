@@ -31,6 +31,7 @@ from typing import Any
 import bpy
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import bake, compat, imageio, interrupts, model, nodes, render, scratch_scene, uv
 from . import modes as weathering_modes
@@ -193,7 +194,9 @@ class ExportResult:
 # --- the mapping ----------------------------------------------------------------------------
 
 
-def pbr_from_weights(kd, ks, water, m, water_roughness) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def pbr_from_weights(
+    kd: np.ndarray, ks: np.ndarray, water: np.ndarray, m: ArrayLike, water_roughness: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The glTF material of the porous weights (docs/export.md, "The mapping"), per texel:
     ``(base colour (..., 3), specular S (...), roughness (...))`` for metallic 0, a specular
     colour factor of 1 / 0.04 and a specular factor S (so F0 = F90 = S).
@@ -220,7 +223,7 @@ def pbr_from_weights(kd, ks, water, m, water_roughness) -> tuple[np.ndarray, np.
     return base, specular, np.sqrt(alpha)
 
 
-def linear_to_srgb(values) -> np.ndarray:
+def linear_to_srgb(values: ArrayLike) -> np.ndarray:
     """The sRGB transfer function (IEC 61966-2-1) of linear values in [0, 1]."""
     values = np.clip(np.asarray(values, dtype=np.result_type(np.asarray(values).dtype, np.float32)), 0.0, 1.0)
     return np.where(values <= 0.0031308, values * 12.92, 1.055 * np.power(values, 1.0 / 2.4) - 0.055)

@@ -9,6 +9,7 @@ umask). String metadata (e.g. the input hash a bake stores) travels in the file'
 
 import hashlib
 import os
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -52,7 +53,13 @@ FORMATS = {
 DEFAULT_PIXEL_TYPE = {".exr": "float", ".png": "uint16"}
 
 
-def write_image(path, pixels, *, pixel_type=None, metadata=None):
+def write_image(
+    path: str | os.PathLike,
+    pixels: np.ndarray,
+    *,
+    pixel_type: str | None = None,
+    metadata: Mapping[str, str] | None = None,
+) -> None:
     """Write ``pixels`` to ``path`` (.exr: "float" or "half"; .png: "uint16"), atomically.
 
     PNG values are clipped to [0, 1] and quantised to 1/65535; EXR keeps them as they are.
@@ -99,7 +106,7 @@ def _write_file(oiio, path, spec, pixels):
         raise OSError(error)
 
 
-def read_image(path):
+def read_image(path: str | os.PathLike) -> tuple[np.ndarray, dict[str, str]]:
     """(pixels float32 (H, W, C), metadata dict of the header's string attributes)."""
     import OpenImageIO as oiio
 
@@ -113,12 +120,12 @@ def read_image(path):
     return np.asarray(pixels, dtype=np.float32), _string_attributes(buffer.spec())
 
 
-def read_metadata(path):
+def read_metadata(path: str | os.PathLike) -> dict[str, str]:
     """The header's string attributes of an image file, or {} when there is no readable file."""
     return image_header(path) or {}
 
 
-def image_header(path):
+def image_header(path: str | os.PathLike) -> dict[str, str] | None:
     """The header's string attributes of an image file, or None when there is no file that
     OpenImageIO can read (missing, corrupt or not an image)."""
     import OpenImageIO as oiio

@@ -71,7 +71,9 @@ def make_base_material(
     return material
 
 
-def porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio):
+def porous_parameters(
+    base_color: ColorSource, ks: float, roughness: float, porosity: float, pore_depth_ratio: float
+) -> tuple[bpy.types.Image | np.ndarray, dict[str, float]]:
     """Validated (base colour or image, {group input: value}), as model.py clamps them."""
     if isinstance(base_color, (str, os.PathLike)):
         base_color = load_image(base_color)
@@ -92,7 +94,7 @@ def porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio):
     return base_color, values
 
 
-def load_image(path):
+def load_image(path: str | os.PathLike) -> bpy.types.Image:
     """An image datablock for ``path`` (reused if loaded), or ValueError naming the file."""
     path = os.fspath(path)
     if not os.path.isfile(path):
@@ -119,7 +121,7 @@ def _check_readable_image(path):
     image.close()
 
 
-def resolve_key_light(key_light):
+def resolve_key_light(key_light: bpy.types.Object | str | None) -> bpy.types.Object | None:
     """The light object named or given, or None; ValueError if it is not a light."""
     if key_light is None:
         return None
@@ -157,7 +159,7 @@ def _connect_base_color(graph, group_node, base_color):
         group_node.inputs["Base Color"].default_value = base_color
 
 
-def wire_key_light(graph, group_node, light):
+def wire_key_light(graph: Graph, group_node: bpy.types.Node, light: bpy.types.Object) -> bpy.types.Node:
     """Feed the light's world direction (sun) or position (others) with plain drivers.
 
     The drivers are TRANSFORMS variables of SUM drivers: Blender evaluates them without
@@ -195,7 +197,7 @@ def _driven_vector(graph, light, transform_types, label):
     return combine.outputs["Vector"]
 
 
-def principled_textures(material):
+def principled_textures(material: bpy.types.Material) -> dict[str, bpy.types.Image]:
     """{'Base Color': image, 'Roughness': image} of the images feeding an existing material's
     Principled BSDF directly (what an artist's scan or texture set usually is)."""
     found = {}
@@ -228,7 +230,7 @@ def make_porous_from_material(source: "bpy.types.Material", name: str | None = N
     return material
 
 
-def connect_roughness_image(material, image):
+def connect_roughness_image(material: bpy.types.Material, image: bpy.types.Image) -> None:
     """Drive the porous group's roughness m of ``material`` by ``image``."""
     graph = Graph(material.node_tree)
     roughness = graph.node("ShaderNodeTexImage", depth=1, image=image)

@@ -11,8 +11,10 @@ carries its RGB channels on the last axis; scalar quantities broadcast against i
 """
 
 import warnings
+from collections.abc import Iterable, Mapping
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from . import modes as _modes
 from . import porous
@@ -35,7 +37,7 @@ def _warn(message):
     warnings.warn(message, PorousInputWarning, stacklevel=3)
 
 
-def sanitize(name, value, low=0.0, high=None):
+def sanitize(name: str, value: ArrayLike, low: float = 0.0, high: float | None = None) -> np.ndarray:
     """``value`` as a float64 array with NaN replaced by ``low`` and clamped to [low, high].
 
     Warns (PorousInputWarning) naming the input when anything had to change.
@@ -49,7 +51,7 @@ def sanitize(name, value, low=0.0, high=None):
     return clean
 
 
-def clamp_cosine(name, x):
+def clamp_cosine(name: str, x: ArrayLike) -> np.ndarray:
     """A cosine clamped to [0, 1] as SPEC 2 defines x: back-facing is 0, not an error; NaN warns."""
     x = np.asarray(x, dtype=np.float64)
     if np.isnan(x).any():
@@ -57,7 +59,7 @@ def clamp_cosine(name, x):
     return np.clip(np.nan_to_num(x, nan=0.0), 0.0, 1.0)
 
 
-def valid_albedo(kd, ks):
+def valid_albedo(kd: ArrayLike, ks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """(k_d, k_s) with k_d clamped so that k_a = 1 - k_s - k_d >= 0 (SPEC 1)."""
     kd = sanitize("k_d", kd, 0.0, 1.0)
     ks = sanitize("k_s", ks, 0.0, 1.0)
@@ -66,42 +68,46 @@ def valid_albedo(kd, ks):
     return porous.valid_albedo(numpy_ops(kd), kd, ks)
 
 
-def per_channel(x, kd):
+def per_channel(x: ArrayLike, kd: ArrayLike) -> np.ndarray:
     """Scalar x made to broadcast against the colour k_d (whose last axis is RGB, if any)."""
     return numpy_ops(kd).channel(x)
 
 
-def shadowing_k(m):
+def shadowing_k(m: ArrayLike) -> np.ndarray:
     """k = 2 m^2 / pi, eq. (4)."""
     return porous.shadowing_k(m)
 
 
-def shadowing_g(x, k):
+def shadowing_g(x: ArrayLike, k: ArrayLike) -> np.ndarray:
     """One factor of G_p, eq. (4): x / (x(1-k) + k), 0 at x = 0 even when k = 0."""
     return porous.shadowing_g(_SCALAR, x, k)
 
 
-def ambient_g(k):
+def ambient_g(k: ArrayLike) -> np.ndarray:
     """Cosine-weighted hemisphere mean of g(N.S): 2 * integral_0^1 g(mu, k) mu dmu (SPEC 3)."""
     return porous.ambient_g(_SCALAR, k)
 
 
-def bounce_count(sp, theta_i, theta_r):
+def bounce_count(sp: ArrayLike, theta_i: ArrayLike, theta_r: ArrayLike) -> np.ndarray:
     """n_b, eq. (6): mean number of bounces inside a pore, never negative."""
     return porous.bounce_count(_SCALAR, sp, theta_i, theta_r)
 
 
-def pore_absorption(ka, nb):
+def pore_absorption(ka: ArrayLike, nb: ArrayLike) -> np.ndarray:
     """A_p, eq. (5) in its stable form 1 - (1 - k_a)^n_b (no 0/0 at k_a = 0)."""
     return porous.pore_absorption(_SCALAR, ka, nb)
 
 
-def porous_weights(kd, ks, alpha, gp, ap):
+def porous_weights(
+    kd: ArrayLike, ks: ArrayLike, alpha: ArrayLike, gp: ArrayLike, ap: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """(k_d,poro, k_s,poro), eqs. (2) and (3)."""
     return porous.porous_weights(numpy_ops(kd), kd, ks, alpha, gp, ap)
 
 
-def pore_geometry(m, n_dot_l, n_dot_v):
+def pore_geometry(
+    m: ArrayLike, n_dot_l: ArrayLike | None, n_dot_v: ArrayLike
+) -> tuple[np.ndarray, np.ndarray | float, np.ndarray]:
     """(G_p, theta_i, theta_r): eq. (4) and the angles of eq. (6); ``n_dot_l=None`` is ambient.
 
     In the ambient mode (SPEC 3) g(N.S) and theta_i are replaced by their cosine-weighted
@@ -111,7 +117,9 @@ def pore_geometry(m, n_dot_l, n_dot_v):
     return porous.pore_geometry(_SCALAR, sanitize("m", m), n_dot_l, clamp_cosine("n_dot_v", n_dot_v))
 
 
-def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
+def pore_terms(
+    kd: ArrayLike, ks: ArrayLike, m: ArrayLike, sp: ArrayLike, n_dot_l: ArrayLike | None, n_dot_v: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """(G_p, A_p), eqs. (4)-(6), for valid k_d and k_s; ``n_dot_l=None`` is the ambient mode.
 
     A_p is a colour when k_d is one.
@@ -122,7 +130,15 @@ def pore_terms(kd, ks, m, sp, n_dot_l, n_dot_v):
     )
 
 
-def porous_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v):
+def porous_coefficients(
+    kd: ArrayLike,
+    ks: ArrayLike,
+    m: ArrayLike,
+    alpha: ArrayLike,
+    sp: ArrayLike,
+    n_dot_l: ArrayLike | None,
+    n_dot_v: ArrayLike,
+) -> tuple[np.ndarray, np.ndarray]:
     """k_d,poro and k_s,poro for a light at N.S = n_dot_l seen at N.V = n_dot_v.
 
     ``kd`` is an RGB colour (last axis 3) or a scalar grey; the other arguments are
@@ -138,7 +154,9 @@ def porous_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v):
     )
 
 
-def porous_coefficients_ambient(kd, ks, m, alpha, sp, n_dot_v):
+def porous_coefficients_ambient(
+    kd: ArrayLike, ks: ArrayLike, m: ArrayLike, alpha: ArrayLike, sp: ArrayLike, n_dot_v: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """The ambient light mode of SPEC 3 (no light direction)."""
     return porous_coefficients(kd, ks, m, alpha, sp, None, n_dot_v)
 
@@ -168,17 +186,17 @@ def __getattr__(name):
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def weathering_modes(modes):
+def weathering_modes(modes: str | Iterable[str]) -> tuple[str, ...]:
     """``modes`` (one name or several) as a tuple in registry order; ValueError for unknown names."""
     return _modes.checked(modes)
 
 
-def inputs_of(modes):
+def inputs_of(modes: str | Iterable[str]) -> list[str]:
     """The names of the weathering inputs that ``modes`` use, in socket order."""
     return [item.name for item in _modes.inputs_of(modes)]
 
 
-def weathering_state(modes, state):
+def weathering_state(modes: str | Iterable[str], state: Mapping[str, ArrayLike]) -> dict[str, np.ndarray]:
     """{input: value} for ``modes``: defaults filled in, values clamped (PorousInputWarning).
 
     An unknown name is a TypeError; a known one that ``modes`` do not use warns and is ignored.
@@ -194,18 +212,28 @@ def weathering_state(modes, state):
     return {item.name: sanitize(item.name, state.get(item.name, item.default), item.low, item.high) for item in used}
 
 
-def fill_curve(progress):
+def fill_curve(progress: ArrayLike) -> np.ndarray:
     """The three-phase pore fill of Fig. 3 (smoothstep): slow, fast, then saturated at 1."""
     return _modes.base.fill_curve(_SCALAR, progress)
 
 
-def pore_fill(mask, time, level, width):
+def pore_fill(mask: ArrayLike, time: ArrayLike, level: ArrayLike, width: ArrayLike) -> np.ndarray:
     """Fill fraction of the pores: a front sweeps the mask down from 1 as time grows
     (threshold 1 - level * time); behind it a point fills over ``width`` of mask."""
     return _modes.base.pore_fill(_SCALAR, mask, time, level, width)
 
 
-def weathered_coefficients(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes=None, **state):
+def weathered_coefficients(
+    kd: ArrayLike,
+    ks: ArrayLike,
+    m: ArrayLike,
+    alpha: ArrayLike,
+    sp: ArrayLike,
+    n_dot_l: ArrayLike | None,
+    n_dot_v: ArrayLike,
+    modes: Iterable[str] | None = None,
+    **state: ArrayLike,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k_d, k_s, k_water): the weights of the diffuse lobe, the glossy lobe (roughness m)
     and the near-mirror water lobe of a weathered point.
 

@@ -43,7 +43,7 @@ def option(default=MISSING, *, default_factory=MISSING, **meta) -> Any:
     return field(default=default, default_factory=default_factory, metadata={"option": Option(**meta)})
 
 
-def declared(cls_or_instance) -> list[tuple[str, Option, Any]]:
+def declared(cls_or_instance: Any) -> list[tuple[str, Option, Any]]:
     """(field name, Option, default) of every option field of a dataclass, in order."""
     found = []
     for item in fields(cls_or_instance):
@@ -53,7 +53,7 @@ def declared(cls_or_instance) -> list[tuple[str, Option, Any]]:
     return found
 
 
-def check_value(name: str, opt: Option, value) -> None:
+def check_value(name: str, opt: Option, value: Any) -> None:
     """ValueError naming the option when ``value`` is outside its declared range."""
     if opt.choices and value not in opt.choices:
         raise ValueError(f"{name} must be one of {', '.join(map(str, opt.choices))}, not {value!r}")
@@ -87,7 +87,7 @@ def describe_range(opt: Option) -> str:
     return f"a finite number{' of ' + opt.unit if opt.unit else ''}"
 
 
-def check(instance, prefix: str = "") -> None:
+def check(instance: Any, prefix: str = "") -> None:
     """Check every option field of a dataclass instance (``__post_init__`` calls it)."""
     for name, opt, _ in declared(instance):
         value = getattr(instance, name)
@@ -111,7 +111,7 @@ class Entry:
     owner: str | None = None
 
 
-def entries(cls, owner: str | None = None) -> list[Entry]:
+def entries(cls: type, owner: str | None = None) -> list[Entry]:
     """The Entries of a dataclass's option fields: ``dest`` is the field name for general
     options and the flag's words for a map's settings (--rain-cone -> rain_cone)."""
     found = []
@@ -167,7 +167,7 @@ def to_argv(items: list[Entry], value_of: Callable[[Entry], Any]) -> list[str]:
     return words
 
 
-def operator_properties(props, items: list[Entry]) -> dict:
+def operator_properties(props: Any, items: list[Entry]) -> dict:
     """{dest: bpy property} for the entries shown in the operator; ``props`` is ``bpy.props``."""
     properties = {}
     for entry in items:
@@ -195,12 +195,12 @@ def operator_properties(props, items: list[Entry]) -> dict:
     return properties
 
 
-def operator_value(opt: Option, value):
+def operator_value(opt: Option, value: Any) -> Any:
     """``value`` as read from the operator: its stand-in for None (``opt.auto``) is None again."""
     return None if opt.auto is not None and value == opt.auto else value
 
 
-def operator_values(operator, items: list[Entry]) -> dict:
+def operator_values(operator: Any, items: list[Entry]) -> dict:
     """{dest: value} of the entries ``operator_properties`` gave ``operator``, each as
     ``operator_value`` reads it."""
     return {

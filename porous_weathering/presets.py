@@ -134,7 +134,9 @@ PRESETS = {
 }
 
 
-def make_preset_material(preset_name: str, name: str | None = None, key_light=None) -> "bpy.types.Material":
+def make_preset_material(
+    preset_name: str, name: str | None = None, key_light: "bpy.types.Object | str | None" = None
+) -> "bpy.types.Material":
     """A new porous material (see ``make_porous_material``) with the values of a preset.
 
     ``preset_name`` is a key of PRESETS (e.g. "LIMESTONE"); ``name`` defaults to the

@@ -16,6 +16,7 @@ meshes and selection are never touched and nothing is left behind, even on failu
 """
 
 import math
+from collections.abc import Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 
@@ -105,7 +106,9 @@ class RainSettings:
         return (math.sin(tilt) * math.cos(azimuth), math.sin(tilt) * math.sin(azimuth), math.cos(tilt))
 
 
-def default_occluders(target, collection=None):
+def default_occluders(
+    target: bpy.types.Object, collection: bpy.types.Collection | None = None
+) -> list[bpy.types.Object]:
     """The objects that can shelter ``target``: every renderable geometry object of its scenes,
     or only those of ``collection`` (a bpy Collection, children included)."""
     if collection is not None:
@@ -116,7 +119,14 @@ def default_occluders(target, collection=None):
     return [o for o in candidates if o.type in geometry and not o.hide_render and o != target]
 
 
-def bake_rain_image(obj, uv_map, size, settings=RainSettings(), occluders=(), margin=4):
+def bake_rain_image(
+    obj: bpy.types.Object,
+    uv_map: str,
+    size: int,
+    settings: RainSettings = RainSettings(),
+    occluders: Sequence[bpy.types.Object] = (),
+    margin: int = 4,
+) -> np.ndarray:
     """E on ``obj``'s UV map ``uv_map`` as a float32 (size, size) array, top row first.
 
     ``margin`` texels around every UV island are filled from the island's edge (Blender's
@@ -151,7 +161,9 @@ def _bake_image(copy, uv_map, size, margin):
         bpy.data.images.remove(image)
 
 
-def bake_rain_corners(obj, settings=RainSettings(), occluders=()):
+def bake_rain_corners(
+    obj: bpy.types.Object, settings: RainSettings = RainSettings(), occluders: Sequence[bpy.types.Object] = ()
+) -> np.ndarray:
     """E at every face corner of ``obj``'s mesh, as a float32 array (len(mesh.loops),).
 
     A mesh smooth at every vertex (smooth-shaded, no sharp edges, no custom normals, no
@@ -168,7 +180,7 @@ def bake_rain_corners(obj, settings=RainSettings(), occluders=()):
     return colours[0::4].copy()
 
 
-def smooth_at_vertices(obj):
+def smooth_at_vertices(obj: bpy.types.Object) -> bool:
     """Whether every corner of ``obj`` shades with its vertex's normal: its mesh is smooth-shaded
     all over, with no sharp edges and no custom normals, and no modifier changes it."""
     mesh = obj.data
@@ -299,7 +311,7 @@ def _bake_scene(target, occluders, settings):
         bpy.data.scenes.remove(scene)
 
 
-def unit_placing(target):
+def unit_placing(target: bpy.types.Object) -> np.ndarray:
     """The transform (4 x 4, float64) that centres ``target``'s bounding box on the origin and
     scales its diagonal to 1. E depends on directions only, but Cycles offsets its rays by fixed
     distances: the same smooth scan in millimetres and in metres, baked per corner, had 3% of

@@ -30,8 +30,12 @@ import threading
 import time
 from collections.abc import Callable, Generator
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:  # the child process that unwraps imports nothing but numpy and xatlas
+    import bpy
 
 LIGHTMAP_UV = "PW Lightmap"
 #: Texels between UV islands (and packed between new charts) at and above PADDING_FULL_FROM.
@@ -179,7 +183,9 @@ class LightmapReport:
         return found
 
 
-def check_uvs(triangle_uvs, areas, resolution: int, padding: int | None = None) -> LightmapReport:
+def check_uvs(
+    triangle_uvs: np.ndarray, areas: np.ndarray, resolution: int, padding: int | None = None
+) -> LightmapReport:
     """Check per-triangle UVs ``triangle_uvs`` (T, 3, 2) of triangles of 3D ``areas`` (T,) as a
     bake target of ``resolution``² texels (see the module docstring)."""
     return _inspect(triangle_uvs, areas, resolution, padding_for(resolution) if padding is None else padding)[0]
@@ -577,7 +583,9 @@ class Lightmap:
     report: LightmapReport
 
 
-def iter_lightmap(mesh, resolution: int, padding: int | None = None) -> Generator[tuple[float, str], None, Lightmap]:
+def iter_lightmap(
+    mesh: "bpy.types.Mesh", resolution: int, padding: int | None = None
+) -> Generator[tuple[float, str], None, Lightmap]:
     """The lightmap of ``mesh`` for a bake at ``resolution``², as a generator of
     (fraction, stage) while it runs in a child process (closing it stops that process at once);
     its return value (``StopIteration.value``) is the Lightmap.
@@ -668,7 +676,7 @@ def _forward_lines(stream, lines):
     lines.put(None)
 
 
-def lightmap_uvs(mesh, resolution: int, padding: int | None = None) -> np.ndarray:
+def lightmap_uvs(mesh: "bpy.types.Mesh", resolution: int, padding: int | None = None) -> np.ndarray:
     """A new lightmap of ``mesh`` for ``resolution``² (float32 (len(loops), 2)), whatever UV
     maps it has (``make_lightmap``, in this process)."""
     padding = padding_for(resolution) if padding is None else padding
@@ -679,7 +687,7 @@ def lightmap_uvs(mesh, resolution: int, padding: int | None = None) -> np.ndarra
     return uvs
 
 
-def find_bakeable_uv_map(mesh, resolution: int, padding: int | None = None) -> str | None:
+def find_bakeable_uv_map(mesh: "bpy.types.Mesh", resolution: int, padding: int | None = None) -> str | None:
     """The name of a UV map of ``mesh`` that can hold a bake at ``resolution``² (``check_uvs``),
     or None. Our own lightmap comes first, then the user's maps in their order."""
     geometry = Geometry.of(mesh)

@@ -18,6 +18,10 @@ from .shader_math import Graph
 IMAGE_EXTENSIONS = {".png", ".exr", ".tif", ".tiff", ".jpg", ".jpeg", ".hdr", ".bmp", ".tga", ".webp"}
 
 
+#: A mask input's value: a number, an Image, an image file path or a colour attribute's name.
+MaskValue = float | bpy.types.Image | str | os.PathLike
+
+
 def make_weathered_material(
     name: str,
     *,
@@ -29,7 +33,7 @@ def make_weathered_material(
     pore_depth_ratio: float = 2.0,
     key_light: "bpy.types.Object | str | None" = None,
     water_roughness: float = nodes.WATER_ROUGHNESS,
-    **weathering,
+    **weathering: MaskValue | Sequence[float],
 ) -> "bpy.types.Material":
     """A new material: the porous BRDF (as make_porous_material) weathered by ``modes``.
 
@@ -78,7 +82,7 @@ def make_weathered_material(
     return new
 
 
-def set_input(group_node, input_name, value):
+def set_input(group_node: bpy.types.Node, input_name: str, value: float | Sequence[float]) -> None:
     """Set the weathering input ``input_name`` (a model name such as 'time') on a group node."""
     value = np.asarray(value, dtype=np.float64)
     socket = group_node.inputs[nodes.socket_name(input_name)]
@@ -108,7 +112,7 @@ def animate_weathering(
         socket.keyframe_insert("default_value", frame=frame)
 
 
-def mask_source(mask, value):
+def mask_source(mask: str, value: MaskValue) -> float | str | bpy.types.Image:
     """What a mask value means: a float, an Image, or an attribute name (str).
 
     A path that does not lead to a readable image gives the mask's default constant and a
@@ -155,7 +159,7 @@ def _checked_image(mask, image, default):
     return image
 
 
-def image_uv_map(image):
+def image_uv_map(image: bpy.types.Image) -> str | None:
     """The UV map an image mask was baked on, or None (then the mesh's active UV map reads it):
     the Image's custom property ``UV_MAP_KEY`` ("pw:uv_map"), else that field of its file's
     header, which the bake writes."""
@@ -165,7 +169,7 @@ def image_uv_map(image):
     return name or None
 
 
-def mask_socket(graph, source):
+def mask_socket(graph: Graph, source: str | bpy.types.Image) -> bpy.types.NodeSocket:
     """The output socket that reads a mask source (Image or attribute name) in ``graph``.
 
     An image baked on a UV map of its own (``image_uv_map``, e.g. the bake's lightmap) is read

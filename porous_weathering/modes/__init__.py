@@ -5,6 +5,9 @@ asset library, the docs' tables) reads this registry, so adding a mode is one ne
 registered here (docs/architecture.md, "Add a mode").
 """
 
+from collections.abc import Iterable, Mapping
+from typing import Any
+
 from .. import porous
 from . import efflorescence, soiling, wet
 from .base import WATER_ROUGHNESS, Input, Layer, Mode, Point, filled_absorption
@@ -53,7 +56,7 @@ def get(name: str) -> Mode:
     return _REGISTRY[name]
 
 
-def checked(modes) -> tuple[str, ...]:
+def checked(modes: str | Iterable[str]) -> tuple[str, ...]:
     """``modes`` (one name or several) in registry order; ValueError for unknown names."""
     modes = (modes,) if isinstance(modes, str) else tuple(modes)
     unknown = set(modes) - set(_REGISTRY)
@@ -71,22 +74,33 @@ def inputs() -> dict[str, Input]:
     return found
 
 
-def inputs_of(modes) -> list[Input]:
+def inputs_of(modes: Iterable[str]) -> list[Input]:
     """The inputs ``modes`` use, in socket order."""
     wanted = {item.name for name in checked(modes) for item in _REGISTRY[name].inputs}
     return [item for name, item in inputs().items() if name in wanted]
 
 
-def has_water_lobe(modes) -> bool:
+def has_water_lobe(modes: Iterable[str]) -> bool:
     return any(_REGISTRY[name].water_lobe for name in checked(modes))
 
 
-def shader_inputs(modes) -> list[Input]:
+def shader_inputs(modes: Iterable[str]) -> list[Input]:
     """Group inputs that are not model inputs: the water lobe's roughness."""
     return [WATER_ROUGHNESS] if has_water_lobe(modes) else []
 
 
-def weathered_weights(xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state):
+def weathered_weights(
+    xp: Any,
+    kd: Any,
+    ks: Any,
+    m: Any,
+    alpha: Any,
+    sp: Any,
+    n_dot_l: Any,
+    n_dot_v: Any,
+    modes: Iterable[str],
+    state: Mapping[str, Any],
+) -> tuple[Any, Any, Any]:
     """(k_d, k_s, k_water or None): the weights of the diffuse lobe, the glossy lobe (roughness
     m) and the near-mirror water lobe of a point weathered by ``modes`` (already checked);
     ``state`` holds every input they use.  At time 0 the weights are the porous ones exactly."""
