@@ -51,15 +51,7 @@ def environments():
 def porous_material(params, key_light):
     if params["alpha"] == 0.0:  # the base Diffuse + Glossy material, which the reference gives at alpha = 0
         return pw.make_base_material("Base", base_color=params["kd"], ks=params["ks"], roughness=params["m"])
-    return pw.make_porous_material(
-        "Porous",
-        base_color=params["kd"],
-        ks=params["ks"],
-        roughness=params["m"],
-        porosity=params["alpha"],
-        pore_depth_ratio=params["sp"],
-        key_light=key_light,
-    )
+    return scenes.porous_material(params, key_light)
 
 
 def rendered(surface, lights, sky, params, mode, engine="CYCLES", size=SIZE, samples=1):

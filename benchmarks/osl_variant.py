@@ -26,7 +26,6 @@ sys.path.insert(0, str(ROOT))
 
 import bpy  # noqa: E402
 
-import porous_weathering as pw  # noqa: E402
 from benchmarks import reference as ref  # noqa: E402
 from benchmarks import scenes, timing  # noqa: E402
 from benchmarks.accuracy import MATERIALS, percent, sun_towards  # noqa: E402
@@ -105,18 +104,6 @@ def osl_material(name, params, light_direction=None):
     return material
 
 
-def node_material(name, params, key_light):
-    return pw.make_porous_material(
-        name,
-        base_color=params["kd"],
-        ks=params["ks"],
-        roughness=params["m"],
-        porosity=params["alpha"],
-        pore_depth_ratio=params["sp"],
-        key_light=key_light,
-    )
-
-
 def sun_scene(surface, size, samples):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -137,7 +124,7 @@ def agreement(size=64):
     for name, params in MATERIALS.items():
         for mode, key, direction in (("key", sun, SUN.towards), ("ambient", None, None)):
             set_osl(scene, False)
-            studio.assign(obj, node_material("Nodes", params, key))
+            studio.assign(obj, scenes.porous_material(params, key, name="Nodes"))
             nodes_image = render.render_array(scene)
             set_osl(scene, True)
             studio.assign(obj, osl_material("OSL", params, direction))
@@ -158,8 +145,8 @@ def speed(size, rounds):
     sun = next(o for o in scene.objects if o.type == "LIGHT")
     params = MATERIALS["diffuse"]
     variants = {
-        "node group, SVM": (node_material("Nodes", params, sun), False),
-        "node group, OSL": (node_material("Nodes OSL", params, sun), True),
+        "node group, SVM": (scenes.porous_material(params, sun, name="Nodes"), False),
+        "node group, OSL": (scenes.porous_material(params, sun, name="Nodes OSL"), True),
         "OSL script": (osl_material("OSL", params, SUN.towards), True),
     }
     materials = {name: material for name, (material, _) in variants.items()}

@@ -8,6 +8,7 @@ import math
 
 import bpy
 
+import porous_weathering as pw
 from benchmarks import reference
 from porous_weathering import studio
 
@@ -41,6 +42,19 @@ def reference_surface(surface, size):
     if surface == "PLANE":
         return reference.plane(size)
     return reference.v_groove(size, surface[1])
+
+
+def porous_material(params, key_light=None, name="Porous"):
+    """The porous material of the reference's parameters ``params`` (kd, ks, m, alpha, sp)."""
+    return pw.make_porous_material(
+        name,
+        base_color=params["kd"],
+        ks=params["ks"],
+        roughness=params["m"],
+        porosity=params["alpha"],
+        pore_depth_ratio=params["sp"],
+        key_light=key_light,
+    )
 
 
 def add_v_groove(scene, slope_degrees, name="VGroove"):

@@ -596,13 +596,12 @@ def write_edge_attribute(obj: bpy.types.Object, mask: ArrayLike, name: str = EDG
             f"object '{obj.name}': {mask.shape[0] if mask.ndim else 0} mask values for "
             f"{len(obj.data.vertices)} mesh vertices (modifiers that add vertices must be applied first)"
         )
-    colours = np.ones((len(mask), 4), dtype=np.float32)
-    colours[:, :3] = np.clip(np.nan_to_num(mask), 0.0, 1.0)[:, None]
+    colours = mesh_arrays.grey_rgba(np.clip(np.nan_to_num(mask), 0.0, 1.0))
     attributes = obj.data.color_attributes
     staging_name = f"{name} (new)"
     staging = attributes.new(staging_name, "FLOAT_COLOR", "POINT")
     try:
-        staging.data.foreach_set("color", colours.ravel())
+        staging.data.foreach_set("color", colours)
     except Exception:
         attributes.remove(staging)
         raise

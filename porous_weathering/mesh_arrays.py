@@ -40,10 +40,16 @@ def is_inside_out(mesh):
     return encloses_negative_volume(np.bincount(loop_edge, minlength=len(mesh.edges)), corners[starts], area_vectors)
 
 
+def grey_rgba(values):
+    """``values`` (n,) as grey colours of alpha 1, flat float32 (n * 4,): what a colour
+    attribute's ``foreach_set("color", ...)`` takes."""
+    rgba = np.ones((len(values), 4), dtype=np.float32)
+    rgba[:, :3] = np.asarray(values, dtype=np.float32)[:, None]
+    return rgba.ravel()
+
+
 def write_corner_attribute(mesh, name, values):
     """Replace the colour attribute ``name`` of ``mesh`` by grey per-corner ``values``."""
-    rgba = np.ones((len(mesh.loops), 4), dtype=np.float32)
-    rgba[:, :3] = np.asarray(values, dtype=np.float32)[:, None]
     if name in mesh.color_attributes:
         mesh.color_attributes.remove(mesh.color_attributes[name])
-    mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", rgba.reshape(-1))
+    mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", grey_rgba(values))

@@ -8,7 +8,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from . import compat
+from . import compat, mesh_arrays
 from .shader_math import Graph
 
 #: Object types that have surfaces, materials and therefore something to bake or shade.
@@ -97,9 +97,7 @@ def bake_point_values(obj, uv_map_name, resolution, values, *, margin=0):
     name = "PW Point Values"
 
     def prepare(mesh):
-        colours = np.ones((len(mesh.vertices), 4), dtype=np.float32)
-        colours[:, :3] = np.asarray(values, dtype=np.float32)[:, None]
-        mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT").data.foreach_set("color", colours.ravel())
+        mesh.color_attributes.new(name, "FLOAT_COLOR", "POINT").data.foreach_set("color", mesh_arrays.grey_rgba(values))
 
     (baked,) = emit_bakes(
         obj,

@@ -103,19 +103,6 @@ class MaskedPlane:
         return self.render(probe)[..., 0]
 
 
-def porous(params, key_light=None):
-    """The porous material of ``params`` (the paper's names: kd, ks, m, alpha, sp)."""
-    return pw.make_porous_material(
-        "Porous",
-        base_color=params["kd"],
-        ks=params["ks"],
-        roughness=params["m"],
-        porosity=params["alpha"],
-        pore_depth_ratio=params["sp"],
-        key_light=key_light,
-    )
-
-
 def weathered(name, modes, key_light=None, **state):
     return pw.make_weathered_material(
         name, modes=modes, key_light=key_light, water_roughness=WATER_ROUGHNESS, **STONE, **state

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-import porous_weathering as pw
+from benchmarks.scenes import porous_material
 from helpers import LitSphere
 
 pytestmark = pytest.mark.eevee
@@ -16,17 +16,7 @@ TOLERANCE = 0.01
 def test_eevee_porous_sphere_matches_model(fresh_scene):
     params = dict(kd=(0.62, 0.55, 0.45), ks=0.2, m=0.4, alpha=0.35, sp=2.5)
     sphere = LitSphere(fresh_scene, size=32, samples=1, eevee=True)
-    image = sphere.render(
-        pw.make_porous_material(
-            "P",
-            base_color=params["kd"],
-            ks=params["ks"],
-            roughness=params["m"],
-            porosity=params["alpha"],
-            pore_depth_ratio=params["sp"],
-            key_light=sphere.sun,
-        )
-    )
+    image = sphere.render(porous_material(params, sphere.sun))
     expected, mask = sphere.expected(**params)
     assert mask.sum() > 100 and np.isfinite(image).all()
     error = np.abs(image[..., :3] - expected)[mask]

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import TOLERANCE, LitSphere, assert_matches, porous
+from benchmarks.scenes import porous_material
+from helpers import TOLERANCE, LitSphere, assert_matches
 from porous_weathering import model, render, studio
 from porous_weathering.model import PorousInputWarning
 
@@ -27,7 +28,7 @@ HARD_CASES = {
 def test_hard_case_matches_model(fresh_scene, case):
     params = {**BASE, **HARD_CASES[case]}
     sphere = LitSphere(fresh_scene, towards=(0.7, 0.0, 0.714))  # the rim reaches grazing N.L and N.V
-    image = sphere.render(porous(params, sphere.sun))
+    image = sphere.render(porous_material(params, sphere.sun))
     expected, mask = sphere.expected(**params)
     assert np.isfinite(image).all()
     if case == "black":
@@ -39,7 +40,7 @@ def test_hard_case_matches_model(fresh_scene, case):
 def test_alpha_zero_renders_the_base_material_exactly(fresh_scene):
     sphere = LitSphere(fresh_scene, samples=2)
     params = {**BASE, "alpha": 0.0}
-    image = sphere.render(porous(params, sphere.sun))
+    image = sphere.render(porous_material(params, sphere.sun))
     base = sphere.render(pw.make_base_material("Base", base_color=params["kd"], ks=params["ks"], roughness=params["m"]))
     assert np.array_equal(image, base)
 
@@ -48,7 +49,7 @@ def test_too_bright_albedo_is_clamped_in_the_render(fresh_scene):
     sphere = LitSphere(fresh_scene)
     params = {**BASE, "kd": (0.95, 0.9, 0.5), "ks": 0.3}
     with pytest.warns(PorousInputWarning, match="k_s \\+ k_d > 1"):
-        material = porous(params, sphere.sun)
+        material = porous_material(params, sphere.sun)
     image = sphere.render(material)
     with pytest.warns(PorousInputWarning):
         expected, mask = sphere.expected(**params)
@@ -65,7 +66,7 @@ def test_invalid_parameters_are_reported_and_render_finite(fresh_scene, field, b
     sphere = LitSphere(fresh_scene)
     params = {**BASE, field: bad}
     with pytest.warns(PorousInputWarning, match="clamped|NaN"):
-        material = porous(params, sphere.sun)
+        material = porous_material(params, sphere.sun)
     image = sphere.render(material)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", PorousInputWarning)
@@ -76,7 +77,7 @@ def test_invalid_parameters_are_reported_and_render_finite(fresh_scene, field, b
 def test_group_sockets_outside_their_range_stay_finite(fresh_scene):
     """A user (or a texture) can drive the group's sockets anywhere: the group clamps."""
     sphere = LitSphere(fresh_scene)
-    material = porous(BASE, sphere.sun)
+    material = porous_material(BASE, sphere.sun)
     group = material.node_tree.nodes["Porous"]
     for name, value in {"Specular": 3.0, "Roughness": -2.0, "Porosity": -1.0, "Pore Depth Ratio": -4.0}.items():
         group.inputs[name].default_value = value
@@ -106,9 +107,9 @@ def test_point_light_position_drives_the_shading(fresh_scene):
     p = BASE
     diffuse = shot(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0, roughness=p["m"]))[..., :3]
     glossy = shot(pw.make_base_material("G", base_color=(0, 0, 0), ks=1.0, roughness=p["m"]))[..., :3]
-    image = shot(porous(p, lamp))
+    image = shot(porous_material(p, lamp))
     kd_poro, ks_poro = model.porous_coefficients(p["kd"], p["ks"], p["m"], p["alpha"], p["sp"], n_dot_l, 1.0)
     expected = kd_poro * diffuse + ks_poro[..., None] * glossy
     assert_matches(image, expected, np.ones(n_dot_l.shape, bool), tolerance=TOLERANCE)
     lamp.location = (-0.6, 0.3, 0.5)
-    assert not np.allclose(shot(porous(p, lamp)), image, atol=1e-3)
+    assert not np.allclose(shot(porous_material(p, lamp)), image, atol=1e-3)

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import LitSphere, assert_matches, porous
+from benchmarks.scenes import porous_material
+from helpers import LitSphere, assert_matches
 
 DIFFUSE = dict(kd=(0.62, 0.55, 0.45), ks=0.05, m=0.6, alpha=0.35, sp=2.5)
 GLOSSY = dict(kd=(0.25, 0.22, 0.2), ks=0.6, m=0.25, alpha=0.3, sp=1.5)
@@ -13,7 +14,7 @@ GLOSSY = dict(kd=(0.25, 0.22, 0.2), ks=0.6, m=0.25, alpha=0.3, sp=1.5)
 @pytest.mark.parametrize("params", [DIFFUSE, GLOSSY], ids=["diffuse", "glossy"])
 def test_key_light_matches_model(fresh_scene, params):
     sphere = LitSphere(fresh_scene)
-    image = sphere.render(porous(params, key_light=sphere.sun))
+    image = sphere.render(porous_material(params, key_light=sphere.sun))
     expected, mask = sphere.expected(**params)
     assert_matches(image, expected, mask)
 
@@ -21,7 +22,7 @@ def test_key_light_matches_model(fresh_scene, params):
 @pytest.mark.parametrize("params", [DIFFUSE, GLOSSY], ids=["diffuse", "glossy"])
 def test_ambient_matches_model(fresh_scene, params):
     sphere = LitSphere(fresh_scene)
-    image = sphere.render(porous(params))
+    image = sphere.render(porous_material(params))
     expected, mask = sphere.expected(**params, ambient=True)
     assert_matches(image, expected, mask)
 
@@ -30,7 +31,7 @@ def test_porous_over_base_ratio_is_the_models(fresh_scene):
     """The per-pixel ratio porous/base (what the paper's Fig. 11 shows) is the model's ratio."""
     sphere = LitSphere(fresh_scene)
     p = DIFFUSE
-    image = sphere.render(porous(p, key_light=sphere.sun))
+    image = sphere.render(porous_material(p, key_light=sphere.sun))
     base = sphere.render(pw.make_base_material("Base", base_color=p["kd"], ks=p["ks"], roughness=p["m"]))
     expected, mask = sphere.expected(**p)
     base_model, _ = sphere.expected(**{**p, "alpha": 0.0})
@@ -42,7 +43,7 @@ def test_porous_over_base_ratio_is_the_models(fresh_scene):
 
 def test_rotating_the_key_light_changes_the_shading(fresh_scene):
     sphere = LitSphere(fresh_scene, towards=(0.0, 0.0, 1.0))
-    material = porous(DIFFUSE, key_light=sphere.sun)
+    material = porous_material(DIFFUSE, key_light=sphere.sun)
     before = sphere.render(material)
     studio_towards = (0.8, 0.0, 0.6)
     from porous_weathering import studio

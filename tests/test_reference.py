@@ -6,7 +6,6 @@ import pytest
 import porous_weathering as pw
 from benchmarks import reference as ref
 from benchmarks import scenes
-from helpers import porous
 from porous_weathering import render, studio
 
 DIFFUSE = dict(kd=(0.62, 0.55, 0.45), ks=0.05, m=0.6, alpha=0.35, sp=2.5)
@@ -106,7 +105,11 @@ def test_white_lobes_match_cycles(fresh_scene, kd, ks, roughness):
 @pytest.mark.parametrize("params", [DIFFUSE, GLOSSY], ids=["diffuse", "glossy"])
 def test_key_light_mode_matches_the_exact_reference(fresh_scene, params):
     rmse, _ = render_against_reference(
-        fresh_scene, "SPHERE", lambda scene: porous(params, key_light="Sun"), ref.Porous(**params), [SUN]
+        fresh_scene,
+        "SPHERE",
+        lambda scene: scenes.porous_material(params, key_light="Sun"),
+        ref.Porous(**params),
+        [SUN],
     )
     assert rmse < KEY_LIGHT_TOLERANCE
 
@@ -114,7 +117,11 @@ def test_key_light_mode_matches_the_exact_reference(fresh_scene, params):
 def test_key_point_light_on_a_plane_matches(fresh_scene):
     lamp = ref.PointLight((0.6, -0.4, 1.2), power=200.0)
     rmse, _ = render_against_reference(
-        fresh_scene, "PLANE", lambda scene: porous(GLOSSY, key_light="Lamp"), ref.Porous(**GLOSSY), [lamp]
+        fresh_scene,
+        "PLANE",
+        lambda scene: scenes.porous_material(GLOSSY, key_light="Lamp"),
+        ref.Porous(**GLOSSY),
+        [lamp],
     )
     assert rmse < KEY_LIGHT_TOLERANCE
 
@@ -124,7 +131,13 @@ def test_area_light_on_a_plane_matches(fresh_scene):
     area = ref.AreaLight((0.3, 0.2, 1.5), size=1.0, power=300.0)
     params = {**GLOSSY, "alpha": 0.0}
     rmse, _ = render_against_reference(
-        fresh_scene, "PLANE", lambda scene: porous(params), ref.Porous(**params), [area], size=16, samples=512
+        fresh_scene,
+        "PLANE",
+        lambda scene: scenes.porous_material(params),
+        ref.Porous(**params),
+        [area],
+        size=16,
+        samples=512,
     )
     assert rmse < 0.02
 
@@ -135,7 +148,7 @@ def test_ambient_mode_in_a_uniform_sky_matches_its_prediction(fresh_scene):
     rmse, _ = render_against_reference(
         fresh_scene,
         "SPHERE",
-        lambda scene: porous(DIFFUSE),
+        lambda scene: scenes.porous_material(DIFFUSE),
         ref.Porous(**DIFFUSE, light_mode=ref.AMBIENT),
         [],
         size=16,
