@@ -199,7 +199,7 @@ def _bake_vertices(target, copy, settings):
     its faces meet), whose UVs hold that texel's centre alone.
 
     A vertex whose normal turns away from every direction of the rain cone (more than 90° plus
-    the cone's half-angle from its axis: a third of a bust at 15°) gets no probe: E is exactly 0
+    the cone's half-angle from its axis: a bust's underside) gets no probe: E is exactly 0
     there, as the bake would give it (the diffuse surface takes no light from behind)."""
     mesh = target.data
     matrix = unit_placing(target) @ np.array(target.matrix_world, dtype=np.float64)  # into the bake's scene
