@@ -32,22 +32,25 @@ MODE_SETS = {
     "efflorescence": ((model.EFFLORESCENCE,), 101),
     "all three": (model.MODES, None),
 }
-MATHS = {"MATH", "VECT_MATH", "GAMMA"}
+#: Node types that compute (Mix: the blends since build 5; Map Range: the smoothstep fronts).
+MATHS = {"MATH", "VECT_MATH", "GAMMA", "MIX", "MAP_RANGE"}
 
 
 def node_counts(modes, light_mode):
     """(all nodes, maths nodes, live maths nodes) of a group.  Live: downstream of the Geometry
-    node, so evaluated for every shaded point; Cycles folds the others (their inputs are the
-    material's constants) before rendering.  Image or attribute masks would make more live."""
+    node or of a Map Range node (Cycles folds no Map Range, even of constants), so evaluated for
+    every shaded point; Cycles folds the others (their inputs are the material's constants)
+    before rendering."""
     group = nodes.weathered_group(modes, light_mode)
     maths = [node for node in group.nodes if node.type in MATHS]
     return len(group.nodes), len(maths), sum(node in live_nodes(group) for node in maths)
 
 
 def live_nodes(group):
-    """The nodes of ``group`` that depend on the shading point (downstream of Geometry)."""
+    """The nodes of ``group`` that Cycles evaluates at every shading point: downstream of the
+    Geometry node or of a Map Range node (which has no constant folding in Cycles)."""
     live = set()
-    frontier = [node for node in group.nodes if node.bl_idname == "ShaderNodeNewGeometry"]
+    frontier = [node for node in group.nodes if node.bl_idname in ("ShaderNodeNewGeometry", "ShaderNodeMapRange")]
     while frontier:
         node = frontier.pop()
         if node not in live:

@@ -126,6 +126,14 @@ def write_error_image(path, image, expected, mask, gain=10.0):
         raise OSError(f"cannot write {path}: {output.geterror()}")
 
 
+def print_or_write(markdown, path=None):
+    """The report to ``path`` (a --out option), or to the terminal when there is none."""
+    if path:
+        path.write_text(markdown + "\n")
+    else:
+        print(markdown)
+
+
 def markdown_table(header, rows):
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]

@@ -60,15 +60,20 @@ def weathered(modes, key_light):
     return pw.make_weathered_material("+".join(modes), modes=modes, key_light=key_light, **speed.stone(), **state)
 
 
-def materials(sun):
+def material_makers(sun):
+    """name -> a function that makes the material (shading_instructions.py makes one only)."""
     return {
-        BASELINE: pw.make_base_material("Base", **speed.stone(False)),
-        "porous key light": pw.make_porous_material("Key", **speed.stone(), key_light=sun),
-        "porous ambient": pw.make_porous_material("Ambient", **speed.stone()),
-        "all three modes, key light": weathered(model.MODES, sun),
-        "all three modes, ambient": weathered(model.MODES, None),
-        **{f"{mode}, key light": weathered((mode,), sun) for mode in model.MODES},
+        BASELINE: lambda: pw.make_base_material("Base", **speed.stone(False)),
+        "porous key light": lambda: pw.make_porous_material("Key", **speed.stone(), key_light=sun),
+        "porous ambient": lambda: pw.make_porous_material("Ambient", **speed.stone()),
+        "all three modes, key light": lambda: weathered(model.MODES, sun),
+        "all three modes, ambient": lambda: weathered(model.MODES, None),
+        **{f"{mode}, key light": (lambda mode=mode: weathered((mode,), sun)) for mode in model.MODES},
     }
+
+
+def materials(sun):
+    return {name: make() for name, make in material_makers(sun).items()}
 
 
 def scene_filling_the_frame(size, threads=0):
@@ -204,11 +209,7 @@ def main():
     outside = {name: value for name, value in fills().items() if not 0.0 < value < 1.0}
     if outside:
         parser.error(f"WEATHERING puts {outside} at a bound, where Cycles folds nodes away")
-    markdown = report(args.size, 2 if args.quick else args.rounds, args.threads)
-    if args.out:
-        args.out.write_text(markdown + "\n")
-    else:
-        print(markdown)
+    scenes.print_or_write(report(args.size, 2 if args.quick else args.rounds, args.threads), args.out)
 
 
 if __name__ == "__main__":

@@ -29,6 +29,11 @@ class NumpyOps:
         return a * b + c
 
     @staticmethod
+    def mix(factor, a, b):
+        """a (1 - factor) + b factor (the Mix node): exactly a at 0 and b at 1."""
+        return a * (1.0 - factor) + b * factor
+
+    @staticmethod
     def smoothstep(edge0, edge1, x):
         """0 below edge0, 1 above edge1, 3t^2 - 2t^3 between (as GLSL and the Map Range node)."""
         t = np.clip((x - edge0) / (edge1 - edge0), 0.0, 1.0)
@@ -50,6 +55,7 @@ class NodeOps:
     arccos = staticmethod(shader_math.arccos)
     smoothstep = staticmethod(shader_math.smoothstep)
     multiply_add = staticmethod(shader_math.multiply_add)
+    mix = staticmethod(shader_math.mix)
 
     @staticmethod
     def channel(x):

@@ -89,8 +89,9 @@ def ambient_g(k: ArrayLike) -> np.ndarray:
 
 
 def bounce_count(sp: ArrayLike, theta_i: ArrayLike, theta_r: ArrayLike) -> np.ndarray:
-    """n_b, eq. (6): mean number of bounces inside a pore, never negative."""
-    return porous.bounce_count(_SCALAR, sp, theta_i, theta_r)
+    """n_b, eq. (6): mean number of bounces inside a pore, never negative (angles outside
+    [0, pi/2], which the BRDF never passes, could make eq. (6) so)."""
+    return np.maximum(porous.bounce_count(_SCALAR, sp, theta_i, theta_r), 0.0)
 
 
 def pore_absorption(ka: ArrayLike, nb: ArrayLike) -> np.ndarray:
@@ -102,7 +103,8 @@ def porous_weights(
     kd: ArrayLike, ks: ArrayLike, alpha: ArrayLike, gp: ArrayLike, ap: ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
     """(k_d,poro, k_s,poro), eqs. (2) and (3)."""
-    return porous.porous_weights(numpy_ops(kd), kd, ks, alpha, gp, ap)
+    xp = numpy_ops(kd)
+    return porous.porous_weights(xp, kd, ks, alpha, gp, (1.0 - np.asarray(ap)) * (kd + xp.channel(ks)))
 
 
 def pore_geometry(

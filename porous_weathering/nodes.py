@@ -16,7 +16,7 @@ from .backends import NODE_OPS
 from .shader_math import Graph, dot, normalize
 
 #: Bumped whenever the maths or the interface of a group changes, so old files rebuild.
-BUILD_VERSION = 4
+BUILD_VERSION = 5
 
 #: Light modes (SPEC 3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -100,8 +100,25 @@ def _build(name, body, inputs, outputs=OUTPUTS):
     results = body(graph, values)
     group_out = graph.node("NodeGroupOutput", results)
     group_out.is_active_output = True
+    _remove_unused(tree, keep=(group_in, group_out))
     tree["pw_build_version"] = BUILD_VERSION
     return tree
+
+
+def _remove_unused(tree, keep):
+    """Remove the nodes no group output depends on (intermediate results that a later
+    operation replaced, such as a colour scaled twice), so the group holds only its maths."""
+    sources = {}
+    for link in tree.links:
+        sources.setdefault(link.to_node.name, []).append(link.from_node)
+    used, frontier = set(), [node for node in keep]
+    while frontier:
+        node = frontier.pop()
+        if node.name not in used:
+            used.add(node.name)
+            frontier += sources.get(node.name, [])
+    for node in [node for node in tree.nodes if node.name not in used]:
+        tree.nodes.remove(node)
 
 
 # --- geometry and closures -------------------------------------------------------------

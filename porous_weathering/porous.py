@@ -48,11 +48,12 @@ def ambient_g(xp, k):
     return terms[0] + terms[1] + terms[2]
 
 
-def bounce_count(xp, sp, theta_i, theta_r):
-    """n_b, eq. (6): mean number of bounces inside a pore, never negative.  Written as
-    (theta_i + theta_r) (-s_p) + s_p (3.7 + 4 pi / (s_p + 6)), so that a shader folds every
-    term of a constant s_p and evaluates three operations per point (add, multiply-add, max)."""
-    return xp.maximum(0.0, xp.multiply_add(theta_i + theta_r, -sp, sp * (3.7 + 4.0 * math.pi / (sp + 6.0))))
+def bounce_count(xp, sp, theta_i, theta_r, plus=0.0):
+    """n_b + ``plus``, eq. (6), for angles in [0, pi/2], where it is never negative
+    (3.7 + 4 pi / (s_p + 6) > pi >= theta_i + theta_r), so no node clamps it.  Written as
+    (theta_i + theta_r) (-s_p) + s_p (3.7 + 4 pi / (s_p + 6)) + plus: a shader folds every term
+    of a constant s_p (and ``plus``) and evaluates two operations per point (add, multiply-add)."""
+    return xp.multiply_add(theta_i + theta_r, -sp, sp * (3.7 + 4.0 * math.pi / (sp + 6.0)) + plus)
 
 
 def pore_absorption(xp, ka, nb):
@@ -60,15 +61,18 @@ def pore_absorption(xp, ka, nb):
     return 1.0 - xp.power(1.0 - ka, nb)
 
 
-def porous_weights(xp, kd, ks, alpha, gp, ap):
-    """(k_d,poro, k_s,poro), eqs. (2) and (3); eq. (3) gathered as
-    k_d + alpha G_p ((1 - A_p)(k_d + k_s) - k_d), which takes a shader three operations per
-    point (1 - A_p is the pore's power term itself, so no node computes 1 - A_p), and eq. (2)
-    as alpha G_p (-k_s) + k_s, one."""
-    pore = xp.channel(alpha * gp)
-    kd_poro = xp.multiply_add(pore, (1.0 - ap) * (kd + xp.channel(ks)) - kd, kd)
-    ks_poro = xp.multiply_add(alpha * gp, -ks, ks)
-    return kd_poro, ks_poro
+def pore_return(xp, kd, ks, sp, theta_i, theta_r):
+    """(1 - A_p)(k_d + k_s): the share of the light entering a pore that leaves it, which is
+    (k_d + k_s)^(n_b + 1) since 1 - k_a = k_d + k_s; one power per point."""
+    return xp.power(kd + xp.channel(ks), xp.channel(bounce_count(xp, sp, theta_i, theta_r, plus=1.0)))
+
+
+def porous_weights(xp, kd, ks, alpha, gp, returned):
+    """(k_d,poro, k_s,poro), eqs. (2) and (3), from ``returned`` = (1 - A_p)(k_d + k_s)
+    (pore_return): eq. (3) is k_d (1 - alpha G_p) + alpha G_p (1 - A_p)(k_d + k_s), one Mix per
+    point, and eq. (2) alpha G_p (-k_s) + k_s, one multiply-add."""
+    pore = alpha * gp
+    return xp.mix(xp.channel(pore), kd, returned), xp.multiply_add(pore, -ks, ks)
 
 
 def pore_geometry(xp, m, n_dot_l, n_dot_v):
@@ -98,5 +102,5 @@ def porous_coefficients(xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v):
     """k_d,poro and k_s,poro for a light at N.S = n_dot_l seen at N.V = n_dot_v."""
     kd, ks = valid_albedo(xp, kd, ks)
     alpha = xp.clip(alpha, 0.0, 1.0)
-    gp, ap = pore_terms(xp, kd, ks, m, sp, n_dot_l, n_dot_v)
-    return porous_weights(xp, kd, ks, alpha, gp, ap)
+    gp, theta_i, theta_r = pore_geometry(xp, m, n_dot_l, n_dot_v)
+    return porous_weights(xp, kd, ks, alpha, gp, pore_return(xp, kd, ks, xp.maximum(sp, 0.0), theta_i, theta_r))

@@ -19,6 +19,7 @@ class Graph:
         self.tree = tree
         self._rows = {}
         self._made = {}  # (operation, operands) -> Expr: a shared sub-expression is built once
+        self._varying = set()  # names of the nodes downstream of the Geometry node
 
     def node(self, bl_idname, inputs=(), depth=None, **properties):
         """A new node with ``properties`` set and ``inputs`` (name or index -> value) connected."""
@@ -27,8 +28,12 @@ class Graph:
             setattr(node, key, value)
         items = inputs.items() if isinstance(inputs, dict) else enumerate(inputs)
         depths = [0]
+        varying = bl_idname == "ShaderNodeNewGeometry"
         for key, value in items:
             depths.append(self.connect(value, node.inputs[key]))
+            varying = varying or self.varies(value)
+        if varying:
+            self._varying.add(node.name)
         column = depth if depth is not None else max(depths) + 1
         row = self._rows.get(column, 0)
         self._rows[column] = row + 1
@@ -50,6 +55,12 @@ class Graph:
         socket.default_value = value
         return 0
 
+    def varies(self, value):
+        """Whether ``value`` changes from one shading point to the next (it depends on the
+        Geometry node); group inputs count as constants, which materials mostly leave them."""
+        socket = value.socket if isinstance(value, Expr) else value
+        return hasattr(socket, "links") and socket.node.name in self._varying
+
     def wrap(self, socket, kind=None):
         if kind is None:
             kind = SCALAR if socket.type in ("VALUE", "INT") else VECTOR
@@ -64,7 +75,11 @@ class Graph:
             raise TypeError("use Graph.power_rgb for a colour base")
         if operation == "SUBTRACT" and operands[0] == 1.0 and getattr(operands[1], "complement", None) is not None:
             return operands[1].complement  # 1 - (1 - y) is y: no node
-        key = (operation, *(x.socket.as_pointer() if isinstance(x, Expr) else x for x in operands))
+        if operation == "MULTIPLY" and vector and any(_is_scalar(x) for x in operands):
+            return self._scale(*operands)
+        if operation == "MULTIPLY" and not vector:
+            return self._product(*operands)
+        key = (operation, *(_operand_key(x) for x in operands))
         if key not in self._made:
             kind = SCALAR if operation in _VECTOR_TO_SCALAR or not vector else VECTOR
             bl_idname = "ShaderNodeVectorMath" if vector else "ShaderNodeMath"
@@ -74,6 +89,82 @@ class Graph:
             if operation == "SUBTRACT" and operands[0] == 1.0:
                 made.complement = operands[1]
             self._made[key] = made
+        return self._made[key]
+
+    def _product(self, a, b):
+        """a b with its varying factors multiplied together and its constant ones together,
+        the constants last: (x c) f is (x f) c, and (x c) d is x (c d), which Cycles folds
+        where the material sets c and d; the same factors give the same nodes in any order
+        of layers, so that a factor of exactly 1 leaves a result bit for bit unchanged."""
+        (x1, c1), (x2, c2) = self._parts(a), self._parts(b)
+        return self._times(self._times(x1, x2), self._times(c1, c2))
+
+    def _times(self, a, b):
+        """One Multiply node for a b; None is the empty product, and 1 costs no node."""
+        if a is None or _is_one(a):
+            return b
+        if b is None or _is_one(b):
+            return a
+        if not isinstance(a, Expr) and not isinstance(b, Expr):
+            return _fold("MULTIPLY", a, b)
+        key = ("MULTIPLY", *sorted((_operand_key(a), _operand_key(b)), key=str))  # a b is b a
+        if key not in self._made:
+            node = self.node("ShaderNodeMath", [a, b], operation="MULTIPLY")
+            made = Expr(self, node.outputs["Value"], SCALAR)
+            made.product = self._split(a, b)
+            self._made[key] = made
+        return self._made[key]
+
+    def _split(self, a, b):
+        """(varying part, constant part) of the product a b, or None when neither is a part."""
+        varying, constant = zip(*(self._parts(x) for x in (a, b)))
+        varying, constant = [x for x in varying if x is not None], [x for x in constant if x is not None]
+        return (varying[0], constant[0]) if len(varying) == len(constant) == 1 else None
+
+    def _parts(self, x):
+        """(varying factor or None, constant factor or None) of a scalar operand."""
+        if getattr(x, "product", None) is not None:
+            return x.product
+        return (x, None) if self.varies(x) else (None, x)
+
+    def _scale(self, a, b):
+        """A colour times a scalar: one Scale node, where Multiply would take a per-point scalar
+        through a conversion to a colour (a node of its own in Cycles).  A scaled colour scaled
+        again is the colour scaled once by the product of the scalars, which Cycles folds when
+        both are constants (a weight that several layers scale, such as the water lobe's)."""
+        vector, scalar = (a, b) if isinstance(a, Expr) and a.kind == VECTOR else (b, a)
+        if vector.scaled is not None:
+            vector, scalar = vector.scaled[0], vector.scaled[1] * scalar
+        key = ("SCALE", _operand_key(vector), _operand_key(scalar))
+        if key not in self._made:
+            node = self.node("ShaderNodeVectorMath", {0: vector, "Scale": scalar}, operation="SCALE")
+            made = Expr(self, node.outputs["Vector"], VECTOR)
+            made.scaled = (vector, scalar)
+            self._made[key] = made
+        return self._made[key]
+
+    def mix(self, factor, a, b):
+        """a (1 - factor) + b factor in one Mix node: scalars, colours, or colours mixed per
+        channel by a colour factor.  The factor is not clamped (the maths keeps it in [0, 1])."""
+        kinds = {x.kind for x in (factor, a, b) if isinstance(x, Expr)}
+        vector = VECTOR in kinds or any(isinstance(x, (tuple, list)) for x in (a, b))
+        per_channel = isinstance(factor, Expr) and factor.kind == VECTOR
+        suffix = "Vector" if vector else "Float"
+        key = ("MIX", *(_operand_key(x) for x in (factor, a, b)))
+        if key not in self._made:
+            node = self.node(
+                "ShaderNodeMix",
+                {
+                    _MIX_INPUTS[f"Factor_{'Vector' if per_channel else 'Float'}"]: factor,
+                    _MIX_INPUTS[f"A_{suffix}"]: a,
+                    _MIX_INPUTS[f"B_{suffix}"]: b,
+                },
+                data_type="VECTOR" if vector else "FLOAT",
+                factor_mode="NON_UNIFORM" if per_channel else "UNIFORM",
+                clamp_factor=False,
+            )
+            output = next(socket for socket in node.outputs if socket.identifier == f"Result_{suffix}")
+            self._made[key] = Expr(self, output, VECTOR if vector else SCALAR)
         return self._made[key]
 
     def clamp01(self, x):
@@ -98,6 +189,26 @@ _FOLD = {
     "ARCCOSINE": lambda a: math.acos(min(max(a, -1.0), 1.0)),
 }
 _VECTOR_TO_SCALAR = {"DOT_PRODUCT", "LENGTH", "DISTANCE"}
+#: Input indices of the Mix node by identifier (the same in Blender 4.5 and 5.2; several
+#: inputs share each name, so names cannot tell them apart).
+_MIX_INPUTS = {
+    identifier: index
+    for index, identifier in enumerate(
+        ("Factor_Float", "Factor_Vector", "A_Float", "B_Float", "A_Vector", "B_Vector", "A_Color", "B_Color")
+    )
+}
+
+
+def _operand_key(x):
+    return x.socket.as_pointer() if isinstance(x, Expr) else x
+
+
+def _is_one(x):
+    return not isinstance(x, Expr) and x == 1.0
+
+
+def _is_scalar(x):
+    return x.kind == SCALAR if isinstance(x, Expr) else isinstance(x, (int, float))
 
 
 def _fold(operation, *operands):
@@ -114,6 +225,10 @@ class Expr:
     def __init__(self, graph, socket, kind, bounds=None):
         self.graph, self.socket, self.kind, self.bounds = graph, socket, kind, bounds
         self.complement = None
+        self.scaled = None  #: (colour, scalar) when this is that colour times that scalar
+        #: (varying x, constant c) when this is x c (Graph.varies), so that a further constant
+        #: factor joins c rather than costing a node per point
+        self.product = None
 
     def __add__(self, other):
         return self.graph.math("ADD", self, other)
@@ -182,9 +297,19 @@ def smoothstep(edge0, edge1, x):
         {"Value": x, "From Min": edge0, "From Max": edge1, "To Min": 0.0, "To Max": 1.0},
         data_type="FLOAT",
         interpolation_type="SMOOTHSTEP",
-        clamp=True,
+        clamp=False,  # the cubic stays in [0, 1]; Cycles would add a Clamp node
     )
     return Expr(graph, node.outputs["Result"], SCALAR, bounds=(0.0, 1.0))
+
+
+def mix(factor, a, b):
+    """a (1 - factor) + b factor: exactly a at factor 0 and b at factor 1."""
+    graph = _graph_of(factor, a, b)
+    if graph is not None and not isinstance(factor, Expr) and factor in (0.0, 1.0):
+        return b if factor else a
+    if graph is None:
+        return a * (1.0 - factor) + b * factor
+    return graph.mix(factor, a, b)
 
 
 def arccos(x):

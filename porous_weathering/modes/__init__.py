@@ -10,7 +10,7 @@ from typing import Any
 
 from .. import porous
 from . import efflorescence, soiling, wet
-from .base import WATER_ROUGHNESS, Input, Layer, Mode, Point, filled_absorption
+from .base import WATER_ROUGHNESS, Input, Layer, Mode, Point
 
 __all__ = [
     "Input",
@@ -112,7 +112,7 @@ def weathered_weights(
     n_dot_v = xp.clip(n_dot_v, 0.0, 1.0)  # pore_geometry clamps it likewise (no second node)
     gp, theta_i, theta_r = porous.pore_geometry(xp, m, n_dot_l, n_dot_v)
     ka = 1.0 - xp.channel(ks) - kd
-    kd_w, ks_w = porous.porous_weights(xp, kd, ks, alpha, gp, filled_absorption(xp, ka, sp, 0.0, theta_i, theta_r))
+    kd_w, ks_w = porous.porous_weights(xp, kd, ks, alpha, gp, porous.pore_return(xp, kd, ks, sp, theta_i, theta_r))
     point = Point(kd, ka, m, sp, xp.channel(alpha * gp), theta_i, theta_r, n_dot_v, kd_w, ks_w, state)
     layers = sorted((layer for name in modes for layer in _REGISTRY[name].layers), key=lambda layer: layer.stage)
     for layer in layers:

@@ -126,8 +126,8 @@ def past_saturation(xp, mask, time, level, width):
 
 
 def blend(xp, clean, weathered, fill):
-    """``clean`` at fill 0 (exactly), ``weathered`` at fill 1."""
-    return xp.multiply_add(fill, weathered - clean, clean)
+    """``clean`` at fill 0 (exactly), ``weathered`` at fill 1: one Mix node."""
+    return xp.mix(fill, clean, weathered)
 
 
 def filled_absorption(xp, ka, sp, fill, theta_i, theta_r):

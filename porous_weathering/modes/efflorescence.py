@@ -19,9 +19,11 @@ SALT_COLOR = Input("salt_color", (0.8, 0.8, 0.8), 0.0, 1.0, "k_d,efflo_salt: the
 
 
 def efflorescence_diffuse(xp, kd, salt_color, pore, ap, ks_poro):
-    """k_d,efflo, eq. (11), capped at 1 - k_s,poro: eq. (11) alone reflects more light than
-    arrives on bright stone (k_d + k_s near 1), which must not happen."""
-    return xp.minimum(kd * (1.0 - pore * ap) + salt_color * pore * (1.0 - ap), 1.0 - ks_poro)
+    """k_d,efflo, eq. (11), k_d (1 - alpha G_p A_p) + k_d,salt alpha G_p (1 - A_p), capped at
+    1 - k_s,poro: eq. (11) alone reflects more light than arrives on bright stone (k_d + k_s
+    near 1), which must not happen.  Eq. (11) is a Mix by alpha G_p of k_d and
+    (k_d + k_d,salt)(1 - A_p)."""
+    return xp.minimum(xp.mix(pore, kd, (kd + salt_color) * (1.0 - ap)), 1.0 - ks_poro)
 
 
 def fill_with_salt(xp, point):

@@ -65,9 +65,10 @@ def sheltered_fraction(xp, rain_map, rain_threshold, width):
     return xp.clip((rain_threshold - rain_map) / width, 0.0, 1.0)
 
 
-def polluted_diffuse(kd, pollution_color, pore, ap):
-    """k_d,polluted, eq. (7): carbon in the pores replaces the light they return."""
-    return kd * (1.0 - pore) + pollution_color * pore * (1.0 - ap)
+def polluted_diffuse(xp, kd, pollution_color, pore, ap):
+    """k_d,polluted, eq. (7), k_d (1 - alpha G_p) + k_d,pollution alpha G_p (1 - A_p): carbon in
+    the pores replaces the light they return (a Mix by alpha G_p)."""
+    return xp.mix(pore, kd, pollution_color * (1.0 - ap))
 
 
 def deposit_coverage(sheltered, m, time, level):
@@ -82,7 +83,7 @@ def fill_with_carbon(xp, point):
     carbon = sheltered * pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
     ap = filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
     point.kd_w = blend(
-        xp, point.kd_w, polluted_diffuse(point.kd, s["pollution_color"], point.pore, ap), xp.channel(carbon)
+        xp, point.kd_w, polluted_diffuse(xp, point.kd, s["pollution_color"], point.pore, ap), xp.channel(carbon)
     )
     point.notes["sheltered"] = sheltered
 

@@ -49,34 +49,41 @@ WET_DARKENING = Input(
 )
 
 
-def wet_weights(kd, water_specular, pore, ap):
-    """(k_d,wet, water-lobe weight): eq. (9), and eq. (8) less its k_s (1 - alpha G_p) part,
-    which is k_s,poro and stays on the stone's own glossy lobe."""
-    return kd * (1.0 - pore), water_specular * pore * (1.0 - ap)
+def wet_weights(xp, kd, water_specular, pore, ap):
+    """(k_d,wet, water-lobe weight): eq. (9), k_d (1 - alpha G_p), and eq. (8) less its
+    k_s (1 - alpha G_p) part, which is k_s,poro and stays on the stone's own glossy lobe."""
+    return xp.mix(pore, kd, 0.0), water_specular * pore * (1.0 - ap)
 
 
-def wet_darkening_factor(kd, covered):
+def wet_darkening_factor(xp, kd, covered):
     """What the diffuse weight is multiplied by, per channel (SPEC 6): 1 on dry stone, and
     (1 - p) / (1 - p k_d) under water, where light bounces between stone and water surface."""
     p = WATER_INTERNAL_REFLECTANCE
-    return (1.0 - covered) + covered * ((1.0 - p) / (1.0 - p * kd))
+    return xp.mix(covered, 1.0, (1.0 - p) / (1.0 - p * kd))
+
+
+def fresnel_weight(xp, n_dot_v, strength):
+    """(1 - d) + d F: the water lobe's weight for wet darkening d = ``strength``, F water's
+    Fresnel reflectance at N.V (0.02 face on, rising to 1 at grazing angles).  Schlick's form
+    of F, as glTF's BRDF, F = F_0 + (1 - F_0)(1 - N.V)^5: within 0.01 of the exact unpolarised
+    Fresnel for N.V >= 0.5, 0.06 at most (near N.V = 0.1); cosine-weighted mean 0.0670 against
+    r̄ = 0.0664 (docs/model.md).  Gathered as (1 - N.V)^5 d (1 - F_0) + 1 - d (1 - F_0): three
+    nodes per point, every other term folds to a constant."""
+    f0 = WATER_NORMAL_REFLECTANCE
+    scale = strength * (1.0 - f0)
+    return xp.multiply_add(xp.power(1.0 - n_dot_v, 5.0), scale, 1.0 - scale)
 
 
 def water_transmittance(xp, n_dot_v):
-    """1 - F: the share of the light seen at N.V that water's surface does not reflect, F its
-    Fresnel reflectance (0.02 face on, rising to 1 at grazing angles).  Schlick's form of F, as
-    glTF's BRDF: three nodes where the exact unpolarised Fresnel takes a dozen; within 0.01 of
-    it for N.V >= 0.5, 0.06 at most (near N.V = 0.1); cosine-weighted mean 0.0670 against
-    r̄ = 0.0664 (docs/model.md)."""
-    f0 = WATER_NORMAL_REFLECTANCE
-    return xp.multiply_add(f0 - 1.0, xp.power(1.0 - n_dot_v, 5.0), 1.0 - f0)
+    """1 - F: the share of the light seen at N.V that water's surface does not reflect."""
+    return 1.0 - fresnel_weight(xp, n_dot_v, 1.0)
 
 
 def fill_with_water(xp, point):
     s = point.state
     water = pore_fill(xp, s["rain_map"], s["time"], s["wet_level"], s["front_width"])
     ap = filled_absorption(xp, point.ka, point.sp, water, point.theta_i, point.theta_r)
-    kd_wet, water_lobe = wet_weights(point.kd, xp.channel(s["water_specular"]), point.pore, ap)
+    kd_wet, water_lobe = wet_weights(xp, point.kd, xp.channel(s["water_specular"]), point.pore, ap)
     point.kd_w = blend(xp, point.kd_w, kd_wet, xp.channel(water))
     point.water_w = xp.channel(water) * water_lobe
     point.notes["water"] = water
@@ -88,10 +95,8 @@ def darken_under_water(xp, point):
     water's Fresnel reflectance F: by (1 - d) + d F for d = wet_darkening (docs/model.md)."""
     strength = point.state["wet_darkening"]
     covered = strength * point.notes["water"]
-    point.kd_w = point.kd_w * wet_darkening_factor(point.kd, xp.channel(covered))
-    # (1 - d) + d F = 1 - d (1 - F): -d folds to a constant, (1 - F) is one node
-    fresnel = xp.multiply_add(-strength, water_transmittance(xp, point.n_dot_v), 1.0)
-    point.water_w = point.water_w * xp.channel(fresnel)
+    point.kd_w = point.kd_w * wet_darkening_factor(xp, point.kd, xp.channel(covered))
+    point.water_w = point.water_w * xp.channel(fresnel_weight(xp, point.n_dot_v, strength))
 
 
 MODE = Mode(

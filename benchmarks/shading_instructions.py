@@ -1,0 +1,160 @@
+"""Shading cost counted in executed instructions: the noise-free twin of shading.py (issue 12,
+item 8).
+
+On a shared machine render times scatter by ±20–40% per round (docs/benchmarks.md), more than
+a few nodes change them.  Valgrind's cachegrind counts the instructions a process executes,
+which other jobs on the machine do not change.  Same scene as shading.py (the sphere filling
+the frame, sun 45° + overcast sky, 2 bounces, fixed seed), one render thread; each material is
+rendered by a child process under cachegrind at two sample counts, and the instructions of one
+sample are the slope between them, so the set-up (import, scene, kernel loading) drops out.
+Instructions are not seconds (a division or a cache miss costs more than an addition): this
+sizes and ranks changes; shading.py's times on a quiet machine remain the measure in seconds.
+
+    python benchmarks/shading_instructions.py [--size 48] [--jobs 2] [--materials NAME ...] [--out FILE]
+
+Needs valgrind; each child takes about 2.5 minutes (most of it importing bpy under valgrind).
+"""
+
+import argparse
+import collections
+import concurrent.futures
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import tempfile
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
+
+from benchmarks import scenes  # noqa: E402
+
+SAMPLES = (8, 40)
+DEFAULT_MATERIALS = ("Diffuse+Glossy", "porous key light", "porous ambient", "all three modes, key light")
+#: Functions of Cycles' shader virtual machine (the node interpreter and the nodes it runs)
+#: and the maths library the nodes call.
+SHADER_FUNCTIONS = ("svm_", "powf", "acosf", "expf", "logf")
+#: Without these a child's set-up differs from run to run (hashing, BLAS threads spinning).
+DETERMINISTIC_ENV = {"PYTHONHASHSEED": "0", "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+
+
+def render_in_child(name, samples, size):
+    """The child: build shading.py's scene with one render thread and material ``name``, render."""
+    import bpy
+
+    from benchmarks import shading
+    from porous_weathering import studio
+
+    scene, obj, sun, _ = shading.scene_filling_the_frame(size, threads=1)
+    studio.assign(obj, shading.material_makers(sun)[name]())
+    scene.cycles.samples = samples
+    bpy.ops.render.render(scene=scene.name)
+
+
+def counts_by_function(path):
+    """{function: instructions} of a cachegrind output file."""
+    counts = collections.Counter()
+    function = None
+    for line in path.read_text(errors="replace").splitlines():
+        if line.startswith("fn="):
+            function = line[3:]
+        elif line[:1].isdigit() and function is not None:
+            counts[function] += int(line.split()[1])
+    return counts
+
+
+def count(name, samples, size, workdir):
+    """{function: instructions} of one child process rendering ``name`` at ``samples``."""
+    out = workdir / f"{''.join(c if c.isalnum() else '_' for c in name)}-{samples}.cachegrind"
+    command = [
+        "valgrind",
+        "--tool=cachegrind",
+        "--cache-sim=no",
+        f"--cachegrind-out-file={out}",
+        sys.executable,
+        __file__,
+        "--child",
+        name,
+        str(samples),
+        "--size",
+        str(size),
+    ]
+    subprocess.run(command, check=True, capture_output=True, env={**os.environ, **DETERMINISTIC_ENV})
+    return counts_by_function(out)
+
+
+def per_sample(low, high):
+    """(all instructions, shader-VM instructions) of one sample: the slope between two runs."""
+    span = SAMPLES[1] - SAMPLES[0]
+    delta = {function: high[function] - low[function] for function in set(low) | set(high)}
+    shader = sum(value for function, value in delta.items() if any(part in function for part in SHADER_FUNCTIONS))
+    return sum(delta.values()) / span, shader / span
+
+
+def report(names, size, jobs):
+    workdir = pathlib.Path(tempfile.mkdtemp(prefix="pw-instructions-"))
+    # the baseline twice (the second in a directory of its own): how far two runs differ
+    runs = [(name, samples, workdir) for name in names for samples in SAMPLES]
+    runs += [(names[0], samples, workdir / "again") for samples in SAMPLES]
+    (workdir / "again").mkdir()
+    try:
+        with concurrent.futures.ThreadPoolExecutor(jobs) as pool:
+            futures = {run: pool.submit(count, run[0], run[1], size, run[2]) for run in runs}
+            counts = {run: future.result() for run, future in futures.items()}
+    finally:
+        shutil.rmtree(workdir, ignore_errors=True)
+    cost = {name: per_sample(counts[name, SAMPLES[0], workdir], counts[name, SAMPLES[1], workdir]) for name in names}
+    again = per_sample(*(counts[names[0], samples, workdir / "again"] for samples in SAMPLES))[0]
+    base_all, base_shader = cost[names[0]]
+    pixels = size * size
+    rows = [
+        [
+            name,
+            f"{total / 1e6:.2f}",
+            f"{total / pixels:.0f}",
+            f"{shader / pixels:.0f}",
+            f"{total / base_all:.3f}",
+            f"{(total - base_all) / pixels:+.0f}",
+        ]
+        for name, (total, shader) in cost.items()
+    ]
+    header = [
+        "material",
+        "M instructions / sample",
+        "per pixel",
+        "of which shader VM + maths library",
+        f"× {names[0]}",
+        f"extra per pixel vs {names[0]}",
+    ]
+    return (
+        f"### Shading cost in instructions (Cycles CPU under cachegrind, {size} px sphere filling the frame, "
+        f"sun 45° + overcast sky, 2 bounces, 1 render thread)\n\n"
+        f"Instructions of one sample = slope between {SAMPLES[0]} and {SAMPLES[1]} samples, each count a child "
+        f"process of its own (load on the machine does not change it). Shader VM = Cycles' functions "
+        f"named svm_* (the node interpreter and its nodes) and the maths library's powf/acosf.\n\n"
+        + scenes.markdown_table(header, rows)
+        + f"\n\nThe baseline counted twice: {base_all / 1e6:.2f} and {again / 1e6:.2f} M instructions per sample "
+        f"({again / base_all - 1:+.2%}; the rest of a run, Python and Blender, is not exactly repeatable)."
+    )
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=48)
+    parser.add_argument("--jobs", type=int, default=2, help="child processes at once (one core each)")
+    parser.add_argument(
+        "--materials", nargs="+", default=DEFAULT_MATERIALS, help="shading.py's names; the first is the baseline"
+    )
+    parser.add_argument("--child", nargs=2, metavar=("MATERIAL", "SAMPLES"), help=argparse.SUPPRESS)
+    parser.add_argument("--out", type=pathlib.Path, help="write the markdown here instead of printing it")
+    args = parser.parse_args()
+    if args.child:
+        render_in_child(args.child[0], int(args.child[1]), args.size)
+        return
+    if shutil.which("valgrind") is None:
+        parser.error("needs valgrind (apt install valgrind)")
+    scenes.print_or_write(report(list(args.materials), args.size, args.jobs), args.out)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,61 @@
+"""The node builder's choices of nodes (shader_math.py): the maths stays the same, the nodes a
+shaded point evaluates get fewer.  What the groups compute is checked by the render tests."""
+
+import itertools
+
+import bpy
+
+import pytest
+
+from porous_weathering import modes, nodes
+from porous_weathering.shader_math import Graph, dot
+
+
+def scratch_graph():
+    """(graph, a per-point scalar N.I, constant scalars c and d, a constant colour k)."""
+    tree = bpy.data.node_groups.new("Scratch", "ShaderNodeTree")
+    for name, socket_type in (("c", "NodeSocketFloat"), ("d", "NodeSocketFloat"), ("k", "NodeSocketColor")):
+        tree.interface.new_socket(name, in_out="INPUT", socket_type=socket_type)
+    graph = Graph(tree)
+    group_in = graph.node("NodeGroupInput", depth=0)
+    geometry = graph.node("ShaderNodeNewGeometry", depth=0)
+    point = dot(graph.wrap(geometry.outputs["Normal"]), graph.wrap(geometry.outputs["Incoming"]))
+    c, d, k = (graph.wrap(group_in.outputs[name]) for name in ("c", "d", "k"))
+    return graph, point, c, d, k
+
+
+def varying_nodes(graph, operation):
+    nodes_of = [node for node in graph.tree.nodes if getattr(node, "operation", None) == operation]
+    return [node for node in nodes_of if graph.varies(node.outputs[0])]
+
+
+def test_constant_factors_gather_so_that_cycles_folds_them():
+    graph, x, c, d, _ = scratch_graph()
+    product = (x * c) * d
+    assert not graph.varies(product.product[1])  # c d: one node of constants, which Cycles folds
+    assert product.product[0] is x and len(varying_nodes(graph, "MULTIPLY")) == 2  # x c is left unused
+    # with a second per-point factor the constants still come last, whatever the order
+    y = x * x
+    assert ((x * c) * y).product == ((y * x) * c).product == (x * y, c)
+    assert x * 1.0 is x
+
+
+def test_a_colour_scaled_twice_is_scaled_once():
+    graph, x, c, _, k = scratch_graph()
+    scaled = (k * x) * c
+    assert scaled.scaled[0] is k and scaled.scaled[1].product == (x, c)
+    assert (k * c) * x is scaled  # the same node whichever factor comes first
+
+
+@pytest.mark.parametrize("light_mode", nodes.LIGHT_MODES)
+def test_every_node_of_a_group_feeds_an_output(light_mode):
+    for count in range(len(modes.names()) + 1):
+        for mode_set in itertools.combinations(modes.names(), count):
+            group = nodes.weathered_group(mode_set, light_mode)
+            used = {node.name for node in group.nodes if node.bl_idname in ("NodeGroupInput", "NodeGroupOutput")}
+            changed = True
+            while changed:
+                sources = {link.from_node.name for link in group.links if link.to_node.name in used}
+                changed = not sources <= used
+                used |= sources
+            assert used == {node.name for node in group.nodes}, group.name
