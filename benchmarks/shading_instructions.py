@@ -131,7 +131,8 @@ def report(names, size, jobs):
         f"sun 45° + overcast sky, 2 bounces, 1 render thread)\n\n"
         f"Instructions of one sample = slope between {SAMPLES[0]} and {SAMPLES[1]} samples, each count a child "
         f"process of its own (load on the machine does not change it). Shader VM = Cycles' functions "
-        f"named svm_* (the node interpreter and its nodes) and the maths library's powf/acosf.\n\n"
+        f"named svm_* (the node interpreter and its nodes) and the maths library's "
+        f"{'/'.join(name for name in SHADER_FUNCTIONS if name != 'svm_')}.\n\n"
         + scenes.markdown_table(header, rows)
         + f"\n\nThe baseline counted twice: {base_all / 1e6:.2f} and {again / 1e6:.2f} M instructions per sample "
         f"({again / base_all - 1:+.2%}; the rest of a run, Python and Blender, is not exactly repeatable)."

@@ -111,7 +111,7 @@ def _remove_unused(tree, keep):
     sources = {}
     for link in tree.links:
         sources.setdefault(link.to_node.name, []).append(link.from_node)
-    used, frontier = set(), [node for node in keep]
+    used, frontier = set(), list(keep)
     while frontier:
         node = frontier.pop()
         if node.name not in used:
