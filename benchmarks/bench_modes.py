@@ -23,6 +23,7 @@ import bpy  # noqa: E402
 import porous_weathering as pw  # noqa: E402
 from benchmarks import scenes, speed, timing  # noqa: E402
 from porous_weathering import model, nodes, render, studio  # noqa: E402
+from porous_weathering import modes as modes_registry  # noqa: E402
 
 #: label -> modes, and the paper's instruction count
 MODE_SETS = {
@@ -48,9 +49,12 @@ def node_counts(modes, light_mode):
 
 def live_nodes(group):
     """The nodes of ``group`` that Cycles evaluates at every shading point: downstream of the
-    Geometry node or of a Map Range node (which has no constant folding in Cycles)."""
+    Geometry node, of a mask input (which a baked map feeds) or of a Map Range node (which has
+    no constant folding in Cycles)."""
+    masks = {item.socket for item in modes_registry.inputs().values() if item.mask}
     live = set()
     frontier = [node for node in group.nodes if node.bl_idname in ("ShaderNodeNewGeometry", "ShaderNodeMapRange")]
+    frontier += [link.to_node for link in group.links if link.from_socket.name in masks]  # only group inputs
     while frontier:
         node = frontier.pop()
         if node not in live:

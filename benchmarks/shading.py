@@ -23,9 +23,11 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import bpy  # noqa: E402
 
+import numpy as np  # noqa: E402
+
 import porous_weathering as pw  # noqa: E402
 from benchmarks import machine, scenes, speed, timing  # noqa: E402
-from porous_weathering import model, render, studio  # noqa: E402
+from porous_weathering import mesh_arrays, model, render, studio  # noqa: E402
 
 SAMPLES = (8, 40)
 BOUNCES = 2
@@ -55,9 +57,28 @@ def fills():
     }
 
 
-def weathered(modes, key_light):
-    state = {name: value for name, value in WEATHERING.items() if name in model.inputs_of(modes)}
+#: The sphere's colour attribute that stands for baked maps: a mask that changes from point to
+#: point, as every map a user bakes does (a constant mask lets Cycles fold part of the maths).
+MAP_ATTRIBUTE = "pw_bench_map"
+#: Its range: the mask runs across the sphere from MAP_RANGE[0] at the bottom to [1] at the top.
+MAP_RANGE = (0.2, 0.8)
+
+
+def weathered(modes, key_light, maps=False):
+    """The material of ``modes``; ``maps``: every mask read from MAP_ATTRIBUTE."""
+    masks = {name: MAP_ATTRIBUTE for name in ("rain_map", "edge_map", "efflorescence_map")} if maps else {}
+    state = {name: value for name, value in {**WEATHERING, **masks}.items() if name in model.inputs_of(modes)}
     return pw.make_weathered_material("+".join(modes), modes=modes, key_light=key_light, **speed.stone(), **state)
+
+
+def add_map_attribute(obj):
+    """MAP_ATTRIBUTE on ``obj``'s mesh: a point colour rising linearly with height over MAP_RANGE."""
+    mesh = obj.data
+    heights = np.array([vertex.co.z for vertex in mesh.vertices])
+    span = heights.max() - heights.min()
+    values = MAP_RANGE[0] + (MAP_RANGE[1] - MAP_RANGE[0]) * (heights - heights.min()) / span
+    attribute = mesh.color_attributes.new(MAP_ATTRIBUTE, "FLOAT_COLOR", "POINT")
+    attribute.data.foreach_set("color", mesh_arrays.grey_rgba(values))
 
 
 def material_makers(sun):
@@ -68,6 +89,7 @@ def material_makers(sun):
         "porous ambient": lambda: pw.make_porous_material("Ambient", **speed.stone()),
         "all three modes, key light": lambda: weathered(model.MODES, sun),
         "all three modes, ambient": lambda: weathered(model.MODES, None),
+        "all three modes, key light, baked maps": lambda: weathered(model.MODES, sun, maps=True),
         **{f"{mode}, key light": (lambda mode=mode: weathered((mode,), sun)) for mode in model.MODES},
     }
 
@@ -82,6 +104,7 @@ def scene_filling_the_frame(size, threads=0):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     obj = scenes.build(scene, "SPHERE", (speed.SUN,), speed.SKY)
+    add_map_attribute(obj)
     scene.camera.data.ortho_scale = FRAME
     render.use_cycles(scene, size=size, samples=1, bounces=BOUNCES, pixel_filter=PIXEL_FILTER)
     if threads:
@@ -185,7 +208,9 @@ def report(size, rounds, threads=0):
         f"per wall s while rendering {SAMPLES[1]} samples with {threads or os.cpu_count()} render threads on "
         f"{os.cpu_count()} cores). "
         f"Weathered materials: masks as constants, "
-        f"{', '.join(f'{k} {v}' for k, v in WEATHERING.items())} (by the model: {state}).\n\n"
+        f"{', '.join(f'{k} {v}' for k, v in WEATHERING.items())} (by the model: {state}); "
+        f"with baked maps, every mask from a colour attribute rising with height from {MAP_RANGE[0]} to "
+        f"{MAP_RANGE[1]}.\n\n"
         + scenes.markdown_table(header, rows)
         + f"\n\nLoad average (1 / 5 / 15 min): {loadavg(load_start)} at the start, {loadavg(load_end)} at the end; "
         f"1-min after each round: {loadavg(loads)} (this benchmark's own render threads add up to "

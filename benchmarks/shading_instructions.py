@@ -30,7 +30,13 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 from benchmarks import scenes  # noqa: E402
 
 SAMPLES = (8, 40)
-DEFAULT_MATERIALS = ("Diffuse+Glossy", "porous key light", "porous ambient", "all three modes, key light")
+DEFAULT_MATERIALS = (
+    "Diffuse+Glossy",
+    "porous key light",
+    "porous ambient",
+    "all three modes, key light",
+    "all three modes, key light, baked maps",
+)
 #: Functions of Cycles' shader virtual machine (the node interpreter and the nodes it runs)
 #: and the maths library the nodes call.
 SHADER_FUNCTIONS = ("svm_", "powf", "acosf", "expf", "logf")

@@ -16,7 +16,7 @@ from .backends import NODE_OPS
 from .shader_math import Graph, dot, normalize
 
 #: Bumped whenever the maths or the interface of a group changes, so old files rebuild.
-BUILD_VERSION = 5
+BUILD_VERSION = 6
 
 #: Light modes (SPEC 3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -82,8 +82,9 @@ def _reuse(name):
     return None
 
 
-def _build(name, body, inputs, outputs=OUTPUTS):
-    """A new shader node group with ``inputs`` and ``outputs`` whose maths ``body`` writes."""
+def _build(name, body, inputs, outputs=OUTPUTS, varying=()):
+    """A new shader node group with ``inputs`` and ``outputs`` whose maths ``body`` writes;
+    the inputs named in ``varying`` change from point to point (masks)."""
     tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
     for socket_name, (socket_type, default, low, high, tooltip) in inputs.items():
         item = tree.interface.new_socket(socket_name, in_out="INPUT", socket_type=socket_type)
@@ -96,7 +97,11 @@ def _build(name, body, inputs, outputs=OUTPUTS):
         item.description = tooltip
     graph = Graph(tree)
     group_in = graph.node("NodeGroupInput", depth=0)
-    values = {socket.name: graph.wrap(socket) for socket in group_in.outputs if socket.name}
+    values = {
+        socket.name: graph.wrap_varying(socket) if socket.name in varying else graph.wrap(socket)
+        for socket in group_in.outputs
+        if socket.name
+    }
     results = body(graph, values)
     group_out = graph.node("NodeGroupOutput", results)
     group_out.is_active_output = True
@@ -202,6 +207,7 @@ def weathered_group(modes, light_mode):
         lambda graph, inputs: weathered_bsdf(graph, inputs, light_mode, modes),
         {**PORE_INPUTS, **_light_input(light_mode), **weathering_inputs(modes)},
         outputs,
+        varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask},
     )
 
 

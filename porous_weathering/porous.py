@@ -48,12 +48,15 @@ def ambient_g(xp, k):
     return terms[0] + terms[1] + terms[2]
 
 
-def bounce_count(xp, sp, theta_i, theta_r, plus=0.0):
-    """n_b + ``plus``, eq. (6), for angles in [0, pi/2], where it is never negative
-    (3.7 + 4 pi / (s_p + 6) > pi >= theta_i + theta_r), so no node clamps it.  Written as
-    (theta_i + theta_r) (-s_p) + s_p (3.7 + 4 pi / (s_p + 6)) + plus: a shader folds every term
-    of a constant s_p (and ``plus``) and evaluates two operations per point (add, multiply-add)."""
-    return xp.multiply_add(theta_i + theta_r, -sp, sp * (3.7 + 4.0 * math.pi / (sp + 6.0)) + plus)
+def bounce_count(xp, sp, theta_i, theta_r, plus=0.0, fill=0.0):
+    """n_b + ``plus``, eq. (6), of pores a fraction ``fill`` full, whose depth ratio is then
+    s = s_p (1 - fill) (SPEC 4).  For angles in [0, pi/2] it is never negative
+    (3.7 + 4 pi / (s + 6) > pi >= theta_i + theta_r), so no node clamps it.  Written as
+    (1 - fill) (s_p (3.7 - theta_i - theta_r) + 4 pi s_p / (fill (-s_p) + s_p + 6)) + plus, the
+    first term shared by every mode's fill and the outer product a Mix by ``fill``: a shader
+    folds all but one multiply-add of an empty pore (constant s_p), four operations per fill."""
+    per_depth = xp.multiply_add(theta_i + theta_r, -sp, 3.7 * sp)
+    return xp.mix(fill, per_depth + 4.0 * math.pi * sp / xp.multiply_add(fill, -sp, sp + 6.0), 0.0) + plus
 
 
 def pore_absorption(xp, ka, nb):

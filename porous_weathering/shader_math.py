@@ -19,7 +19,8 @@ class Graph:
         self.tree = tree
         self._rows = {}
         self._made = {}  # (operation, operands) -> Expr: a shared sub-expression is built once
-        self._varying = set()  # names of the nodes downstream of the Geometry node
+        self._varying = set()  # names of the nodes downstream of the Geometry node or a mask
+        self._varying_sockets = set()  # group inputs that change from point to point (masks)
 
     def node(self, bl_idname, inputs=(), depth=None, **properties):
         """A new node with ``properties`` set and ``inputs`` (name or index -> value) connected."""
@@ -56,10 +57,18 @@ class Graph:
         return 0
 
     def varies(self, value):
-        """Whether ``value`` changes from one shading point to the next (it depends on the
-        Geometry node); group inputs count as constants, which materials mostly leave them."""
+        """Whether ``value`` changes from one shading point to the next: it depends on the
+        Geometry node or on a group input marked varying (a mask, which a map feeds); other
+        group inputs count as constants, which materials mostly leave them."""
         socket = value.socket if isinstance(value, Expr) else value
-        return hasattr(socket, "links") and socket.node.name in self._varying
+        if not hasattr(socket, "links"):
+            return False
+        return socket.node.name in self._varying or socket.as_pointer() in self._varying_sockets
+
+    def wrap_varying(self, socket):
+        """``wrap(socket)`` for a group input that changes from point to point."""
+        self._varying_sockets.add(socket.as_pointer())
+        return self.wrap(socket)
 
     def wrap(self, socket, kind=None):
         if kind is None:
@@ -75,6 +84,10 @@ class Graph:
             raise TypeError("use Graph.power_rgb for a colour base")
         if operation == "SUBTRACT" and operands[0] == 1.0 and getattr(operands[1], "complement", None) is not None:
             return operands[1].complement  # 1 - (1 - y) is y: no node
+        if operation in ("ADD", "SUBTRACT", "MULTIPLY_ADD"):
+            simpler = self._sum(operation, *operands)
+            if simpler is not None:
+                return simpler
         if operation == "MULTIPLY" and vector and any(_is_scalar(x) for x in operands):
             return self._scale(*operands)
         if operation == "MULTIPLY" and not vector:
@@ -88,8 +101,32 @@ class Graph:
             made = Expr(self, node.outputs[output], kind)
             if operation == "SUBTRACT" and operands[0] == 1.0:
                 made.complement = operands[1]
+            if operation == "MULTIPLY_ADD" and not vector and self.varies(made) and not self.varies(operands[2]):
+                made.affine = operands
             self._made[key] = made
         return self._made[key]
+
+    def _sum(self, operation, *operands):
+        """The same sum in fewer per-point nodes, or None: x + 0 and 0 b + x are x, 1 b + c is b + c, and
+        a constant added to a b + c (a multiply-add with a constant c) joins c, which Cycles
+        folds where the material sets it, so that a sum of varying and constant terms costs one
+        node."""
+        if operation == "MULTIPLY_ADD":
+            a, b, c = operands
+            if _is_zero(a) or _is_zero(b):
+                return c
+            return self.math("ADD", b, c) if _is_one(a) else self.math("ADD", a, c) if _is_one(b) else None
+        x, y = operands
+        if _is_zero(y):
+            return x
+        if operation == "ADD" and _is_zero(x):
+            return y
+        if operation == "ADD" and getattr(y, "affine", None) is not None and not self.varies(x):
+            x, y = y, x
+        if getattr(x, "affine", None) is None or _is_vector(y) or self.varies(y):
+            return None
+        a, b, c = x.affine
+        return self.math("MULTIPLY_ADD", a, b, self.math(operation, c, y))
 
     def _product(self, a, b):
         """a b with its varying factors multiplied together and its constant ones together,
@@ -207,6 +244,14 @@ def _is_one(x):
     return not isinstance(x, Expr) and x == 1.0
 
 
+def _is_zero(x):
+    return not isinstance(x, Expr) and not isinstance(x, (tuple, list)) and x == 0.0
+
+
+def _is_vector(x):
+    return x.kind == VECTOR if isinstance(x, Expr) else isinstance(x, (tuple, list))
+
+
 def _is_scalar(x):
     return x.kind == SCALAR if isinstance(x, Expr) else isinstance(x, (int, float))
 
@@ -229,6 +274,9 @@ class Expr:
         #: (varying x, constant c) when this is x c (Graph.varies), so that a further constant
         #: factor joins c rather than costing a node per point
         self.product = None
+        #: (a, b, c) when this is the scalar a b + c with a constant c, so that a constant added
+        #: to it joins c (Graph._sum)
+        self.affine = None
 
     def __add__(self, other):
         return self.graph.math("ADD", self, other)

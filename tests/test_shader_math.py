@@ -8,7 +8,7 @@ import bpy
 import pytest
 
 from porous_weathering import modes, nodes
-from porous_weathering.shader_math import Graph, dot
+from porous_weathering.shader_math import Graph, dot, multiply_add
 
 
 def scratch_graph():
@@ -45,6 +45,28 @@ def test_a_colour_scaled_twice_is_scaled_once():
     scaled = (k * x) * c
     assert scaled.scaled[0] is k and scaled.scaled[1].product == (x, c)
     assert (k * c) * x is scaled  # the same node whichever factor comes first
+
+
+def test_constant_terms_join_a_multiply_adds_addend():
+    graph, x, c, d, _ = scratch_graph()
+    sum_ = multiply_add(x, c, 2.0) + d - 1.0 + 0.0
+    assert len(varying_nodes(graph, "MULTIPLY_ADD")) == 3  # one per term; the group drops the first two
+    assert sum_.affine[:2] == (x, c) and not graph.varies(sum_.affine[2])  # 2 + d - 1: folded
+    assert not varying_nodes(graph, "ADD") and not varying_nodes(graph, "SUBTRACT")
+    assert multiply_add(1.0, x, 0.0) is x and multiply_add(0.0, x, c) is c
+    # a per-point term is not a constant: it stays a node of its own
+    assert (multiply_add(x, c, 2.0) + x).affine is None
+
+
+def test_a_mask_input_varies_from_point_to_point():
+    tree = bpy.data.node_groups.new("Masks", "ShaderNodeTree")
+    for name in ("mask", "level"):
+        tree.interface.new_socket(name, in_out="INPUT", socket_type="NodeSocketFloat")
+    graph = Graph(tree)
+    group_in = graph.node("NodeGroupInput", depth=0)
+    mask, level = graph.wrap_varying(group_in.outputs["mask"]), graph.wrap(group_in.outputs["level"])
+    assert graph.varies(mask) and not graph.varies(level)
+    assert (mask * level * 2.0).product == (mask, level * 2.0)  # the constants gather behind the mask
 
 
 @pytest.mark.parametrize("light_mode", nodes.LIGHT_MODES)

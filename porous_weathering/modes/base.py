@@ -132,7 +132,7 @@ def blend(xp, clean, weathered, fill):
 
 def filled_absorption(xp, ka, sp, fill, theta_i, theta_r):
     """A_p of pores a fraction ``fill`` full: s_p,eff = s_p (1 - fill) (SPEC 4)."""
-    nb = porous.bounce_count(xp, sp * (1.0 - fill), theta_i, theta_r)
+    nb = porous.bounce_count(xp, sp, theta_i, theta_r, fill=fill)
     return porous.pore_absorption(xp, ka, xp.channel(nb))
 
 
@@ -140,6 +140,6 @@ def cover(xp, point, color, coverage):
     """Lay a matte layer of ``color`` over a fraction ``coverage`` of the surface: it hides
     the stone's diffuse, glossy and water lobes alike."""
     point.kd_w = blend(xp, point.kd_w, color, xp.channel(coverage))
-    point.ks_w = point.ks_w * (1.0 - coverage)
+    point.ks_w = blend(xp, point.ks_w, 0.0, coverage)
     if point.water_w is not None:
-        point.water_w = point.water_w * xp.channel(1.0 - coverage)
+        point.water_w = blend(xp, point.water_w, 0.0, xp.channel(coverage))

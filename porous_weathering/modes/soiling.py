@@ -61,8 +61,9 @@ CRUST = Input(
 
 
 def sheltered_fraction(xp, rain_map, rain_threshold, width):
-    """0 in the white (rain-washed) area E >= threshold, rising to 1 over ``width`` below it."""
-    return xp.clip((rain_threshold - rain_map) / width, 0.0, 1.0)
+    """0 in the white (rain-washed) area E >= threshold, rising to 1 over ``width`` below it:
+    (threshold - E) / width as one multiply-add of E (its constants fold in a shader)."""
+    return xp.clip(xp.multiply_add(rain_map, -1.0 / width, rain_threshold / width), 0.0, 1.0)
 
 
 def polluted_diffuse(xp, kd, pollution_color, pore, ap):
@@ -72,8 +73,9 @@ def polluted_diffuse(xp, kd, pollution_color, pore, ap):
 
 
 def deposit_coverage(sheltered, m, time, level):
-    """Grey-area deposit (this project's model): grows with time, more on rougher stone."""
-    return sheltered * m / (m + DEPOSIT_HALF_ROUGHNESS) * (level * time)
+    """Grey-area deposit (this project's model): grows with time, more on rougher stone.
+    The sheltered fraction last, so that a shader multiplies it by one factor per point."""
+    return m / (m + DEPOSIT_HALF_ROUGHNESS) * (level * time) * sheltered
 
 
 def fill_with_carbon(xp, point):

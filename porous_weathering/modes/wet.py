@@ -55,11 +55,14 @@ def wet_weights(xp, kd, water_specular, pore, ap):
     return xp.mix(pore, kd, 0.0), water_specular * pore * (1.0 - ap)
 
 
-def wet_darkening_factor(xp, kd, covered):
+def wet_darkening_factor(xp, kd, strength, water):
     """What the diffuse weight is multiplied by, per channel (SPEC 6): 1 on dry stone, and
-    (1 - p) / (1 - p k_d) under water, where light bounces between stone and water surface."""
+    (1 - p) / (1 - p k_d) under water, where light bounces between stone and water surface,
+    for the share w = ``strength`` x ``water`` the water covers.  A Mix by w of 1 and that is a
+    Mix by ``water`` of 1 and the Mix by ``strength`` (both 1 + w ((1 - p) / (1 - p k_d) - 1)),
+    which a shader folds when the darkening and k_d are constants: one node per point."""
     p = WATER_INTERNAL_REFLECTANCE
-    return xp.mix(covered, 1.0, (1.0 - p) / (1.0 - p * kd))
+    return xp.mix(water, 1.0, xp.mix(strength, 1.0, (1.0 - p) / (1.0 - p * kd)))
 
 
 def fresnel_weight(xp, n_dot_v, strength):
@@ -94,8 +97,8 @@ def darken_under_water(xp, point):
     and eq. (8)'s water lobe, whose k_s,water ~ 1 holds only at grazing angles, weighted by
     water's Fresnel reflectance F: by (1 - d) + d F for d = wet_darkening (docs/model.md)."""
     strength = point.state["wet_darkening"]
-    covered = strength * point.notes["water"]
-    point.kd_w = point.kd_w * wet_darkening_factor(xp, point.kd, xp.channel(covered))
+    water = xp.channel(point.notes["water"])
+    point.kd_w = point.kd_w * wet_darkening_factor(xp, point.kd, xp.channel(strength), water)
     point.water_w = point.water_w * xp.channel(fresnel_weight(xp, point.n_dot_v, strength))
 
 
