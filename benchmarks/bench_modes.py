@@ -38,22 +38,22 @@ MATHS = {"MATH", "VECT_MATH", "GAMMA", "MIX", "MAP_RANGE"}
 
 
 def node_counts(modes, light_mode):
-    """(all nodes, maths nodes, live maths nodes) of a group.  Live: downstream of the Geometry
-    node or of a Map Range node (Cycles folds no Map Range, even of constants), so evaluated for
-    every shaded point; Cycles folds the others (their inputs are the material's constants)
-    before rendering."""
+    """(all nodes, maths nodes, live maths nodes with constant masks, live with baked maps) of
+    a group: live nodes are those Cycles evaluates at every shaded point (live_nodes)."""
     group = nodes.weathered_group(modes, light_mode)
     maths = [node for node in group.nodes if node.type in MATHS]
-    return len(group.nodes), len(maths), sum(node in live_nodes(group) for node in maths)
+    live = [sum(node in live_nodes(group, maps) for node in maths) for maps in (False, True)]
+    return len(group.nodes), len(maths), *live
 
 
-def live_nodes(group):
-    """The nodes of ``group`` that Cycles evaluates at every shading point: downstream of the
-    Geometry node, of a mask input (which a baked map feeds) or of a Map Range node (which has
-    no constant folding in Cycles)."""
-    masks = {item.socket for item in modes_registry.inputs().values() if item.mask}
+def live_nodes(group, maps):
+    """The nodes of ``group`` downstream of the Geometry node and, with ``maps``, of a mask
+    input (a baked map changes from point to point): Cycles folds every other node, whose
+    inputs are the material's constants, before rendering (Blender 5.2 folds Map Range nodes
+    too: benchmarks.md)."""
+    masks = {item.socket for item in modes_registry.inputs().values() if item.mask} if maps else set()
     live = set()
-    frontier = [node for node in group.nodes if node.bl_idname in ("ShaderNodeNewGeometry", "ShaderNodeMapRange")]
+    frontier = [node for node in group.nodes if node.bl_idname == "ShaderNodeNewGeometry"]
     frontier += [link.to_node for link in group.links if link.from_socket.name in masks]  # only group inputs
     while frontier:
         node = frontier.pop()
@@ -97,8 +97,8 @@ def main():
     measured = measure(args.size, args.samples, args.rounds)
     rows = []
     for label, (modes, paper) in MODE_SETS.items():
-        total, maths, live = node_counts(modes, nodes.SUN)
-        ambient_total, _, ambient_live = node_counts(modes, nodes.AMBIENT)
+        total, maths, live, live_maps = node_counts(modes, nodes.SUN)
+        ambient_total, _, ambient_live, ambient_live_maps = node_counts(modes, nodes.AMBIENT)
         first_seconds, render_seconds, ratios = measured[label]
         rows.append(
             [
@@ -109,7 +109,8 @@ def main():
                 ambient_total,
                 maths,
                 f"{live} / {ambient_live}",
-                f"{live / node_counts((), nodes.SUN)[2]:.2f}",
+                f"{live_maps} / {ambient_live_maps}",
+                f"{live_maps / node_counts((), nodes.SUN)[3]:.2f}",
                 f"{first_seconds:.2f}",
                 f"{render_seconds:.2f}",
                 f"{statistics.median(ratios):.2f} ({min(ratios):.2f}–{max(ratios):.2f})",
@@ -122,8 +123,9 @@ def main():
         "nodes (sun)",
         "nodes (ambient)",
         "maths nodes (sun)",
-        "live maths nodes (sun / ambient)",
-        "live × porosity",
+        "live maths nodes, constant masks (sun / ambient)",
+        "live maths nodes, baked maps (sun / ambient)",
+        "live × porosity (baked maps)",
         "EEVEE first render s",
         "EEVEE later renders s",
         "render × porosity (range)",

@@ -50,13 +50,15 @@ def ambient_g(xp, k):
 
 def bounce_count(xp, sp, theta_i, theta_r, plus=0.0, fill=0.0):
     """n_b + ``plus``, eq. (6), of pores a fraction ``fill`` full, whose depth ratio is then
-    s = s_p (1 - fill) (SPEC 4).  For angles in [0, pi/2] it is never negative
-    (3.7 + 4 pi / (s + 6) > pi >= theta_i + theta_r), so no node clamps it.  Written as
-    (1 - fill) (s_p (3.7 - theta_i - theta_r) + 4 pi s_p / (fill (-s_p) + s_p + 6)) + plus, the
-    first term shared by every mode's fill and the outer product a Mix by ``fill``: a shader
-    folds all but one multiply-add of an empty pore (constant s_p), four operations per fill."""
-    per_depth = xp.multiply_add(theta_i + theta_r, -sp, 3.7 * sp)
-    return xp.mix(fill, per_depth + 4.0 * math.pi * sp / xp.multiply_add(fill, -sp, sp + 6.0), 0.0) + plus
+    s = s_p (1 - fill) (SPEC 4): s (3.7 - theta_i - theta_r) + 4 pi s / (s + 6).  For angles in
+    [0, pi/2] it is never negative (3.7 + 4 pi / (s + 6) > pi >= theta_i + theta_r), so no node
+    clamps it.  Written as a multiply-add of s by 3.7 - theta_i - theta_r (one node that every
+    fill shares) and 4 pi s / (s + 6) = s / (s / 4 pi + 6 / 4 pi): where s is a constant (an
+    empty pore, a fill the material sets) a shader folds all but one multiply-add, and a fill
+    that a map drives costs four operations per point."""
+    depth = xp.multiply_add(fill, -sp, sp)
+    angles = xp.multiply_add(theta_i + theta_r, -1.0, 3.7)
+    return xp.multiply_add(depth, angles, depth / xp.multiply_add(depth, 0.25 / math.pi, 1.5 / math.pi)) + plus
 
 
 def pore_absorption(xp, ka, nb):

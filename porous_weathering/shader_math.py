@@ -107,15 +107,22 @@ class Graph:
         return self._made[key]
 
     def _sum(self, operation, *operands):
-        """The same sum in fewer per-point nodes, or None: x + 0 and 0 b + x are x, 1 b + c is b + c, and
-        a constant added to a b + c (a multiply-add with a constant c) joins c, which Cycles
-        folds where the material sets it, so that a sum of varying and constant terms costs one
-        node."""
+        """The same sum in fewer per-point nodes, or None: x + 0 and 0 b + x are x, 1 b + c is b + c, a
+        constant added to a b + c (a multiply-add with a constant c) joins c, and a constant k
+        times such a b + c (b constant too) plus a constant is a (k b) + (k c + ...): Cycles folds
+        the constants where the material sets them, so that a sum or product of varying and
+        constant terms costs one node."""
         if operation == "MULTIPLY_ADD":
             a, b, c = operands
             if _is_zero(a) or _is_zero(b):
                 return c
-            return self.math("ADD", b, c) if _is_one(a) else self.math("ADD", a, c) if _is_one(b) else None
+            if _is_one(a) or _is_one(b):
+                return self.math("ADD", b if _is_one(a) else a, c)
+            for factor, term in ((a, b), (b, a)):
+                if self._constant(factor) and self._constant(c) and self._constant_factor(term):
+                    x, scale, offset = term.affine  # k (x s + o) + c is x (k s) + (k o + c)
+                    return self.math("MULTIPLY_ADD", x, factor * scale, factor * offset + c)
+            return None
         x, y = operands
         if _is_zero(y):
             return x
@@ -127,6 +134,13 @@ class Graph:
             return None
         a, b, c = x.affine
         return self.math("MULTIPLY_ADD", a, b, self.math(operation, c, y))
+
+    def _constant(self, x):
+        return not _is_vector(x) and not self.varies(x)
+
+    def _constant_factor(self, x):
+        """Whether ``x`` is a multiply-add x s + o with constant s (and o)."""
+        return getattr(x, "affine", None) is not None and self._constant(x.affine[1])
 
     def _product(self, a, b):
         """a b with its varying factors multiplied together and its constant ones together,

@@ -56,6 +56,9 @@ def test_constant_terms_join_a_multiply_adds_addend():
     assert multiply_add(1.0, x, 0.0) is x and multiply_add(0.0, x, c) is c
     # a per-point term is not a constant: it stays a node of its own
     assert (multiply_add(x, c, 2.0) + x).affine is None
+    # a constant times a multiply-add, plus a constant, is one multiply-add of the same x
+    scaled = multiply_add(c, multiply_add(x, -1.0, 3.7), d)
+    assert scaled.affine[0] is x and not graph.varies(scaled.affine[1]) and not graph.varies(scaled.affine[2])
 
 
 def test_a_mask_input_varies_from_point_to_point():
