@@ -128,9 +128,9 @@ class Graph:
             return x
         if operation == "ADD" and _is_zero(x):
             return y
-        if operation == "ADD" and getattr(y, "affine", None) is not None and not self.varies(x):
+        if operation == "ADD" and getattr(y, "affine", None) is not None and self._constant(x):
             x, y = y, x
-        if getattr(x, "affine", None) is None or _is_vector(y) or self.varies(y):
+        if getattr(x, "affine", None) is None or not self._constant(y):
             return None
         a, b, c = x.affine
         return self.math("MULTIPLY_ADD", a, b, self.math(operation, c, y))
@@ -259,7 +259,7 @@ def _is_one(x):
 
 
 def _is_zero(x):
-    return not isinstance(x, Expr) and not isinstance(x, (tuple, list)) and x == 0.0
+    return not isinstance(x, Expr) and x == 0.0
 
 
 def _is_vector(x):
