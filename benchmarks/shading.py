@@ -27,7 +27,7 @@ import numpy as np  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402
 from benchmarks import machine, scenes, speed, timing  # noqa: E402
-from porous_weathering import mesh_arrays, model, render, studio  # noqa: E402
+from porous_weathering import backends, mesh_arrays, model, porous, render, studio  # noqa: E402
 
 SAMPLES = (8, 40)
 BOUNCES = 2
@@ -81,12 +81,97 @@ def add_map_attribute(obj):
     attribute.data.foreach_set("color", mesh_arrays.grey_rgba(values))
 
 
+#: The lookup texture issue 12 suggests: its side in texels (linear filter, extended edges).
+LOOKUP_SIZE = 64
+#: Math nodes chained behind a Map Range of constants in folded_chain_material().
+FOLDED_CHAIN = 20
+FOLDED = f"Diffuse+Glossy, {FOLDED_CHAIN} Math nodes behind a Map Range of constants"
+#: Materials shading_instructions.py can count but the timings leave out: designs measured, not
+#: shipped, and a check of what Cycles folds.
+EXPERIMENTS = ("porous key light, lookup texture", FOLDED)
+
+
+def folded_chain_material():
+    """Diffuse + Glossy whose glossy roughness comes out of a Map Range of constants and
+    FOLDED_CHAIN Math nodes: it costs what Diffuse + Glossy costs where Cycles folds a Map Range
+    (docs/weathering.md: Blender 5.2 does, so a mask left at a constant costs nothing per point)."""
+    material = pw.make_base_material("Folded", **speed.stone(False))
+    tree = material.node_tree
+    glossy = next(node for node in tree.nodes if node.type == "BSDF_GLOSSY")
+    ramp = tree.nodes.new("ShaderNodeMapRange")  # 0.5 in [0, 1] -> the roughness
+    ramp.inputs["Value"].default_value = 0.5
+    ramp.inputs["To Max"].default_value = 2.0 * glossy.inputs["Roughness"].default_value
+    value = ramp.outputs[0]
+    for step in range(FOLDED_CHAIN):
+        add = tree.nodes.new("ShaderNodeMath")  # +/- 0.001 in turn: no step is an identity to skip
+        tree.links.new(value, add.inputs[0])
+        add.inputs[1].default_value = 0.001 if step % 2 == 0 else -0.001
+        value = add.outputs[0]
+    tree.links.new(value, glossy.inputs["Roughness"])
+    return material
+
+
+def lookup_texture_material(sun):
+    """The porous key-light material with alpha G_p and n_b + 1 read from a LOOKUP_SIZE² float
+    image at (N.S, N.V) instead of computed per point (docs/benchmarks.md: it saves less than
+    the lookup costs to reach 1.05x, and holds only for the m, alpha and s_p it was made for)."""
+    stone = speed.stone()
+    material = pw.make_porous_material("Lookup", **stone, key_light=sun)
+    group_node = next(node for node in material.node_tree.nodes if node.type == "GROUP")
+    group = group_node.node_tree = group_node.node_tree.copy()
+    cosine = (np.arange(LOOKUP_SIZE) + 0.5) / LOOKUP_SIZE
+    n_dot_l, n_dot_v = np.meshgrid(cosine, cosine)  # columns: N.S, rows: N.V
+    xp = backends.numpy_ops(0.0)
+    gp, theta_i, theta_r = porous.pore_geometry(xp, stone["roughness"], n_dot_l, n_dot_v)
+    texels = np.ones((LOOKUP_SIZE, LOOKUP_SIZE, 4), np.float32)
+    texels[..., 0] = stone["porosity"] * gp
+    texels[..., 1] = porous.bounce_count(xp, stone["pore_depth_ratio"], theta_i, theta_r, plus=1.0)
+    image = bpy.data.images.new("Lookup", LOOKUP_SIZE, LOOKUP_SIZE, alpha=True, float_buffer=True)
+    image.colorspace_settings.name = "Non-Color"
+    image.pixels.foreach_set(texels.ravel())
+    image.pack()
+    by_type = {}
+    for node in group.nodes:
+        by_type.setdefault(getattr(node, "operation", node.type), []).append(node)
+
+    def sources(node):
+        return [link.from_node for socket in node.inputs for link in socket.links]
+
+    def reads_incoming(node):
+        return any(link.from_socket.name == "Incoming" for socket in node.inputs for link in socket.links)
+
+    # the clamped cosines max(N.S, 0) and max(N.V, 0): the maxima of a dot product; N.V's reads Incoming
+    clamps = {
+        reads_incoming(dot): node
+        for node in by_type["MAXIMUM"]
+        for dot in sources(node)
+        if getattr(dot, "operation", "") == "DOT_PRODUCT"
+    }
+    cosines = group.nodes.new("ShaderNodeCombineXYZ")
+    group.links.new(clamps[False].outputs[0], cosines.inputs[0])
+    group.links.new(clamps[True].outputs[0], cosines.inputs[1])
+    lookup = group.nodes.new("ShaderNodeTexImage")
+    lookup.image, lookup.interpolation, lookup.extension = image, "Linear", "EXTEND"
+    group.links.new(cosines.outputs[0], lookup.inputs["Vector"])
+    channels = group.nodes.new("ShaderNodeSeparateColor")
+    group.links.new(lookup.outputs["Color"], channels.inputs[0])
+    mix, gamma = by_type["MIX"][0], by_type["GAMMA"][0]
+    # red replaces alpha G_p (the Mix's factor), green n_b + 1 (the colour power's exponent)
+    computed = (mix.inputs[0].links[0].from_socket, gamma.inputs["Gamma"].links[0].from_socket)
+    for socket, channel in zip(computed, channels.outputs[:2]):
+        for link in list(socket.links):
+            group.links.new(channel, link.to_socket)
+    return material
+
+
 def material_makers(sun):
     """name -> a function that makes the material (shading_instructions.py makes one only)."""
     return {
         BASELINE: lambda: pw.make_base_material("Base", **speed.stone(False)),
         "porous key light": lambda: pw.make_porous_material("Key", **speed.stone(), key_light=sun),
         "porous ambient": lambda: pw.make_porous_material("Ambient", **speed.stone()),
+        "porous key light, lookup texture": lambda: lookup_texture_material(sun),
+        FOLDED: folded_chain_material,
         "all three modes, key light": lambda: weathered(model.MODES, sun),
         "all three modes, ambient": lambda: weathered(model.MODES, None),
         "all three modes, key light, baked maps": lambda: weathered(model.MODES, sun, maps=True),
@@ -95,7 +180,7 @@ def material_makers(sun):
 
 
 def materials(sun):
-    return {name: make() for name, make in material_makers(sun).items()}
+    return {name: make() for name, make in material_makers(sun).items() if name not in EXPERIMENTS}
 
 
 def scene_filling_the_frame(size, threads=0):

@@ -10,7 +10,8 @@ sample are the slope between them, so the set-up (import, scene, kernel loading)
 Instructions are not seconds (a division or a cache miss costs more than an addition): this
 sizes and ranks changes; shading.py's times on a quiet machine remain the measure in seconds.
 
-    python benchmarks/shading_instructions.py [--size 48] [--jobs 2] [--materials NAME ...] [--out FILE]
+    python benchmarks/shading_instructions.py [--size 48] [--jobs 2] [--materials NAME ...] [--functions N]
+        [--out FILE]
 
 Needs valgrind; each child takes about 2.5 minutes (most of it importing bpy under valgrind).
 """
@@ -89,15 +90,54 @@ def count(name, samples, size, workdir):
     return counts_by_function(out)
 
 
-def per_sample(low, high):
-    """(all instructions, shader-VM instructions) of one sample: the slope between two runs."""
+def by_function(low, high):
+    """{function: instructions of one sample}: the slope between two runs, function by function."""
     span = SAMPLES[1] - SAMPLES[0]
-    delta = {function: high[function] - low[function] for function in set(low) | set(high)}
-    shader = sum(value for function, value in delta.items() if any(part in function for part in SHADER_FUNCTIONS))
-    return sum(delta.values()) / span, shader / span
+    return {function: (high[function] - low[function]) / span for function in set(low) | set(high)}
 
 
-def report(names, size, jobs):
+def totals(slopes):
+    """(all instructions, shader-VM instructions) of one sample, from by_function's slopes."""
+    shader = sum(value for function, value in slopes.items() if any(part in function for part in SHADER_FUNCTIONS))
+    return sum(slopes.values()), shader
+
+
+def short_name(function):
+    """A C++ function's qualified name without its return type, template and argument lists."""
+    name, depth = "", 0
+    for char in function.replace("(anonymous namespace)", "{anonymous}"):
+        depth += {"<": 1, ">": -1}.get(char, 0)
+        if char == "(" and depth == 0:
+            break
+        if depth == 0 and char != ">":
+            name += char
+    return name.split()[-1] if name.strip() else function
+
+
+def function_table(slopes, names, pixels, rows):
+    """Markdown: the ``rows`` functions (by name) whose instructions per pixel differ most from
+    the baseline's (names[0]), with each material's difference; the rest summed as 'other'."""
+    per_pixel = {name: collections.Counter() for name in names}
+    for name in names:
+        for function, value in slopes[name].items():
+            per_pixel[name][short_name(function)] += value / pixels
+    base = per_pixel[names[0]]
+    extra = {}
+    for name in names[1:]:
+        extra[name] = {f: per_pixel[name][f] - base[f] for f in per_pixel[name].keys() | base.keys()}
+    functions = {function for differences in extra.values() for function in differences}
+    largest = sorted(functions, key=lambda f: -max(abs(differences.get(f, 0.0)) for differences in extra.values()))
+    largest = largest[:rows]
+    table = [[f"`{f}`", *(f"{differences.get(f, 0.0):+.0f}" for differences in extra.values())] for f in largest]
+    table.append(["other", *(f"{sum(d.values()) - sum(d.get(f, 0.0) for f in largest):+.0f}" for d in extra.values())])
+    table.append(["all", *(f"{sum(differences.values()):+.0f}" for differences in extra.values())])
+    return (
+        f"\n\n#### Where the extra instructions go: per pixel and sample, over {names[0]}, by function\n\n"
+        + scenes.markdown_table(["function", *extra], table)
+    )
+
+
+def report(names, size, jobs, functions=0):
     workdir = pathlib.Path(tempfile.mkdtemp(prefix="pw-instructions-"))
     # the baseline twice (the second in a directory of its own): how far two runs differ
     runs = [(name, samples, workdir) for name in names for samples in SAMPLES]
@@ -109,8 +149,9 @@ def report(names, size, jobs):
             counts = {run: future.result() for run, future in futures.items()}
     finally:
         shutil.rmtree(workdir, ignore_errors=True)
-    cost = {name: per_sample(counts[name, SAMPLES[0], workdir], counts[name, SAMPLES[1], workdir]) for name in names}
-    again = per_sample(*(counts[names[0], samples, workdir / "again"] for samples in SAMPLES))[0]
+    slopes = {name: by_function(counts[name, SAMPLES[0], workdir], counts[name, SAMPLES[1], workdir]) for name in names}
+    cost = {name: totals(slopes[name]) for name in names}
+    again = totals(by_function(*(counts[names[0], samples, workdir / "again"] for samples in SAMPLES)))[0]
     base_all, base_shader = cost[names[0]]
     pixels = size * size
     rows = [
@@ -142,6 +183,7 @@ def report(names, size, jobs):
         + scenes.markdown_table(header, rows)
         + f"\n\nThe baseline counted twice: {base_all / 1e6:.2f} and {again / 1e6:.2f} M instructions per sample "
         f"({again / base_all - 1:+.2%}; the rest of a run, Python and Blender, is not exactly repeatable)."
+        + (function_table(slopes, names, pixels, functions) if functions else "")
     )
 
 
@@ -153,6 +195,9 @@ def main():
         "--materials", nargs="+", default=DEFAULT_MATERIALS, help="shading.py's names; the first is the baseline"
     )
     parser.add_argument("--child", nargs=2, metavar=("MATERIAL", "SAMPLES"), help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--functions", type=int, default=0, metavar="N", help="also list the N functions that add the most instructions"
+    )
     parser.add_argument("--out", type=pathlib.Path, help="write the markdown here instead of printing it")
     args = parser.parse_args()
     if args.child:
@@ -160,7 +205,7 @@ def main():
         return
     if shutil.which("valgrind") is None:
         parser.error("needs valgrind (apt install valgrind)")
-    scenes.print_or_write(report(list(args.materials), args.size, args.jobs), args.out)
+    scenes.print_or_write(report(list(args.materials), args.size, args.jobs, args.functions), args.out)
 
 
 if __name__ == "__main__":
