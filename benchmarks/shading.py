@@ -117,7 +117,7 @@ def lookup_texture_material(sun):
     down to 1.105x in instructions, not to 1.05x, and only for the m, alpha and s_p it was made for)."""
     stone = speed.stone()
     material = pw.make_porous_material("Lookup", **stone, key_light=sun)
-    group_node = next(node for node in material.node_tree.nodes if node.type == "GROUP")
+    group_node = material.node_tree.nodes["Porous"]
     group = group_node.node_tree = group_node.node_tree.copy()
     cosine = (np.arange(LOOKUP_SIZE) + 0.5) / LOOKUP_SIZE
     n_dot_l, n_dot_v = np.meshgrid(cosine, cosine)  # columns: N.S, rows: N.V

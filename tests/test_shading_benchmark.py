@@ -12,15 +12,20 @@ from porous_weathering import render, studio
 LOOKUP_RMSE, LOOKUP_MAX = 0.002, 0.005
 
 
-def test_the_lookup_texture_renders_close_to_the_exact_group_but_not_within_the_render_tests():
+def render_each(names, samples):
+    """Renders of shading.py's materials ``names`` on its scene at 32 px, and the scene's sun."""
     scene, obj, sun, _ = shading.scene_filling_the_frame(32, threads=1)
-    scene.cycles.samples = 4
+    scene.cycles.samples = samples
     makers = shading.material_makers(sun)
     renders = []
-    for name in ("porous key light", "porous key light, lookup texture"):
+    for name in names:
         studio.assign(obj, makers[name]())
         renders.append(render.render_array(scene))
-    exact, lookup = renders
+    return renders, sun
+
+
+def test_the_lookup_texture_renders_close_to_the_exact_group_but_not_within_the_render_tests():
+    (exact, lookup), sun = render_each(("porous key light", "porous key light, lookup texture"), samples=4)
     covered = exact[..., 3] > 0.5
     difference = (lookup - exact)[..., :3][covered]
     rmse = np.sqrt((difference**2).mean() / (exact[..., :3][covered] ** 2).mean())
@@ -51,12 +56,6 @@ def test_instruction_report_groups_functions_by_name():
 
 def test_the_folding_check_renders_its_baseline():
     """Its chain ends at the baseline's roughness, so only the instructions may differ."""
-    scene, obj, sun, _ = shading.scene_filling_the_frame(32, threads=1)
-    scene.cycles.samples = 2
-    makers = shading.material_makers(sun)
-    renders = []
-    for name in (shading.BASELINE, shading.FOLDED):
-        studio.assign(obj, makers[name]())
-        renders.append(render.render_array(scene))
-    assert np.abs(renders[0] - renders[1]).max() < 1e-6
+    (base, folded), sun = render_each((shading.BASELINE, shading.FOLDED), samples=2)
+    assert np.abs(base - folded).max() < 1e-6
     assert shading.FOLDED not in shading.materials(sun)
