@@ -21,7 +21,8 @@ import numpy as np  # noqa: E402
 import porous_weathering as pw  # noqa: E402
 from benchmarks import plots, scenes  # noqa: E402
 from benchmarks import reference as ref  # noqa: E402
-from porous_weathering import render, studio  # noqa: E402
+from porous_weathering.blender import render
+from porous_weathering.samples import studio  # noqa: E402
 
 MATERIALS = {
     "diffuse": dict(kd=(0.62, 0.55, 0.45), ks=0.05, m=0.6, alpha=0.35, sp=2.5),

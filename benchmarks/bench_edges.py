@@ -40,7 +40,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import scan_generator  # noqa: E402  (sample_blends/scan_generator.py)
 import timing  # noqa: E402  (benchmarks/timing.py)
 
-from porous_weathering import edges  # noqa: E402
+from porous_weathering.maps import edges  # noqa: E402
 
 IMAGES = ROOT / "docs" / "img"
 TRIANGLES = (20_000, 40_000, 80_000, 200_000, 400_000, 1_000_000, 2_000_000)  # about half as many vertices

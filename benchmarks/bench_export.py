@@ -46,9 +46,13 @@ import machine  # noqa: E402  (benchmarks/machine.py)
 import numpy as np  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-from porous_weathering import compat, demo, export, model, render, scratch_scene, weathering  # noqa: E402
-from porous_weathering.modes.wet import WATER_NORMAL_REFLECTANCE  # noqa: E402
-from porous_weathering.shader_math import Graph  # noqa: E402
+from porous_weathering.blender import compat, render, scratch_scene
+from porous_weathering.core import model
+from porous_weathering.core.modes.wet import WATER_NORMAL_REFLECTANCE  # noqa: E402
+from porous_weathering.core.shader_math import Graph  # noqa: E402
+from porous_weathering.publish import export
+from porous_weathering.samples import demo
+from porous_weathering.shading import weathering  # noqa: E402
 
 AGES = (0.0, 0.5, 1.0)
 #: The sample scenes exported: each ages by soiling (the weathering every one of them has a

@@ -22,8 +22,11 @@ import bpy  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402
 from benchmarks import scenes, speed, timing  # noqa: E402
-from porous_weathering import model, nodes, render, studio  # noqa: E402
-from porous_weathering import modes as modes_registry  # noqa: E402
+from porous_weathering.blender import render
+from porous_weathering.core import model
+from porous_weathering.core import modes as modes_registry  # noqa: E402
+from porous_weathering.samples import studio  # noqa: E402
+from porous_weathering.shading import nodes
 
 #: label -> modes, and the paper's instruction count
 MODE_SETS = {

@@ -29,7 +29,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
 import machine  # noqa: E402  (benchmarks/machine.py)
 
-from porous_weathering import rain, studio  # noqa: E402
+from porous_weathering.maps import rain
+from porous_weathering.samples import studio  # noqa: E402
 
 SAMPLES = (1, 4, 16, 64, 256)
 DOCS = pathlib.Path(__file__).resolve().parent.parent / "docs"

@@ -114,7 +114,7 @@ def child(args):
 
 
 def run_stage(stage, obj, args, steps):
-    from porous_weathering import bake, edges, rain
+    from porous_weathering.maps import bake, edges, rain
 
     settings = rain.RainSettings(samples=args.samples)
     if stage.startswith("scan-"):

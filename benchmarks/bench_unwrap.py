@@ -66,28 +66,28 @@ def child(args):
     import scan_generator
     import timing
 
-    from porous_weathering import uv
+    from porous_weathering.maps import lightmap
 
     vertices, faces = scan_generator.bust_mesh(args.triangles, seed=0)
     positions, triangles = vertices.astype(np.float32), faces.astype(np.int64)
     polygons = np.arange(len(triangles))
-    areas = uv._areas(positions.astype(np.float64)[triangles])
-    padding = uv.padding_for(args.resolution)
+    areas = lightmap._areas(positions.astype(np.float64)[triangles])
+    padding = lightmap.padding_for(args.resolution)
     made = {}
 
     def shipped():
-        made["uvs"], made["report"] = uv.make_lightmap(positions, triangles, polygons, args.resolution, padding)
+        made["uvs"], made["report"] = lightmap.make_lightmap(positions, triangles, polygons, args.resolution, padding)
 
     def xatlas():
-        uv.XATLAS_CHARTS = len(triangles)
+        lightmap.XATLAS_CHARTS = len(triangles)
         shipped()
 
     def smart():
         made["uvs"] = smart_project(scan_generator, positions, faces, args.resolution, padding)
-        made["report"] = uv.check_uvs(made["uvs"], areas, args.resolution, padding)
+        made["report"] = lightmap.check_uvs(made["uvs"], areas, args.resolution, padding)
 
     def check():
-        made["report"] = uv.check_uvs(made["uvs"], areas, args.resolution, padding)
+        made["report"] = lightmap.check_uvs(made["uvs"], areas, args.resolution, padding)
 
     if args.child == "check":
         shipped()

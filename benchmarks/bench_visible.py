@@ -45,7 +45,10 @@ import machine  # noqa: E402  (benchmarks/machine.py)
 import numpy as np  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-from porous_weathering import demo, model, nodes, render, studio, weathering  # noqa: E402
+from porous_weathering.blender import render  # noqa: E402
+from porous_weathering.core import model
+from porous_weathering.samples import demo, studio
+from porous_weathering.shading import nodes, weathering
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 

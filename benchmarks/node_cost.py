@@ -17,7 +17,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 import porous_weathering as pw  # noqa: E402
 from benchmarks import osl_variant, scenes, speed, timing  # noqa: E402
-from porous_weathering.shader_math import Graph, dot  # noqa: E402
+from porous_weathering.core.shader_math import Graph, dot  # noqa: E402
 
 CHAINS = (15, 30, 60)
 SAMPLES = (16, 64)

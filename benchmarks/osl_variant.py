@@ -29,7 +29,8 @@ import bpy  # noqa: E402
 from benchmarks import reference as ref  # noqa: E402
 from benchmarks import scenes, timing  # noqa: E402
 from benchmarks.accuracy import MATERIALS, percent, sun_towards  # noqa: E402
-from porous_weathering import compat, render, studio  # noqa: E402
+from porous_weathering.blender import compat, render
+from porous_weathering.samples import studio  # noqa: E402
 
 OSL_SOURCE = ROOT / "benchmarks" / "osl" / "porous.osl"
 #: .oso parameter types -> node socket types

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from porous_weathering import model
+from porous_weathering.core import model
 
 #: Cycles renders a GGX lobe with alpha^2 at or below this as a perfect mirror.
 MIRROR_ALPHA2 = 1e-7

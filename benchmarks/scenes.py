@@ -10,7 +10,7 @@ import bpy
 
 import porous_weathering as pw
 from benchmarks import reference
-from porous_weathering import studio
+from porous_weathering.samples import studio
 
 #: Tessellation of the rendered sphere: fine enough that the smooth-shaded mesh's normals
 #: differ from the true sphere's by less than the errors measured (0.03% RMSE, Lambert).

@@ -27,7 +27,9 @@ import numpy as np  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402
 from benchmarks import machine, scenes, speed, timing  # noqa: E402
-from porous_weathering import backends, mesh_arrays, model, porous, render, studio  # noqa: E402
+from porous_weathering.blender import mesh_arrays, render
+from porous_weathering.core import backends, model, porous
+from porous_weathering.samples import studio  # noqa: E402
 
 SAMPLES = (8, 40)
 BOUNCES = 2

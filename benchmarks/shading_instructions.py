@@ -50,7 +50,7 @@ def render_in_child(name, samples, size):
     import bpy
 
     from benchmarks import shading
-    from porous_weathering import studio
+    from porous_weathering.samples import studio
 
     scene, obj, sun, _ = shading.scene_filling_the_frame(size, threads=1)
     studio.assign(obj, shading.material_makers(sun)[name]())

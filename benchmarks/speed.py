@@ -23,7 +23,8 @@ import porous_weathering as pw  # noqa: E402
 from benchmarks import plots, scenes, timing  # noqa: E402
 from benchmarks import reference as ref  # noqa: E402
 from benchmarks.accuracy import MATERIALS, percent, sun_towards  # noqa: E402
-from porous_weathering import compat, model, render  # noqa: E402
+from porous_weathering.blender import compat, render
+from porous_weathering.core import model  # noqa: E402
 
 PARAMS = MATERIALS["diffuse"]
 SUN = ref.Sun(sun_towards(45.0), 3.0)

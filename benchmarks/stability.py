@@ -27,8 +27,12 @@ import bpy  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from porous_weathering import compat, model, nodes, render, studio  # noqa: E402
-from porous_weathering.shader_math import Graph, dot  # noqa: E402
+from porous_weathering.blender import compat, render
+from porous_weathering.contracts import socket_name
+from porous_weathering.core import model
+from porous_weathering.core.shader_math import Graph, dot  # noqa: E402
+from porous_weathering.samples import studio  # noqa: E402
+from porous_weathering.shading import nodes
 
 #: (k_d, k_s) pairs: k_a -> 0, k_a = 1, k_a -> 0 in one channel and -> 1 in another,
 #: k_s + k_d > 1 (invalid: clamped), a typical stone.
@@ -156,10 +160,10 @@ def probe_material(group, inputs, readout):
     tree.nodes.clear()
     graph = Graph(tree)
     group_node = graph.node("ShaderNodeGroup", depth=1, node_tree=group)
-    for socket_name in inputs:
-        attribute = graph.node("ShaderNodeAttribute", depth=0, attribute_name=socket_name)
-        output = "Fac" if group_node.inputs[socket_name].type == "VALUE" else "Vector"
-        graph.connect(attribute.outputs[output], group_node.inputs[socket_name])
+    for input_socket in inputs:
+        attribute = graph.node("ShaderNodeAttribute", depth=0, attribute_name=input_socket)
+        output = "Fac" if group_node.inputs[input_socket].type == "VALUE" else "Vector"
+        graph.connect(attribute.outputs[output], group_node.inputs[input_socket])
     zero = graph.wrap(graph.node("ShaderNodeAttribute", depth=0, attribute_name="zero").outputs["Fac"])
     emission = graph.node("ShaderNodeEmission", {"Color": readout(graph, group_node, zero), "Strength": 1.0})
     graph.node("ShaderNodeOutputMaterial", {"Surface": emission.outputs[0]})
@@ -189,7 +193,7 @@ def rendered_outputs(cases, modes, light_mode, size):
     obj = tilted_grid(scene, cases["n_dot_v"], size)
     group = nodes.weathered_group(modes, light_mode)
     sockets = {PORE_SOCKETS[name]: cases[name] for name in PORE_SOCKETS}
-    sockets.update({nodes.socket_name(name): cases[name] for name in model.inputs_of(modes)} if modes else {})
+    sockets.update({socket_name(name): cases[name] for name in model.inputs_of(modes)} if modes else {})
     if light_mode == nodes.SUN:
         sockets["Light Direction"] = light_directions(cases["n_dot_l"], cases["n_dot_v"])
     for name, values in {**sockets, "zero": np.zeros(len(cases["m"]))}.items():

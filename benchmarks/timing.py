@@ -11,7 +11,8 @@ overhead.  Medians over rounds are reported, with the range of the ratios.
 import statistics
 import time
 
-from porous_weathering import render, studio
+from porous_weathering.blender import render
+from porous_weathering.samples import studio
 
 
 def wall_and_cpu_seconds(run):

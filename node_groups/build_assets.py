@@ -23,8 +23,10 @@ import bpy
 HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
 
-from porous_weathering import compat, nodes, render, studio  # noqa: E402
-from porous_weathering import modes as weathering_modes  # noqa: E402
+from porous_weathering.blender import compat, render
+from porous_weathering.core import modes as weathering_modes  # noqa: E402
+from porous_weathering.samples import studio  # noqa: E402
+from porous_weathering.shading import nodes
 
 FILENAME = "porous_weathering_assets.blend"
 CATALOGS_FILENAME = "blender_assets.cats.txt"

@@ -12,10 +12,10 @@ so ``porous_weathering.model`` works in plain Python too.
 """
 
 _LAZY = {
-    "make_porous_material": "material",
-    "make_base_material": "material",
-    "make_weathered_material": "weathering",
-    "make_preset_material": "presets",
+    "make_porous_material": "shading.material",
+    "make_base_material": "shading.material",
+    "make_weathered_material": "shading.weathering",
+    "make_preset_material": "shading.presets",
 }
 
 
@@ -28,16 +28,20 @@ def __getattr__(name):
 
 
 def register():
-    from . import assets, cli, ui
+    from .cli import entry as cli_entry
+    from .shading import assets
+    from .ui import panel
 
-    ui.register()
+    panel.register()
     assets.register()
-    cli.register()
+    cli_entry.register()
 
 
 def unregister():
-    from . import assets, cli, ui
+    from .cli import entry as cli_entry
+    from .shading import assets
+    from .ui import panel
 
-    cli.unregister()
+    cli_entry.unregister()
     assets.unregister()
-    ui.unregister()
+    panel.unregister()

@@ -1,3 +1,3 @@
-from porous_weathering.cli import exit_with
+from porous_weathering.cli.entry import exit_with
 
 exit_with()

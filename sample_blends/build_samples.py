@@ -37,8 +37,9 @@ sys.path.insert(0, str(HERE))
 
 import scan_generator  # noqa: E402  (sample_blends/scan_generator.py)
 
-from porous_weathering import compat, studio  # noqa: E402
-from porous_weathering.presets import make_preset_material  # noqa: E402
+from porous_weathering.blender import compat
+from porous_weathering.samples import studio  # noqa: E402
+from porous_weathering.shading.presets import make_preset_material  # noqa: E402
 
 # --- building blocks -------------------------------------------------------------------
 

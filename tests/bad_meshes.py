@@ -14,7 +14,7 @@ import bpy
 import bmesh
 import numpy as np
 
-from porous_weathering import studio
+from porous_weathering.samples import studio
 
 #: The datablock collections an operation could leave a half-made thing in.
 DATA_KINDS = (

@@ -18,9 +18,12 @@ import dataclasses
 import numpy as np
 
 import porous_weathering as pw
-from porous_weathering import model, render, studio, weathering
-from porous_weathering import modes as weathering_modes
-from porous_weathering.modes import soiling, wet
+from porous_weathering.blender import render
+from porous_weathering.core import model
+from porous_weathering.core import modes as weathering_modes
+from porous_weathering.core.modes import soiling, wet
+from porous_weathering.samples import studio
+from porous_weathering.shading import weathering
 
 #: Cycles evaluates the node maths in float32 and stores float32 EXR: agreement to 1e-4
 #: of the brightest pixel is far tighter than anything visible (1/255 = 4e-3).

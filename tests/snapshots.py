@@ -238,7 +238,7 @@ def all_group_snapshots():
     """{group name: snapshot} of every group the package builds, built in the current session
     (start from an empty file: a group of the same name and build version already there would
     be reused, not rebuilt)."""
-    from porous_weathering import nodes
+    from porous_weathering.shading import nodes
 
     groups = [nodes.porous_group(light_mode) for light_mode in LIGHT_MODES]
     groups += [

@@ -10,7 +10,9 @@ import bpy
 import numpy as np
 import pytest
 
-from porous_weathering import bake, edges, imageio, studio
+from porous_weathering.common import imageio
+from porous_weathering.maps import bake, edges
+from porous_weathering.samples import studio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FAST = ["--resolution", "16", "--samples", "4"]
@@ -166,8 +168,8 @@ def test_save_links_images_and_attributes_into_the_blend(blend, tmp_path):
 
 def test_run_does_not_depend_on_how_it_was_invoked(blend, tmp_path, capsys):
     """The in-process entry point (what ``blender -c porous_weathering bake`` calls)."""
-    from porous_weathering import cli
+    from porous_weathering.cli import entry
 
-    assert cli.main(["bake", str(blend), "--out", str(tmp_path / "maps"), "--objects", "Cube", *FAST]) == 0
+    assert entry.main(["bake", str(blend), "--out", str(tmp_path / "maps"), "--objects", "Cube", *FAST]) == 0
     assert (tmp_path / "maps" / "Cube.rain.exr").is_file()
     assert bake.image_path(str(tmp_path), "Cube", "edges").endswith("Cube.edges.exr")

@@ -14,7 +14,9 @@ import bpy
 import numpy as np
 import pytest
 
-from porous_weathering import bake, imageio, interrupts, rain, studio
+from porous_weathering.common import imageio, interrupts
+from porous_weathering.maps import bake, rain
+from porous_weathering.samples import studio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FAST = ["--resolution", "16", "--samples", "4"]

@@ -19,7 +19,7 @@ import psutil
 import pytest
 from distributed import LocalCluster
 
-from porous_weathering import imageio
+from porous_weathering.common import imageio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FACADE = ROOT / "sample_blends" / "limestone_facade.blend"

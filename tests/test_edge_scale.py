@@ -13,7 +13,10 @@ import numpy as np
 import pytest
 
 from generators import load_script
-from porous_weathering import bake, bake_command, edges, imageio, ops_bake, options
+from porous_weathering.cli import bake as bake_command
+from porous_weathering.common import imageio, options
+from porous_weathering.maps import bake, edges
+from porous_weathering.ui import bake_operator as ops_bake
 
 scan_generator = load_script("sample_blends/scan_generator.py")
 

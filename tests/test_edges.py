@@ -6,7 +6,7 @@ import bmesh
 import numpy as np
 import pytest
 
-from porous_weathering import edges
+from porous_weathering.maps import edges
 
 
 def link(scene, mesh, name):

@@ -16,8 +16,11 @@ import bpy
 import numpy as np
 import pytest
 
-from porous_weathering import export, model, uv, weathering
-from porous_weathering.studio import add_sun
+from porous_weathering.core import model
+from porous_weathering.maps import lightmap
+from porous_weathering.publish import export
+from porous_weathering.samples.studio import add_sun
+from porous_weathering.shading import weathering
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SIZE = 32  #: texels: the wall's UV map is the whole square, so every texel is one point of the model
@@ -426,17 +429,17 @@ def test_a_mesh_without_uvs_gets_a_lightmap(tmp_path):
     gltf, _ = read_glb(result.path)
     assert "TEXCOORD_0" in gltf["meshes"][0]["primitives"][0]["attributes"]
     with open(result.paradata, encoding="utf-8") as stream:
-        assert json.load(stream)["objects"][0]["uv_map"] == {"name": uv.LIGHTMAP_UV, "made_by_export": True}
+        assert json.load(stream)["objects"][0]["uv_map"] == {"name": lightmap.LIGHTMAP_UV, "made_by_export": True}
     assert not wall.data.uv_layers
 
 
 def test_a_broken_lightmap_is_refused_in_one_line(tmp_path):
     wall = make_wall()
-    broken = wall.data.uv_layers.new(name=uv.LIGHTMAP_UV)
+    broken = wall.data.uv_layers.new(name=lightmap.LIGHTMAP_UV)
     broken.data.foreach_set("uv", np.zeros(len(wall.data.loops) * 2, dtype=np.float32))  # every face on one point
     wall.data.uv_layers.remove(wall.data.uv_layers["UVMap"])
     save(tmp_path)
-    with pytest.raises(ValueError, match=uv.LIGHTMAP_UV) as error:
+    with pytest.raises(ValueError, match=lightmap.LIGHTMAP_UV) as error:
         export.export_variants([wall], (1.0,), size=16, out_dir=str(tmp_path / "out"))
     assert "\n" not in str(error.value)
     assert not os.listdir(tmp_path / "out")
@@ -558,7 +561,7 @@ class Recorder:
 
 def test_operator_and_panel_button(tmp_path):
     import porous_weathering
-    from porous_weathering import ui
+    from porous_weathering.ui import panel as ui
 
     porous_weathering.register()
     try:

@@ -11,8 +11,11 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from porous_weathering import model, nodes, render, studio
-from porous_weathering.model import PorousInputWarning
+from porous_weathering.blender import render
+from porous_weathering.core import model
+from porous_weathering.core.model import PorousInputWarning
+from porous_weathering.samples import studio
+from porous_weathering.shading import nodes
 
 unit = st.floats(0.0, 1.0)
 cosine = st.floats(-1.0, 1.0)

@@ -5,7 +5,7 @@ import os
 import numpy as np
 import pytest
 
-from porous_weathering import imageio
+from porous_weathering.common import imageio
 
 
 @pytest.fixture

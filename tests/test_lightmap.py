@@ -19,7 +19,8 @@ import numpy as np
 import pytest
 
 from generators import load_script
-from porous_weathering import bake, imageio, rain, uv
+from porous_weathering.common import imageio
+from porous_weathering.maps import bake, lightmap, rain
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCAN = load_script("sample_blends/scan_generator.py")
@@ -41,8 +42,8 @@ def bust(bust_mm, scale=1.0, name="Bust"):
 
 
 def report_of(obj, name, resolution):
-    geometry = uv.Geometry.of(obj.data)
-    return uv.check_uvs(uv.corner_uvs(obj.data, name)[geometry.corners], geometry.areas(), resolution)
+    geometry = lightmap.Geometry.of(obj.data)
+    return lightmap.check_uvs(lightmap.corner_uvs(obj.data, name)[geometry.corners], geometry.areas(), resolution)
 
 
 # --- the check -----------------------------------------------------------------------------------
@@ -56,31 +57,31 @@ def square_pair(gap, size=8.0, resolution=64):
 
 
 def test_the_check_passes_a_good_map_and_finds_each_fault():
-    good = uv.check_uvs(*square_pair(gap=6), 64, padding=4)
+    good = lightmap.check_uvs(*square_pair(gap=6), 64, padding=4)
     assert good.ok and good.islands == 2 and good.covered == 2 * 8 * 8
     assert good.utilisation == pytest.approx(128 / 64**2)
 
-    crowded = uv.check_uvs(*square_pair(gap=3), 64, padding=4)
+    crowded = lightmap.check_uvs(*square_pair(gap=3), 64, padding=4)
     assert not crowded.ok and crowded.crowded > 0 and crowded.overlapping == 0
 
     uvs, areas = square_pair(gap=-2)  # the second square over the first's last two columns
-    overlapping = uv.check_uvs(uvs, areas, 64, padding=4)
+    overlapping = lightmap.check_uvs(uvs, areas, 64, padding=4)
     assert overlapping.overlapping == 2 * 8 and "lie on two triangles" in overlapping.problems()[0]
 
     uvs, areas = square_pair(gap=6)
     uvs[2:] += [0.9, 0]  # the second square past the right edge
-    outside = uv.check_uvs(uvs, areas, 64, padding=4)
+    outside = lightmap.check_uvs(uvs, areas, 64, padding=4)
     assert outside.outside == 2 and "leave [0, 1]" in outside.problems()[0]
 
     uvs, areas = square_pair(gap=6)
     uvs[0] = np.array([[40, 40], [40.1, 40], [40, 40.1]]) / 64  # an island of 1/6400 of its fair share
-    starved = uv.check_uvs(uvs, areas, 64, padding=4)
+    starved = lightmap.check_uvs(uvs, areas, 64, padding=4)
     assert starved.starved == 1 and "fair share" in starved.problems()[0]
 
 
 def test_the_check_does_not_count_shared_edges_as_overlaps():
     uvs, areas = square_pair(gap=6)
-    assert uv.overlapping_texels(uvs, 64) == 0  # the diagonal of each square runs through texel centres
+    assert lightmap.overlapping_texels(uvs, 64) == 0  # the diagonal of each square runs through texel centres
 
 
 # --- new lightmaps, at every unit ----------------------------------------------------------------
@@ -90,8 +91,8 @@ def test_a_new_lightmap_passes_the_check_at_every_unit_with_the_same_quality(bus
     reports = {}
     for unit, scale in SCALES.items():
         mesh = bust(bust_mm, scale, unit).data
-        geometry = uv.Geometry.of(mesh)
-        reports[unit] = uv.check_uvs(uv.lightmap_uvs(mesh, 1024)[geometry.corners], geometry.areas(), 1024)
+        geometry = lightmap.Geometry.of(mesh)
+        reports[unit] = lightmap.check_uvs(lightmap.lightmap_uvs(mesh, 1024)[geometry.corners], geometry.areas(), 1024)
     for unit, report in reports.items():
         assert report.ok, (unit, report.problems())
         assert report.starved == 0 and report.overlapping == 0 and report.crowded == 0 and report.outside == 0
@@ -112,17 +113,17 @@ def test_a_fold_of_the_projection_is_found_and_cut_apart(monkeypatch):
     quads = np.stack([corner, corner + rings + 1, corner + rings + 2, corner + 1], axis=1)
     faces = np.concatenate([quads[:, :3], quads[:, [0, 2, 3]]]).astype(np.int32)
     mesh = SCAN.add_to_scene("Ramp", vertices, faces).data
-    monkeypatch.setattr(uv, "XATLAS_CHARTS", 0)  # the scans' projection on the axes, whatever the size
-    geometry = uv.Geometry.of(mesh)
-    points = uv.normalised(geometry.positions, geometry.vertices)
-    normals = uv.polygon_normals(points, geometry.vertices, geometry.polygons)
-    keys, projected = uv.cube_charts(points, geometry.vertices, geometry.polygons, normals)
+    monkeypatch.setattr(lightmap, "XATLAS_CHARTS", 0)  # the scans' projection on the axes, whatever the size
+    geometry = lightmap.Geometry.of(mesh)
+    points = lightmap.normalised(geometry.positions, geometry.vertices)
+    normals = lightmap.polygon_normals(points, geometry.vertices, geometry.polygons)
+    keys, projected = lightmap.cube_charts(points, geometry.vertices, geometry.polygons, normals)
     assert len(np.unique(keys)) == len(vertices)  # one chart along +Z ...
-    chart_uvs, triangles = uv._chart_points(keys, projected)
-    folded = uv._folds(chart_uvs, triangles, uv._charts_of(chart_uvs, triangles), 4.0)
+    chart_uvs, triangles = lightmap._chart_points(keys, projected)
+    folded = lightmap._folds(chart_uvs, triangles, lightmap._charts_of(chart_uvs, triangles), 4.0)
     assert folded.mean() > 0.2  # ... that lies over itself for half a turn
-    lightmap = uv.lightmap_uvs(mesh, 512)
-    assert uv.check_uvs(lightmap[geometry.corners], geometry.areas(), 512).ok
+    unwrapped = lightmap.lightmap_uvs(mesh, 512)
+    assert lightmap.check_uvs(unwrapped[geometry.corners], geometry.areas(), 512).ok
 
 
 # --- the bake: reused, unchanged, refused ----------------------------------------------------------
@@ -141,8 +142,8 @@ def test_image_bakes_at_every_unit_give_lightmaps_of_equal_quality(bust_mm, tmp_
         [outcome] = bake_image([obj], tmp_path / unit)
         assert outcome.status == "written"
         pixels, metadata = imageio.read_image(outcome.where)
-        assert metadata["pw:uv_map"] == uv.LIGHTMAP_UV and np.isfinite(pixels).all()
-        reports[unit] = report_of(obj, uv.LIGHTMAP_UV, 256)
+        assert metadata["pw:uv_map"] == lightmap.LIGHTMAP_UV and np.isfinite(pixels).all()
+        reports[unit] = report_of(obj, lightmap.LIGHTMAP_UV, 256)
         assert reports[unit].ok, (unit, reports[unit].problems())
     for unit, report in reports.items():
         assert report.covered == pytest.approx(reports["mm"].covered, rel=0.05), unit
@@ -188,9 +189,9 @@ def test_a_second_bake_of_a_saved_scan_reuses_its_lightmap_and_is_unchanged(bust
     obj = bpy.data.objects["Bust"]
     options = bake.BakeOptions(maps=("rain",), resolution=256, out_dir=str(tmp_path / "maps"), rain_settings=FAST_RAIN)
     steps = list(bake.iter_bake([obj], options))
-    assert f"'{uv.LIGHTMAP_UV}' (reused" in steps[-3].stage  # the unwrap's last step, before the map's two
+    assert f"'{lightmap.LIGHTMAP_UV}' (reused" in steps[-3].stage  # the unwrap's last step, before the map's two
     assert [s.outcome.status for s in steps if s.outcome] == ["unchanged"]
-    assert [layer.name for layer in obj.data.uv_layers] == [uv.LIGHTMAP_UV]
+    assert [layer.name for layer in obj.data.uv_layers] == [lightmap.LIGHTMAP_UV]
 
 
 def test_the_command_line_rebakes_a_saved_scan_as_unchanged(bust_mm, tmp_path):
@@ -211,10 +212,10 @@ def test_the_command_line_rebakes_a_saved_scan_as_unchanged(bust_mm, tmp_path):
 def test_the_own_lightmap_that_no_longer_fits_is_refused_with_why(bust_mm, tmp_path):
     obj = bust(bust_mm)
     bake_image([obj], tmp_path / "first", resolution=512)
-    with pytest.raises(ValueError, match=rf"'{uv.LIGHTMAP_UV}' cannot hold a bake at 64²: .*another island"):
+    with pytest.raises(ValueError, match=rf"'{lightmap.LIGHTMAP_UV}' cannot hold a bake at 64²: .*another island"):
         bake_image([obj], tmp_path / "second", resolution=64)
     assert not (tmp_path / "second").exists() or not os.listdir(tmp_path / "second")
-    assert [layer.name for layer in obj.data.uv_layers] == [uv.LIGHTMAP_UV]
+    assert [layer.name for layer in obj.data.uv_layers] == [lightmap.LIGHTMAP_UV]
 
 
 def test_a_lightmap_that_cannot_be_made_is_refused_leaving_nothing(fresh_scene, tmp_path):
@@ -240,19 +241,19 @@ def test_the_unwrap_is_a_step_of_its_own_with_progress(bust_mm, tmp_path):
     fractions = [step.fraction for step in steps]
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     stages = [step.stage.split(" (")[0] for step in unwrap]
-    assert {"packing", "checking"} <= set(stages) and f"'{uv.LIGHTMAP_UV}'" in stages[-1]
+    assert {"packing", "checking"} <= set(stages) and f"'{lightmap.LIGHTMAP_UV}'" in stages[-1]
     assert [(s.map, s.outcome.status) for s in steps if s.outcome] == [("rain", "written"), ("edges", "written")]
 
 
 def test_closing_the_bake_during_the_unwrap_stops_it_at_once(bust_mm, tmp_path, monkeypatch):
     started = []
-    original = uv.subprocess.Popen
+    original = lightmap.subprocess.Popen
 
     def recorded(*args, **kwargs):
         started.append(original(*args, **kwargs))
         return started[-1]
 
-    monkeypatch.setattr(uv.subprocess, "Popen", recorded)
+    monkeypatch.setattr(lightmap.subprocess, "Popen", recorded)
     obj = bust(bust_mm)
     steps = bake.iter_bake([obj], bake.BakeOptions(maps=("rain",), resolution=256, out_dir=str(tmp_path)))
     first = next(steps)

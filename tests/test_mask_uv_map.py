@@ -11,7 +11,11 @@ import numpy as np
 import pytest
 
 from helpers import STONE, MaskedPlane, assert_matches, expected_image, lobes, model_weights, weathered
-from porous_weathering import bake, imageio, model, studio, uv, weathering
+from porous_weathering.common import imageio
+from porous_weathering.core import model
+from porous_weathering.maps import bake, lightmap
+from porous_weathering.samples import studio
+from porous_weathering.shading import weathering
 
 #: The lightmap maps the plane's x, y in [-1, 1] to u, v in [LOW, HIGH]: inside the ramp's texel
 #: centres, so bilinear filtering of the ramp gives u exactly.
@@ -25,8 +29,8 @@ def plane(fresh_scene):
     plane = MaskedPlane(fresh_scene)
     mesh = plane.plane.data
     corners = np.array([vertex.co[:2] for vertex in mesh.vertices])[[loop.vertex_index for loop in mesh.loops]]
-    uv.add_uv_map(mesh, uv.LIGHTMAP_UV, LOW + (HIGH - LOW) * (corners + 1) / 2)
-    user_uvs = uv.corner_uvs(mesh, "UVMap")
+    lightmap.add_uv_map(mesh, lightmap.LIGHTMAP_UV, LOW + (HIGH - LOW) * (corners + 1) / 2)
+    user_uvs = lightmap.corner_uvs(mesh, "UVMap")
     mesh.uv_layers["UVMap"].data.foreach_set("uv", np.stack([1 - user_uvs[:, 1], user_uvs[:, 0]], 1).ravel())
     assert mesh.uv_layers.active.name == "UVMap"
     assert next(layer for layer in mesh.uv_layers if layer.active_render).name == "UVMap"
@@ -36,7 +40,7 @@ def plane(fresh_scene):
 def ramp_map(path):
     """An EXR whose value is the lightmap u at every texel centre, baked (says its header) on it."""
     ramp = (np.arange(RAMP_TEXELS) + 0.5) / RAMP_TEXELS
-    imageio.write_image(path, np.tile(ramp, (RAMP_TEXELS, 1)), metadata={bake.UV_MAP_KEY: uv.LIGHTMAP_UV})
+    imageio.write_image(path, np.tile(ramp, (RAMP_TEXELS, 1)), metadata={bake.UV_MAP_KEY: lightmap.LIGHTMAP_UV})
     return str(path)
 
 
@@ -50,7 +54,7 @@ def lightmap_u(plane):
 
 def test_baked_image_mask_is_read_through_its_uv_map(plane, tmp_path):
     source = weathering.mask_source("rain_map", ramp_map(tmp_path / "Plane.rain.exr"))
-    assert weathering.image_uv_map(source) == uv.LIGHTMAP_UV
+    assert weathering.image_uv_map(source) == lightmap.LIGHTMAP_UV
     covered = plane.render(studio.position_probe())[..., 3] > 0.999
     expected_mask = lightmap_u(plane)
     assert np.ptp(expected_mask[covered]) > 0.6
@@ -82,9 +86,9 @@ def generated_ramp(uv_map=None):
 
 
 def test_an_image_names_its_uv_map_or_is_read_through_the_active_one(plane):
-    named = weathered("Named", (model.WET,), rain_map=generated_ramp(uv.LIGHTMAP_UV), **STATE)
+    named = weathered("Named", (model.WET,), rain_map=generated_ramp(lightmap.LIGHTMAP_UV), **STATE)
     plain = weathered("Plain", (model.WET,), rain_map=generated_ramp(), **STATE)
-    assert [node.uv_map for node in named.node_tree.nodes if node.type == "UVMAP"] == [uv.LIGHTMAP_UV]
+    assert [node.uv_map for node in named.node_tree.nodes if node.type == "UVMAP"] == [lightmap.LIGHTMAP_UV]
     assert not any(node.type == "UVMAP" for node in plain.node_tree.nodes)
     with pytest.warns(model.PorousInputWarning, match="'Elsewhere', which no mesh has"):
         weathered("Lost", (model.WET,), rain_map=generated_ramp("Elsewhere"), **STATE)

@@ -4,7 +4,8 @@ import bpy
 
 import pytest
 
-from porous_weathering import compat, material
+from porous_weathering.blender import compat
+from porous_weathering.shading import material
 
 
 def textured_principled(name="Scan"):

@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from porous_weathering import model
-from porous_weathering.model import PorousInputWarning, porous_coefficients
+from porous_weathering.core import model
+from porous_weathering.core.model import PorousInputWarning, porous_coefficients
 
 
 def test_hand_computed_value():

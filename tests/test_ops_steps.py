@@ -6,8 +6,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from porous_weathering import ops_steps
-from porous_weathering.ops_steps import SteppedOperator
+from porous_weathering.ui import steps as ops_steps
+from porous_weathering.ui.steps import SteppedOperator
 
 
 class WindowManager:

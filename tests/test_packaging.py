@@ -25,7 +25,15 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 MANIFEST = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
 ZIP_NAME = f"{MANIFEST['id']}-{MANIFEST['version']}.zip"
 #: Every top-level entry the zip may hold.
-ALLOWED_TOP = {"blender_manifest.toml", "__init__.py", "LICENSE", "porous_weathering", "node_groups", "wheels"}
+ALLOWED_TOP = {
+    "blender_manifest.toml",
+    "__init__.py",
+    "LICENSE",
+    "porous_weathering",
+    "node_groups",
+    "sample_blends",
+    "wheels",
+}
 ASSET_FILES = {"node_groups/porous_weathering_assets.blend", "node_groups/blender_assets.cats.txt"}
 
 
@@ -142,7 +150,7 @@ def install(zip_path, user_dir):
 
 def test_zip_installs_enables_and_disables_in_a_clean_user_config(plain_zip, tmp_path):
     folder, unpacked = install(plain_zip, tmp_path)
-    assert (folder / "porous_weathering" / "material.py").is_file()
+    assert (folder / "porous_weathering" / "shading" / "material.py").is_file()
     assert unpacked == []
 
 

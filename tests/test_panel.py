@@ -10,8 +10,13 @@ import numpy as np
 import pytest
 
 import porous_weathering
-from porous_weathering import efflorescence_map, imageio, maps, presets, studio, ui
-from porous_weathering import modes as weathering_modes
+from porous_weathering.common import imageio
+from porous_weathering.core import modes as weathering_modes
+from porous_weathering.maps import efflorescence_map
+from porous_weathering.maps import registry as maps
+from porous_weathering.samples import studio
+from porous_weathering.shading import presets
+from porous_weathering.ui import panel as ui
 
 SAMPLES = sorted((pathlib.Path(__file__).resolve().parents[1] / "sample_blends").glob("*.blend"))
 #: Scan-sized samples (the bust: 200k triangles) skip the per-sample tests below, which bake every

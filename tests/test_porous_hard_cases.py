@@ -9,8 +9,10 @@ import pytest
 import porous_weathering as pw
 from benchmarks.scenes import porous_material
 from helpers import TOLERANCE, LitSphere, assert_matches
-from porous_weathering import model, render, studio
-from porous_weathering.model import PorousInputWarning
+from porous_weathering.blender import render
+from porous_weathering.core import model
+from porous_weathering.core.model import PorousInputWarning
+from porous_weathering.samples import studio
 
 BASE = dict(kd=(0.5, 0.45, 0.4), ks=0.15, m=0.4, alpha=0.3, sp=2.0)
 

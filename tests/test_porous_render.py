@@ -46,7 +46,7 @@ def test_rotating_the_key_light_changes_the_shading(fresh_scene):
     material = porous_material(DIFFUSE, key_light=sphere.sun)
     before = sphere.render(material)
     studio_towards = (0.8, 0.0, 0.6)
-    from porous_weathering import studio
+    from porous_weathering.samples import studio
 
     studio.aim_sun(sphere.sun, studio_towards)
     after = sphere.render(material)

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from porous_weathering import model, nodes
-from porous_weathering import modes as weathering_modes
-from porous_weathering.modes import soiling
-from porous_weathering.presets import PRESETS
+from porous_weathering.core import model
+from porous_weathering.core import modes as weathering_modes
+from porous_weathering.core.modes import soiling
+from porous_weathering.shading import nodes
+from porous_weathering.shading.presets import PRESETS
 
 DOCS = pathlib.Path(__file__).resolve().parent.parent / "docs" / "presets.md"
 

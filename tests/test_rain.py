@@ -8,7 +8,9 @@ import bmesh
 import numpy as np
 import pytest
 
-from porous_weathering import bake, imageio, rain, studio, uv
+from porous_weathering.common import imageio
+from porous_weathering.maps import bake, lightmap, rain
+from porous_weathering.samples import studio
 
 SIZE = 32
 
@@ -155,15 +157,15 @@ def test_lightmap_is_a_new_non_overlapping_map(fresh_scene):
     bpy.ops.object.modifier_add(type="SUBSURF")
     bpy.ops.object.modifier_apply(modifier=monkey.modifiers[0].name)
     mesh = monkey.data
-    user_uvs = uv.corner_uvs(mesh, "UVMap").copy()
-    lightmap = uv.lightmap_uvs(mesh, 128)
-    corners, _ = uv.triangle_corners(mesh)
-    assert uv.overlapping_texels(lightmap[corners], 128) == 0
-    assert lightmap.min() >= 0 and lightmap.max() <= 1
-    uv.add_uv_map(mesh, uv.LIGHTMAP_UV, lightmap)
-    assert np.array_equal(uv.corner_uvs(mesh, "UVMap"), user_uvs)
+    user_uvs = lightmap.corner_uvs(mesh, "UVMap").copy()
+    unwrapped = lightmap.lightmap_uvs(mesh, 128)
+    corners, _ = lightmap.triangle_corners(mesh)
+    assert lightmap.overlapping_texels(unwrapped[corners], 128) == 0
+    assert unwrapped.min() >= 0 and unwrapped.max() <= 1
+    lightmap.add_uv_map(mesh, lightmap.LIGHTMAP_UV, unwrapped)
+    assert np.array_equal(lightmap.corner_uvs(mesh, "UVMap"), user_uvs)
     assert mesh.uv_layers.active.name == "UVMap"
-    assert uv.find_bakeable_uv_map(mesh, 128) == uv.LIGHTMAP_UV
+    assert lightmap.find_bakeable_uv_map(mesh, 128) == lightmap.LIGHTMAP_UV
 
 
 def test_overlapping_user_map_is_not_reused(fresh_scene):
@@ -171,9 +173,11 @@ def test_overlapping_user_map_is_not_reused(fresh_scene):
     mesh = bpy.context.active_object.data
     square = np.tile(np.array([[0, 0], [1, 0], [1, 1], [0, 1]], dtype=np.float32), (6, 1))
     mesh.uv_layers["UVMap"].data.foreach_set("uv", square.ravel())
-    corners, _ = uv.triangle_corners(mesh)
-    assert uv.overlapping_texels(square[corners], 16) == 16 * 16  # six faces on each centre (a diagonal's: once each)
-    assert uv.find_bakeable_uv_map(mesh, 16) is None
+    corners, _ = lightmap.triangle_corners(mesh)
+    assert (
+        lightmap.overlapping_texels(square[corners], 16) == 16 * 16
+    )  # six faces on each centre (a diagonal's: once each)
+    assert lightmap.find_bakeable_uv_map(mesh, 16) is None
 
 
 def test_image_bake_without_uvs_makes_a_dilated_lightmap(fresh_scene, tmp_path):
@@ -183,12 +187,12 @@ def test_image_bake_without_uvs_makes_a_dilated_lightmap(fresh_scene, tmp_path):
         [plane],
         bake.BakeOptions(maps=("rain",), resolution=SIZE, out_dir=str(tmp_path), rain_settings=settings(samples=8)),
     )
-    assert outcome.status == "written" and [m.name for m in plane.data.uv_layers] == [uv.LIGHTMAP_UV]
+    assert outcome.status == "written" and [m.name for m in plane.data.uv_layers] == [lightmap.LIGHTMAP_UV]
     pixels, metadata = imageio.read_image(outcome.where)
-    assert metadata["pw:uv_map"] == uv.LIGHTMAP_UV
+    assert metadata["pw:uv_map"] == lightmap.LIGHTMAP_UV
     # every texel a bilinear lookup inside the island can touch is filled (with E = 1)
-    corners, _ = uv.triangle_corners(plane.data)
-    triangles = uv.corner_uvs(plane.data, uv.LIGHTMAP_UV)[corners] * SIZE
+    corners, _ = lightmap.triangle_corners(plane.data)
+    triangles = lightmap.corner_uvs(plane.data, lightmap.LIGHTMAP_UV)[corners] * SIZE
     centres = np.stack(np.meshgrid(np.arange(SIZE) + 0.5, np.arange(SIZE) + 0.5), axis=-1).reshape(-1, 2)
     lo, hi = triangles.reshape(-1, 2).min(axis=0), triangles.reshape(-1, 2).max(axis=0)
     near = np.all((centres > lo - 1.5) & (centres < hi + 1.5), axis=1).reshape(SIZE, SIZE)[::-1]
@@ -246,7 +250,7 @@ def test_non_mesh_object_is_named_in_the_error(fresh_scene, tmp_path):
 
 
 def test_operator_bakes_the_selected_meshes(fresh_scene, tmp_path):
-    from porous_weathering import ops_bake
+    from porous_weathering.ui import bake_operator as ops_bake
 
     plane = grid(fresh_scene, "Plane", 2, 2, 1)
     plane.select_set(True)

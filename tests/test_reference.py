@@ -6,7 +6,8 @@ import pytest
 import porous_weathering as pw
 from benchmarks import reference as ref
 from benchmarks import scenes
-from porous_weathering import render, studio
+from porous_weathering.blender import render
+from porous_weathering.samples import studio
 
 DIFFUSE = dict(kd=(0.62, 0.55, 0.45), ks=0.05, m=0.6, alpha=0.35, sp=2.5)
 GLOSSY = dict(kd=(0.25, 0.22, 0.2), ks=0.6, m=0.25, alpha=0.3, sp=1.5)

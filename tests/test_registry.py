@@ -13,9 +13,15 @@ import pytest
 
 import porous_weathering
 from helpers import STONE, LitSphere, assert_matches, expected_image, lobes, model_weights, weathered
-from porous_weathering import bake, cli, maps, mesh_arrays, model, modes, nodes, ui
-from porous_weathering.modes.base import TIME, Input, Layer, Mode
-from porous_weathering.options import option
+from porous_weathering.blender import mesh_arrays
+from porous_weathering.cli import entry
+from porous_weathering.common.options import option
+from porous_weathering.core import model, modes
+from porous_weathering.core.modes.base import TIME, Input, Layer, Mode
+from porous_weathering.maps import bake
+from porous_weathering.maps import registry as maps
+from porous_weathering.shading import nodes
+from porous_weathering.ui import panel as ui
 
 GRIME = Input("grime", 0.0, 0.0, 1.0, "Toy grime: darkens the diffuse where the toy map is high", mask=True, map="toy")
 STRENGTH = Input("grime_strength", 0.5, 0.0, 1.0, "How much the grime darkens at t = 1")
@@ -117,9 +123,9 @@ def test_toy_map_is_in_the_options_and_the_command_line(toys):
         bake.BakeOptions(toy_settings=ToySettings(level=2.0))
     help_text = io.StringIO()
     with contextlib.redirect_stdout(help_text), pytest.raises(SystemExit):
-        cli.main(["bake", "--help"])
+        entry.main(["bake", "--help"])
     assert "--toy-level" in help_text.getvalue() and "OUT/<object>.toy.exr" in help_text.getvalue()
-    parsed = cli.build_parser().parse_args(["bake", "f.blend", "--maps", "toy", "--toy-level", "0.5"])
+    parsed = entry.build_parser().parse_args(["bake", "f.blend", "--maps", "toy", "--toy-level", "0.5"])
     assert bake.options_from_values(vars(parsed)).toy_settings.level == 0.5
 
 

@@ -21,7 +21,10 @@ import pytest
 
 import porous_weathering
 from bad_meshes import cube, snapshot
-from porous_weathering import bake, imageio, rain, studio, ui, uv
+from porous_weathering.common import imageio
+from porous_weathering.maps import bake, lightmap, rain
+from porous_weathering.samples import studio
+from porous_weathering.ui import panel as ui
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FAST = dict(resolution=16, rain_settings=rain.RainSettings(samples=2))
@@ -97,7 +100,7 @@ def test_cancel_before_any_map_removes_the_new_lightmap(fresh_scene, tmp_path):
         bake.bake_maps(
             [stone], bake.BakeOptions(maps=("rain", "edges"), out_dir=str(tmp_path), **FAST), cancelled=cancel_after(1)
         )
-    assert [layer.name for layer in stone.data.uv_layers] == [uv.LIGHTMAP_UV]
+    assert [layer.name for layer in stone.data.uv_layers] == [lightmap.LIGHTMAP_UV]
     assert [p.name for p in tmp_path.iterdir()] == ["Bare.rain.exr"]
 
 

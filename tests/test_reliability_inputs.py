@@ -18,8 +18,11 @@ import pytest
 
 import porous_weathering as pw
 from bad_meshes import cube, data_counts
-from porous_weathering import bake, edges, imageio, model, rain, studio
-from porous_weathering.model import PorousInputWarning
+from porous_weathering.common import imageio
+from porous_weathering.core import model
+from porous_weathering.core.model import PorousInputWarning
+from porous_weathering.maps import bake, edges, rain
+from porous_weathering.samples import studio
 
 NAN = math.nan
 
@@ -296,7 +299,7 @@ def test_object_and_folder_names_with_spaces_slashes_and_non_ascii(fresh_scene, 
 
 @pytest.mark.parametrize("kind", ["missing", "corrupt", "wrong format", "truncated"])
 def test_bad_efflorescence_photograph_raises_oserror_with_openimageio_reason(bad_images, kind):
-    from porous_weathering import efflorescence_map
+    from porous_weathering.maps import efflorescence_map
 
     with pytest.raises(OSError, match="cannot read photograph") as failure:
         efflorescence_map.photo_map(bad_images[kind])

@@ -12,7 +12,10 @@ import pytest
 
 import porous_weathering
 from bad_meshes import BUILDERS, cube, data_counts, snapshot
-from porous_weathering import bake, edges, imageio, mesh_arrays, rain, studio
+from porous_weathering.blender import mesh_arrays
+from porous_weathering.common import imageio
+from porous_weathering.maps import bake, edges, rain
+from porous_weathering.samples import studio
 
 FAST_RAIN = rain.RainSettings(samples=2)
 MAPS = ("rain", "edges")

@@ -18,7 +18,11 @@ import pytest
 import porous_weathering
 from generators import OLDEST_LINE, load_script
 from helpers import assert_matches, expected_image
-from porous_weathering import demo, model, nodes, render, studio, ui, weathering
+from porous_weathering.blender import render
+from porous_weathering.core import model
+from porous_weathering.samples import demo, studio
+from porous_weathering.shading import nodes, weathering
+from porous_weathering.ui import panel as ui
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_blends"

@@ -15,7 +15,9 @@ import numpy as np
 import pytest
 
 from generators import load_script
-from porous_weathering import bake, edges, mesh_arrays, ops_bake, rain, scan_checks, scratch_scene, uv
+from porous_weathering.blender import mesh_arrays, scratch_scene
+from porous_weathering.maps import bake, edges, lightmap, rain, scan_checks
+from porous_weathering.ui import bake_operator as ops_bake
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCAN = load_script("sample_blends/scan_generator.py")
@@ -191,15 +193,15 @@ def test_an_image_hardly_finer_than_the_scan_is_drawn_through_its_vertices(bust_
     """At 256² the 20k-triangle bust has 6.5 texels per vertex: E is baked at the vertices and
     drawn across the triangles, and comes out as a per-texel bake does, within its noise."""
     obj = bust(bust_mm)
-    uv.add_uv_map(obj.data, uv.LIGHTMAP_UV, uv.lightmap_uvs(obj.data, 256))
+    lightmap.add_uv_map(obj.data, lightmap.LIGHTMAP_UV, lightmap.lightmap_uvs(obj.data, 256))
     settings = rain.RainSettings(samples=16)
     through_vertices = []
     original = rain._bake_vertices
     monkeypatch.setattr(rain, "_bake_vertices", lambda *args: through_vertices.append(1) or original(*args))
-    drawn = rain.bake_rain_image(obj, uv.LIGHTMAP_UV, 256, settings, margin=0)
+    drawn = rain.bake_rain_image(obj, lightmap.LIGHTMAP_UV, 256, settings, margin=0)
     assert through_vertices == [1]
     monkeypatch.setattr(rain, "TEXELS_PER_VERTEX", 0)
-    per_texel = rain.bake_rain_image(obj, uv.LIGHTMAP_UV, 256, settings, margin=0)
+    per_texel = rain.bake_rain_image(obj, lightmap.LIGHTMAP_UV, 256, settings, margin=0)
     assert through_vertices == [1]  # per texel this time
     covered = (drawn > 0) | (per_texel > 0)
     assert covered.mean() > 0.1  # rain reaches some of what the lightmap covers
@@ -212,7 +214,7 @@ def test_a_scan_finer_than_the_edge_radius_gets_its_image_mask_drawn_through_its
     the image mask is the field read at the vertices drawn across the triangles, and comes out
     as the field read at every texel does, within the interpolation's error."""
     obj = bust(bust_mm)
-    uv.add_uv_map(obj.data, uv.LIGHTMAP_UV, uv.lightmap_uvs(obj.data, 256))
+    lightmap.add_uv_map(obj.data, lightmap.LIGHTMAP_UV, lightmap.lightmap_uvs(obj.data, 256))
     settings = edges.EdgeSettings(scale=0.05)
     assert edges._median_edge(obj) <= edges.VERTEX_SPACING * edges.effective_radius(obj, settings)
     drawn_through = []
@@ -220,10 +222,10 @@ def test_a_scan_finer_than_the_edge_radius_gets_its_image_mask_drawn_through_its
     monkeypatch.setattr(
         scratch_scene, "bake_point_values", lambda *args, **kw: drawn_through.append(1) or original(*args, **kw)
     )
-    drawn = edges.edge_mask_image(obj, uv.LIGHTMAP_UV, 256, settings)
+    drawn = edges.edge_mask_image(obj, lightmap.LIGHTMAP_UV, 256, settings)
     assert drawn_through == [1]
     monkeypatch.setattr(edges, "VERTEX_SPACING", 0.0)
-    per_texel = edges.edge_mask_image(obj, uv.LIGHTMAP_UV, 256, settings)
+    per_texel = edges.edge_mask_image(obj, lightmap.LIGHTMAP_UV, 256, settings)
     assert drawn_through == [1]  # per texel this time
     covered = (drawn > 0) | (per_texel > 0)
     assert covered.mean() > 0.2 and per_texel[covered].max() > 0.5  # the brim and the hollows show

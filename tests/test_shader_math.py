@@ -7,8 +7,9 @@ import bpy
 
 import pytest
 
-from porous_weathering import modes, nodes
-from porous_weathering.shader_math import Graph, dot, multiply_add
+from porous_weathering.core import modes
+from porous_weathering.core.shader_math import Graph, dot, multiply_add
+from porous_weathering.shading import nodes
 
 
 def scratch_graph():

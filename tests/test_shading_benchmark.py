@@ -5,7 +5,8 @@ its baseline, and the instruction report groups C++ functions by name."""
 import numpy as np
 
 from benchmarks import shading, shading_instructions
-from porous_weathering import render, studio
+from porous_weathering.blender import render
+from porous_weathering.samples import studio
 
 #: docs/benchmarks.md: the 64² lookup texture renders within 0.13% RMSE (0.37% of the brightest
 #: pixel at most) of the exact group; a lookup on the wrong axes or channels is far above these.

@@ -12,7 +12,10 @@ import bpy
 import numpy as np
 
 import porous_weathering
-from porous_weathering import bake, presets, rain, render, studio
+from porous_weathering.blender import render
+from porous_weathering.maps import bake, rain
+from porous_weathering.samples import studio
+from porous_weathering.shading import presets
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "porous_weathering"

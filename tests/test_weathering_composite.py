@@ -21,7 +21,11 @@ from mathutils import Vector
 
 import porous_weathering as pw
 from helpers import assert_matches, expected_image
-from porous_weathering import bake, model, rain, render, studio, weathering
+from porous_weathering.blender import render
+from porous_weathering.core import model
+from porous_weathering.maps import bake, rain
+from porous_weathering.samples import studio
+from porous_weathering.shading import weathering
 
 #: A porous stone with shallow pores: deep pores are nearly black when clean already (A_p near 1),
 #: so carbon in them would hardly show (docs/weathering.md).

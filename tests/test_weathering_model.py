@@ -13,9 +13,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from helpers import paper_modes
-from porous_weathering import efflorescence_map, imageio, model
-from porous_weathering.backends import NumpyOps
-from porous_weathering.modes import wet
+from porous_weathering.common import imageio
+from porous_weathering.core import model
+from porous_weathering.core.backends import NumpyOps
+from porous_weathering.core.modes import wet
+from porous_weathering.maps import efflorescence_map
 
 SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 TIMES = np.linspace(0.0, 1.0, 41)

@@ -26,7 +26,9 @@ from helpers import (
     paper_modes,
     weathered,
 )
-from porous_weathering import model, nodes, studio, weathering
+from porous_weathering.core import model
+from porous_weathering.samples import studio
+from porous_weathering.shading import nodes, weathering
 
 #: Mask values that leave every fill partial, so each term of each mode shows ("soiling crust":
 #: carbon-full pores under a partial crust, on the fringe of the white area).

@@ -14,8 +14,11 @@ from dataclasses import dataclass
 
 import bpy
 
-from . import distributed, interrupts, maps, options
-from .bake import (
+from ..common import interrupts, options
+from ..common.progress import ProgressBar
+from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
+from ..maps import registry as maps
+from ..maps.bake import (
     BakeOptions,
     OverwriteRefused,
     Provenance,
@@ -26,11 +29,8 @@ from .bake import (
     option_entries,
     options_from_values,
 )
-from .progress import ProgressBar
+from . import distributed
 
-EXIT_FAILED = 1
-EXIT_USAGE = 2
-EXIT_REFUSED = 3
 FORCE_HINT = "bake into another --out, or add --force to replace it"
 
 
@@ -156,7 +156,7 @@ def _bake_serially(args, bake_options):
                 run.fail(f"error: {path}: {_one_line(error)}")
                 failed += 1
             run.bar.finish()
-    return EXIT_FAILED if failed else EXIT_REFUSED if refused else 0
+    return EXIT_FAILED if failed else EXIT_REFUSED if refused else EXIT_OK
 
 
 def _one_line(error):

@@ -3,7 +3,7 @@
 A task runs the ``bake`` command itself on whole files (``bake FILE ... --maps ...``), so its
 outcomes, messages and exit code are those of the serial run by construction. It runs in the
 worker's *bake process*: one long-lived Python process per worker that imports bpy once and runs
-the command (``cli.main``) for every task it is given, so a task costs a file open, not a Blender
+the command (``entry.main``) for every task it is given, so a task costs a file open, not a Blender
 start. A process of its own, not the worker, because bpy holds one scene per process and is not
 thread-safe, and so that a crashing bake takes down that process, not the worker: the task starts
 a new bake process and runs once more.
@@ -42,13 +42,12 @@ import uuid
 import warnings
 from dataclasses import dataclass
 
-from .progress import ProgressBar
+from ..common.progress import ProgressBar
+from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_SIGINT, EXIT_USAGE, EXTENSION_ROOT
 
 #: Where ``porous_weathering`` is found by the bake processes of a worker.
-PACKAGE_PARENT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 CONNECT_TIMEOUT = "10s"
 #: Exit codes of the bake command (docs/cli.md) that a run on Dask combines as the serial run does.
-EXIT_FAILED, EXIT_REFUSED = 1, 3
 #: Extra attempts of a task whose bake process died.
 RETRIES = 1
 #: How often a running task checks whether it was cancelled (seconds).
@@ -151,9 +150,9 @@ class _BakeProcess:
         # Its fd 2 (Blender's own messages, a crash's last words) goes to a file read when it dies;
         # append mode, so that truncating it between requests works.
         self.messages = tempfile.TemporaryFile("a+")
-        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, (PACKAGE_PARENT, os.environ.get("PYTHONPATH")))))
+        env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, (EXTENSION_ROOT, os.environ.get("PYTHONPATH")))))
         self.process = subprocess.Popen(
-            [sys.executable, "-c", f"from porous_weathering.distributed import serve; serve({reply_end})"],
+            [sys.executable, "-c", f"from porous_weathering.cli.distributed import serve; serve({reply_end})"],
             stdin=subprocess.PIPE,
             stdout=subprocess.DEVNULL,  # Blender's "Read blend" and "Info: Baking map saved" notes
             stderr=self.messages,
@@ -179,7 +178,7 @@ class _BakeProcess:
             ready = select.select([self.replies], [], [], CANCEL_POLL)[0]
             if cancelled():
                 self.stop()
-                return Result(tuple(files), 130)  # for no one: the client cancelled the task
+                return Result(tuple(files), EXIT_SIGINT)  # for no one: the client cancelled the task
             if not ready:
                 continue
             chunk = os.read(self.replies, 65536)
@@ -236,7 +235,7 @@ def serve(reply_fd: int) -> None:
     of its mesh objects (a JSON list). What it prints goes out on ``reply_fd`` as it comes, then
     its exit code, one JSON message a line: {"out": line}, {"err": line}, {"frame": progress
     bar frame}, {"code": int}."""
-    from . import cli
+    from . import entry
 
     replies = os.fdopen(reply_fd, "w", buffering=1)
 
@@ -253,7 +252,7 @@ def serve(reply_fd: int) -> None:
             contextlib.redirect_stderr(_forwarding_stream(send, "err")),
         ):
             try:
-                code = cli.main([command, *words]) if command == "bake" else _print_mesh_objects(*words)
+                code = entry.main([command, *words]) if command == "bake" else _print_mesh_objects(*words)
             except SystemExit as error:  # argparse: the client checked the words, so unexpected
                 code = error.code if isinstance(error.code, int) else 2
             except Exception as error:  # what the serial run would end with as a traceback
@@ -261,7 +260,7 @@ def serve(reply_fd: int) -> None:
                 code = 1
         send(code=code)
     replies.close()
-    os._exit(0)  # skip bpy's exit-time cleanup, as cli.exit_with does
+    os._exit(0)  # skip bpy's exit-time cleanup, as entry.exit_with does
 
 
 def _print_mesh_objects(path):
@@ -316,7 +315,7 @@ def run(args: argparse.Namespace, target: str, map_names: tuple, shared: list[st
             return _Run(client, words).bake(files, target, ["--dry-run"] * args.dry_run + ["--save"] * args.save)
     except SchedulerUnreachable as error:
         print(f"error: {error}", file=sys.stderr)
-        return 2
+        return EXIT_USAGE
     except Interrupted as interrupt:
         print(
             "\ninterrupted: the tasks were cancelled; maps finished so far are complete, "
@@ -514,4 +513,4 @@ def _exit_code(results):
     """The serial run's exit code over all files (docs/cli.md): 1 when a file failed, else 3
     when one was refused (it would replace maps made from another .blend), else 0."""
     codes = {r.code for r in results} - {0}
-    return EXIT_FAILED if codes - {EXIT_REFUSED} else EXIT_REFUSED if codes else 0
+    return EXIT_FAILED if codes - {EXIT_REFUSED} else EXIT_REFUSED if codes else EXIT_OK

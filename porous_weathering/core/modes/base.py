@@ -12,6 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from ...contracts import socket_name
 from .. import porous
 
 #: Stages: where a layer runs among those of the other modes.  The extensions beyond the paper
@@ -38,7 +39,7 @@ class Input:
     @property
     def socket(self) -> str:
         """The group input's name: 'rain_map' -> 'Rain Map'."""
-        return self.name.replace("_", " ").title()
+        return socket_name(self.name)
 
     @property
     def is_colour(self) -> bool:

@@ -31,12 +31,16 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from . import bake, edges, efflorescence_map, maps, material, model, presets, rain, render, studio, weathering
-from .progress import ProgressBar
+from ..blender import render
+from ..common.progress import ProgressBar
+from ..contracts import EXTENSION_ROOT, GROUP_NODE, SAMPLES_DIR
+from ..core import model
+from ..maps import bake, edges, efflorescence_map, rain
+from ..maps import registry as maps
+from ..shading import material, presets, weathering
+from . import studio
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SAMPLES_DIR = os.path.join(ROOT, "sample_blends")
-DOCS_IMAGES = os.path.join(ROOT, "docs", "images")
+DOCS_IMAGES = os.path.join(EXTENSION_ROOT, "docs", "images")
 FACADE = "limestone_facade"
 AGES = (0.0, 0.33, 0.66, 1.0)
 #: The documentation's sheets are written at this scale of the renders (smaller files).
@@ -278,7 +282,7 @@ class Sample:
     def show(self, mode, age, **changes):
         """Give the weathered objects ``mode``'s material (``changes``: see ``material``) at age ``age``."""
         weathered = self.material(mode, **changes)
-        weathering.set_input(weathered.node_tree.nodes["Porous"], "time", age)
+        weathering.set_input(weathered.node_tree.nodes[GROUP_NODE], "time", age)
         for obj in self.objects:
             studio.assign(obj, weathered)
 
@@ -344,7 +348,7 @@ def configure_parser(parser):
     parser.add_argument(
         "--docs",
         action="store_true",
-        help=f"regenerate the documentation's pictures in {os.path.relpath(DOCS_IMAGES, ROOT)}/ "
+        help=f"regenerate the documentation's pictures in {os.path.relpath(DOCS_IMAGES, EXTENSION_ROOT)}/ "
         "instead (--out is ignored)",
     )
     parser.add_argument(

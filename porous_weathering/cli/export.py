@@ -13,12 +13,12 @@ import sys
 
 import bpy
 
-from . import bake_command, export, interrupts, options
-from .bake_command import _one_line
-from .progress import ProgressBar
-
-EXIT_FAILED = 1
-EXIT_USAGE = 2
+from ..common import interrupts, options
+from ..common.progress import ProgressBar
+from ..contracts import EXIT_FAILED, EXIT_USAGE
+from ..publish import export
+from . import bake as bake_command
+from .bake import _one_line
 
 
 def configure_parser(parser):

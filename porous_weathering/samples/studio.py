@@ -4,8 +4,8 @@ shading quantities out as pixels."""
 
 import bpy
 
-from . import compat
-from .scratch_scene import aim_sun, emission_probe, normal_probe  # noqa: F401  (part of the kit)
+from ..blender import compat
+from ..blender.scratch_scene import aim_sun, emission_probe, normal_probe  # noqa: F401  (part of the kit)
 
 #: The camera looks down -Z, so the unit vector towards the viewer is +Z everywhere.
 VIEW_DIRECTION = (0.0, 0.0, 1.0)

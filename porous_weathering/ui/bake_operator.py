@@ -9,8 +9,10 @@ import warnings
 
 import bpy
 
-from . import bake, maps, options
-from .ops_steps import SteppedOperator
+from ..common import options
+from ..maps import bake
+from ..maps import registry as maps
+from .steps import SteppedOperator
 
 
 class BakeMapsOperator(SteppedOperator):

@@ -8,8 +8,8 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
+from ..core.shader_math import Graph
 from . import compat, mesh_arrays
-from .shader_math import Graph
 
 #: Object types that have surfaces, materials and therefore something to bake or shade.
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}

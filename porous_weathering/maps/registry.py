@@ -10,8 +10,9 @@ from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from . import edges, mesh_arrays, rain
-from . import modes as weathering_modes
+from ..blender import mesh_arrays
+from ..core import modes as weathering_modes
+from . import edges, rain
 
 
 @dataclass(frozen=True)

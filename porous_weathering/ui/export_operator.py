@@ -4,8 +4,9 @@ nothing behind). Its properties are generated from the export's option declarati
 
 import bpy
 
-from . import export, options
-from .ops_steps import SteppedOperator
+from ..common import options
+from ..publish import export
+from .steps import SteppedOperator
 
 
 class ExportVariantsOperator(SteppedOperator):

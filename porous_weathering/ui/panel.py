@@ -6,9 +6,16 @@ from dataclasses import dataclass
 
 import bpy
 
-from . import bake, efflorescence_map, maps, material, model, ops_bake, ops_export, presets, scratch_scene, weathering
-from . import modes as weathering_modes
-from .modes.efflorescence import EFFLORESCENCE_MAP
+from ..blender import scratch_scene
+from ..contracts import GROUP_NODE, map_image_property
+from ..core import model
+from ..core import modes as weathering_modes
+from ..core.modes.efflorescence import EFFLORESCENCE_MAP
+from ..maps import bake, efflorescence_map
+from ..maps import registry as maps
+from ..shading import material, presets, weathering
+from . import bake_operator as ops_bake
+from . import export_operator as ops_export
 
 
 class NeedsMaterialObject:
@@ -184,7 +191,7 @@ def object_maps(obj):
     property) or a colour attribute name."""
     found = {}
     for known in panel_maps():
-        image = bpy.data.images.get(obj.get(f"pw_{known.name}_image", ""))
+        image = bpy.data.images.get(obj.get(map_image_property(known.name), ""))
         if image is not None:
             found[known.name] = image
         elif obj.type == "MESH" and known.attribute and known.attribute in obj.data.attributes:
@@ -345,7 +352,7 @@ def _active_material(context):
 
 
 def _time_socket(mat):
-    group = mat.node_tree.nodes.get("Porous") if mat and mat.node_tree else None
+    group = mat.node_tree.nodes.get(GROUP_NODE) if mat and mat.node_tree else None
     return group.inputs.get("Time") if group is not None else None
 
 

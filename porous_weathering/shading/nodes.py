@@ -10,10 +10,11 @@ group of the same name and build version is already in the file.
 
 import bpy
 
-from . import modes as weathering_modes
-from . import porous
-from .backends import NODE_OPS
-from .shader_math import Graph, dot, normalize
+from ..contracts import BUILD_VERSION_PROPERTY
+from ..core import modes as weathering_modes
+from ..core import porous
+from ..core.backends import NODE_OPS
+from ..core.shader_math import Graph, dot, normalize
 
 #: Bumped whenever the maths or the interface of a group changes, so old files rebuild.
 BUILD_VERSION = 6
@@ -75,7 +76,7 @@ def _light_input(light_mode):
 
 def _reuse(name):
     group = bpy.data.node_groups.get(name)
-    if group is not None and group.get("pw_build_version") == BUILD_VERSION:
+    if group is not None and group.get(BUILD_VERSION_PROPERTY) == BUILD_VERSION:
         return group
     if group is not None:  # an older build: rename it away so materials using it keep working
         group.name = name + " (old)"
@@ -106,7 +107,7 @@ def _build(name, body, inputs, outputs=OUTPUTS, varying=()):
     group_out = graph.node("NodeGroupOutput", results)
     group_out.is_active_output = True
     _remove_unused(tree, keep=(group_in, group_out))
-    tree["pw_build_version"] = BUILD_VERSION
+    tree[BUILD_VERSION_PROPERTY] = BUILD_VERSION
     return tree
 
 
@@ -173,11 +174,6 @@ def porous_bsdf(graph, inputs, light_mode):
 #: Near-mirror roughness of the water lobe (a GGX of its own, SPEC 4 "wet surfaces").
 WATER_ROUGHNESS = weathering_modes.base.WATER_ROUGHNESS.default
 WATER_OUTPUT = {"Water Weight": ("NodeSocketColor", "Weight of the near-mirror water lobe (eq. 8)")}
-
-
-def socket_name(name):
-    """The group input of a weathering input name: 'rain_map' -> 'Rain Map'."""
-    return name.replace("_", " ").title()
 
 
 def weathering_inputs(modes):

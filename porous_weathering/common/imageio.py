@@ -7,12 +7,12 @@ interrupted bake never leaves a truncated map, or the temporary file, behind
 umask). String metadata (e.g. the input hash a bake stores) travels in the file's header.
 """
 
-import hashlib
 import os
 from collections.abc import Mapping
 
 import numpy as np
 
+from ..contracts import map_file_name
 from . import interrupts
 
 #: Header fields of a baked map: the hash of its inputs, the map's name, the UV map it was baked
@@ -24,25 +24,11 @@ UV_MAP_KEY = "pw:uv_map"
 SOURCE_KEY = "pw:source"
 OBJECT_KEY = "pw:object"
 
-#: Characters that a file name cannot hold on some system (Windows refuses the most), as "_".
-_TO_FILE_NAME = str.maketrans(dict.fromkeys([*map(chr, range(32)), *'<>:"/\\|?*'], "_"))
-
-
-def safe_file_name(name: str) -> str:
-    """``name`` as a file name any system holds: a name that cannot be one as it is has its
-    unsafe characters replaced by "_" and gets "-" and the first 8 hex digits of the sha256 of
-    its exact (UTF-8) text, so that names that read alike stay apart ("Wall/1" gives
-    ``Wall_1-<hash>``, "Wall_1" ``Wall_1``)."""
-    safe = name.translate(_TO_FILE_NAME)
-    if safe != name:
-        safe += "-" + hashlib.sha256(name.encode()).hexdigest()[:8]
-    return safe
-
 
 def image_path(out_dir: str, object_name: str, map_name: str) -> str:
     """``OUT/<object>.<map>.exr``, the object's name made safe (``safe_file_name``): "Wall/1"
     gives ``Wall_1-<hash>.rain.exr`` and "Wall_1" ``Wall_1.rain.exr``."""
-    return os.path.join(out_dir, f"{safe_file_name(object_name)}.{map_name}.exr")
+    return os.path.join(out_dir, map_file_name(object_name, map_name))
 
 
 #: file extension -> (OpenImageIO pixel type name, header attributes)

@@ -7,8 +7,11 @@ import bpy
 
 import numpy as np
 
-from . import compat, model, nodes
-from .shader_math import Graph
+from ..blender import compat
+from ..contracts import GROUP_NODE, KEY_LIGHT_PROPERTY, LIGHT_MODE_PROPERTY
+from ..core import model
+from ..core.shader_math import Graph
+from . import nodes
 
 #: k_d as a colour (RGB or RGBA), an image, or an image file's path.
 ColorSource = Sequence[float] | bpy.types.Image | str | os.PathLike
@@ -43,15 +46,15 @@ def make_porous_material(
         group = nodes.porous_group(light_mode)
         group_node = _replace_with_group(material, group)
         graph = Graph(material.node_tree)
-        for socket_name, value in values.items():
-            group_node.inputs[socket_name].default_value = value
+        for input_socket, value in values.items():
+            group_node.inputs[input_socket].default_value = value
         _connect_base_color(graph, group_node, base_color)
         if light:
             wire_key_light(graph, group_node, light)
     except Exception:
         bpy.data.materials.remove(material)
         raise
-    material["pw_light_mode"] = light_mode
+    material[LIGHT_MODE_PROPERTY] = light_mode
     return material
 
 
@@ -139,7 +142,7 @@ def _replace_with_group(material, group):
     tree.nodes.clear()
     group_node = tree.nodes.new("ShaderNodeGroup")
     group_node.node_tree = group
-    group_node.name = group_node.label = "Porous"
+    group_node.name = group_node.label = GROUP_NODE
     group_node["pw_depth"] = 2
     group_node.location = (2 * 220, 0)
     output = tree.nodes.new("ShaderNodeOutputMaterial")
@@ -177,7 +180,7 @@ def wire_key_light(graph: Graph, group_node: bpy.types.Node, light: bpy.types.Ob
     else:
         position = _driven_vector(graph, light, ("LOC_X", "LOC_Y", "LOC_Z"), "Key Light Position")
         graph.connect(position, group_node.inputs["Light Position"])
-    group_node.id_data["pw_key_light"] = light.name
+    group_node.id_data[KEY_LIGHT_PROPERTY] = light.name
 
 
 def _driven_vector(graph, light, transform_types, label):
@@ -234,4 +237,4 @@ def connect_roughness_image(material: bpy.types.Material, image: bpy.types.Image
     """Drive the porous group's roughness m of ``material`` by ``image``."""
     graph = Graph(material.node_tree)
     roughness = graph.node("ShaderNodeTexImage", depth=1, image=image)
-    graph.connect(roughness.outputs["Color"], material.node_tree.nodes["Porous"].inputs["Roughness"])
+    graph.connect(roughness.outputs["Color"], material.node_tree.nodes[GROUP_NODE].inputs["Roughness"])

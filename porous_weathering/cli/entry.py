@@ -12,11 +12,13 @@ import importlib
 import os
 import sys
 
+from ..contracts import EXIT_OK, EXIT_SIGINT, EXIT_USAGE
+
 #: command -> (module, relative to this package, so it works installed as bl_ext.*; help)
 COMMANDS = {
-    "bake": (".bake_command", "bake rain-exposure and edge/cavity maps of .blend files"),
-    "demo": (".demo", "render the bundled sample scene and write pictures"),
-    "export": (".export_command", "publish weathered states as glTF 2.0 with material variants and paradata"),
+    "bake": (".bake", "bake rain-exposure and edge/cavity maps of .blend files"),
+    "demo": ("..samples.demo", "render the bundled sample scene and write pictures"),
+    "export": (".export", "publish weathered states as glTF 2.0 with material variants and paradata"),
 }
 
 
@@ -55,10 +57,10 @@ def exit_with(argv=None):
     try:
         code = main(argv)
     except SystemExit as error:  # argparse's --help and usage errors
-        code = error.code if isinstance(error.code, int) else 2 if error.code else 0
+        code = error.code if isinstance(error.code, int) else EXIT_USAGE if error.code else EXIT_OK
     except KeyboardInterrupt:  # before a command took the signals over (bake: interrupts.py)
         print("interrupted by SIGINT", file=sys.stderr)
-        code = 130
+        code = EXIT_SIGINT
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(code)

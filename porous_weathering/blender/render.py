@@ -5,7 +5,8 @@ import tempfile
 
 import bpy
 
-from . import compat, imageio
+from ..common import imageio
+from . import compat
 
 
 def use_cycles(scene, *, size=48, samples=4, seed=0, bounces=0, pixel_filter=0.01):

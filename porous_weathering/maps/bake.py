@@ -1,0 +1,563 @@
+"""Baking the weathering maps (SPEC 5): the one pipeline behind the operator and the command line.
+
+``iter_bake`` does the work one (object, map) step at a time, so that a caller can show
+progress and stop between steps (the modal operator); ``bake_maps`` runs it to the end with
+a progress callback and a cancel test. Every map is written whole or not at all, with its
+values clamped to [0, 1] (a Monte Carlo estimate of 1 can come out a little above it):
+
+- image maps go to ``OUT/<object>.<map>.exr`` (float, linear) through a temporary file
+  (``image_path``: a name that is not a file name as it is gets a hash suffix);
+- colour attributes (``pw_rain``, ``pw_edges``, per face corner) are replaced only once their
+  values are baked;
+- a new lightmap UV map is removed again when no map of its object could be written.
+
+Each map records what it was made from: a hash of its inputs (geometry, transforms, UVs,
+occluders, parameters), the .blend file and the object (``Provenance``), in the EXR header
+(``pw:inputs``, ``pw:source``, ``pw:object``, ``pw:map``) or as the mesh's custom properties
+``<attribute>_inputs``, ``<attribute>_source`` and ``<attribute>_object``. A map whose stored
+hash and provenance match is reported "unchanged" and not baked again. An image map made from
+another .blend or object is never replaced silently: the bake is refused (``OverwriteRefused``)
+unless ``force``.
+"""
+
+import hashlib
+import json
+import os
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+from typing import Any
+
+import bpy
+
+import numpy as np
+
+from ..blender.mesh_arrays import write_corner_attribute  # noqa: F401  (public)
+from ..common import imageio
+from ..common.imageio import HASH_KEY, MAP_KEY, OBJECT_KEY, SOURCE_KEY, UV_MAP_KEY, image_path  # noqa: F401  (public: docs/api.md)
+from ..common.options import Entry, check, check_value, declared, entries, option, to_argv
+from ..contracts import map_image_property
+from . import lightmap, scan_checks
+from . import registry as maps
+
+TARGETS = ("image", "attribute")
+DEFAULT_RESOLUTION = 512
+#: Texels filled around every UV island (the bake's margin; the lightmap's islands lie
+#: ``uv.padding_for(resolution)`` texels apart).
+MARGIN = 4
+#: Bumped when a change of the bake itself makes old maps stale.
+BAKE_VERSION = 1
+
+
+def __getattr__(name):
+    """MAPS and ATTRIBUTES, read from the map registry when asked."""
+    if name == "MAPS":
+        return maps.names()
+    if name == "ATTRIBUTES":
+        return {kind.name: kind.attribute for kind in maps.all_kinds()}
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+class BakeCancelled(Exception):
+    """The caller asked to stop; the maps finished before that are complete and kept."""
+
+
+class OverwriteRefused(ValueError):
+    """An image map would replace a file made from another .blend or object (or a file that
+    is not a map): nothing of this bake was written, unless the check failed only as the map
+    was about to be written (a file that appeared meanwhile), when the maps before it are kept."""
+
+
+def _map_list(text):
+    import argparse
+
+    chosen = tuple(name.strip() for name in text.split(",") if name.strip())
+    if not chosen or set(chosen) - set(maps.names()):
+        raise argparse.ArgumentTypeError(f"expected a comma-separated list of {', '.join(maps.names())}, got {text!r}")
+    return chosen
+
+
+@dataclass(frozen=True, init=False)
+class BakeOptions:
+    """What to bake: the general options below, and each map's settings (``settings``, by map
+    name; also given and read as its ``options_field``, e.g. ``rain_settings``, or an alias
+    such as ``edge_radius``).  Frozen; checked on creation: ValueError naming the bad field."""
+
+    maps: tuple = option(
+        (),
+        label="Maps",
+        flag="--maps",
+        parse=_map_list,
+        metavar="rain,edges",
+        ui=False,
+        tooltip="Comma-separated maps to bake (default: every map)",
+    )
+    target: str = option(
+        "image",
+        label="Target",
+        flag="--target",
+        choices=TARGETS,
+        tooltip="image: EXR files on a lightmap UV map; attribute: per-corner colour attributes "
+        "stored in the .blend (scans without UVs)",
+    )
+    resolution: int = option(
+        DEFAULT_RESOLUTION,
+        label="Resolution",
+        flag="--resolution",
+        low=8,
+        high=16384,
+        whole=True,
+        unit="texels",
+        metavar="N",
+        tooltip="Width and height of the image maps",
+    )
+    out_dir: str = option(
+        ".",
+        label="Folder",
+        flag="--out",
+        kind="path",
+        ui_default="//maps/",
+        metavar="DIR",
+        tooltip="Folder of the image maps (// is the .blend's folder)",
+    )
+    occluders: Any = option(
+        None,
+        label="Occluders",
+        flag="--occluders",
+        kind="collection",
+        metavar="COLLECTION",
+        tooltip="Collection whose objects (children included) shelter the baked objects from "
+        "rain; empty: every other object of the scene",
+    )
+    settings: Mapping[str, Any] = field(default_factory=dict)  #: map name -> its settings
+
+    def __init__(self, **given):
+        general = {name: given.pop(name, default) for name, _, default in declared(BakeOptions)}
+        settings = dict(given.pop("settings", None) or {})
+        for kind in maps.all_kinds():
+            settings[kind.name] = given.pop(kind.options_field, None) or settings.get(kind.name) or kind.settings()
+            aliased = {name: given.pop(alias) for alias, name in kind.aliases.items() if alias in given}
+            if aliased:
+                settings[kind.name] = replace(settings[kind.name], **aliased)
+        if given:
+            raise TypeError(f"BakeOptions has no options {', '.join(sorted(given))}")
+        general["maps"] = tuple(general["maps"]) if general["maps"] else maps.names()
+        unknown = set(general["maps"]) - set(maps.names())
+        if unknown:
+            raise ValueError(f"maps must be some of {', '.join(maps.names())}, not {', '.join(general['maps'])}")
+        for name, opt, _ in declared(BakeOptions):
+            if name != "maps":
+                check_value(opt.label.lower(), opt, general[name])
+            object.__setattr__(self, name, general[name])
+        for kind_settings in settings.values():  # a map's settings dataclass need not check itself
+            check(kind_settings)
+        object.__setattr__(self, "settings", MappingProxyType(settings))
+
+    def __getattr__(self, name):
+        settings = self.__dict__.get("settings", {})
+        for kind in maps.all_kinds():
+            if name == kind.options_field and kind.name in settings:
+                return settings[kind.name]
+            if name in kind.aliases and kind.name in settings:
+                return getattr(settings[kind.name], kind.aliases[name])
+        raise AttributeError(f"BakeOptions has no option {name!r}")
+
+    def occluder_collection(self):
+        """The collection whose objects shelter the baked ones, or None for every other object."""
+        return occluder_collection(self.occluders)
+
+    def to_argv(self, without=("maps",)) -> list[str]:
+        """The ``bake`` command-line words that give these options but ``without`` (for the
+        Dask workers, whose tasks name their maps themselves)."""
+        return to_argv([entry for entry in option_entries() if entry.dest not in without], self.value)
+
+    def value(self, entry: Entry):
+        """The value of one option (a general one, or a field of a map's settings)."""
+        return getattr(self.settings[entry.owner] if entry.owner else self, entry.name)
+
+
+def option_entries() -> list[Entry]:
+    """Every bake option as the front ends see it: the general ones, then each map's settings."""
+    return entries(BakeOptions) + [item for kind in maps.all_kinds() for item in entries(kind.settings, kind.name)]
+
+
+def options_from_values(values: Mapping[str, Any]) -> BakeOptions:
+    """BakeOptions from front-end values keyed by Entry.dest (argparse's namespace, the
+    operator's properties); entries without a value keep their defaults."""
+    general, settings = {}, {}
+    for entry in option_entries():
+        if entry.dest not in values:
+            continue
+        if entry.owner is None:
+            general[entry.name] = values[entry.dest]
+        else:
+            settings.setdefault(entry.owner, {})[entry.name] = values[entry.dest]
+    return BakeOptions(
+        **general, settings={name: maps.get(name).settings(**fields_) for name, fields_ in settings.items()}
+    )
+
+
+@dataclass(frozen=True)
+class Outcome:
+    object: str
+    map: str
+    status: str  # "written", "unchanged" (stored hash matches) or "planned" (dry run)
+    where: str  # the image path or the attribute name
+
+
+#: The ``Step.map`` of an object's unwrap, the step before its image maps (docs/maps.md).
+LIGHTMAP_STEP = "lightmap"
+
+
+@dataclass(frozen=True)
+class Step:
+    """Progress of ``iter_bake``: step ``index`` of ``total`` starts (outcome None) or ended.
+    A long step (the unwrap, ``map`` LIGHTMAP_STEP) also reports how far it got (``part``,
+    0 to 1) and what it does (``stage``)."""
+
+    index: int
+    total: int
+    object: str
+    map: str
+    outcome: Outcome = None
+    part: float = 0.0
+    stage: str = ""
+
+    @property
+    def fraction(self) -> float:
+        """How much of the bake is done as the step starts (or goes on), or once it ended."""
+        return (self.index + (1.0 if self.outcome is not None else self.part)) / self.total
+
+    @property
+    def message(self) -> str:
+        """The progress line: "<object>: <map>", with its stage, and its status once it ended."""
+        stage = f": {self.stage}" if self.stage else ""
+        return f"{self.object}: {self.map}{stage}" + (f" {self.outcome.status}" if self.outcome else "")
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """What a map was made from: the .blend file (absolute path; "" when unsaved or not
+    recorded), the object's exact name and the map ("" when not recorded)."""
+
+    source: str = ""
+    object: str = ""
+    map: str = ""
+
+    @classmethod
+    def of(cls, obj: "bpy.types.Object", map_name: str) -> "Provenance":
+        """The provenance a map of ``obj`` baked now gets."""
+        return cls(os.path.abspath(bpy.data.filepath) if bpy.data.filepath else "", obj.name, map_name)
+
+    @classmethod
+    def from_header(cls, header: Mapping[str, str]) -> "Provenance":
+        return cls(header.get(SOURCE_KEY, ""), header.get(OBJECT_KEY, ""), header.get(MAP_KEY, ""))
+
+    def header(self) -> dict[str, str]:
+        return {SOURCE_KEY: self.source, OBJECT_KEY: self.object, MAP_KEY: self.map}
+
+    def yields_to(self, other: "Provenance") -> bool:
+        """Whether a map made from this may be replaced by one made from ``other``: each field
+        it records (an unsaved .blend or an older map records none) must be the same."""
+        same_source = not self.source or self.source == other.source or _same_file(self.source, other.source)
+        return same_source and self.object in ("", other.object) and self.map in ("", other.map)
+
+    def __str__(self):
+        return f"{self.source or 'an unsaved .blend'} (object '{self.object or '?'}')"
+
+
+def _same_file(first, second):
+    try:
+        return bool(second) and os.path.samefile(first, second)
+    except OSError:
+        return False
+
+
+def refuse_overwrite(path: str, wanted: Provenance) -> None:
+    """Raise OverwriteRefused when the file at ``path`` may not be replaced by a map made from
+    ``wanted``: it is a map made from another .blend, object or map, or an image that this
+    extension did not write (a map painted by hand, say). A file that is no readable image (a
+    broken map) holds nothing to keep, and is replaced."""
+    header = imageio.image_header(path)
+    if header is None:
+        return
+    if MAP_KEY not in header:
+        raise OverwriteRefused(f"{path} is an image that Porous Weathering did not write")
+    made = Provenance.from_header(header)
+    if not made.yields_to(wanted):
+        raise OverwriteRefused(f"{path} was made from {made}, not from {wanted}")
+
+
+def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | None = None) -> None:
+    """Raise ValueError naming the first object that cannot be baked with ``options``, before
+    anything is written."""
+    options = options or BakeOptions()
+    if not objects:
+        raise ValueError("no objects to bake")
+    owners = {}
+    for obj in objects:
+        if obj.type != "MESH":
+            raise ValueError(f"object '{obj.name}' has no mesh (its type is {obj.type}): only meshes can be baked")
+        if not obj.data.polygons:
+            raise ValueError(f"object '{obj.name}' has a mesh without faces: nothing to bake on")
+        library = obj.library or obj.data.library
+        if library is not None:  # UV maps and attributes added to library data are lost on save
+            raise ValueError(
+                f"object '{obj.name}' is linked from the library {library.filepath}: make it local before baking"
+            )
+        if options.target == "attribute":
+            owners.setdefault(obj.data.name, []).append(obj.name)
+            if maps.EDGES.name in options.maps:
+                _check_vertices_kept(obj)
+    shared = next((names for names in owners.values() if len(names) > 1), None)
+    if shared:  # one mesh holds one attribute: each object would overwrite the others' map
+        raise ValueError(
+            f"objects {', '.join(repr(n) for n in shared)} share one mesh, which can hold only "
+            "one colour-attribute map: bake them to images, or make their meshes single-user"
+        )
+
+
+def _check_vertices_kept(obj):
+    """The edge attribute is per vertex of the mesh: modifiers must not change the vertex count."""
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+    if len(evaluated.data.vertices) != len(obj.data.vertices):
+        raise ValueError(
+            f"object '{obj.name}': its modifiers change the vertex count, so the edge attribute "
+            "cannot follow its mesh; apply the modifiers or bake edges to an image"
+        )
+
+
+def check_writable_folder(folder: str) -> None:
+    """Create ``folder`` if needed; raise OSError saying why it cannot take the maps."""
+    try:
+        os.makedirs(folder, exist_ok=True)
+    except OSError as error:
+        raise OSError(f"cannot create the output folder {folder}: {error.strerror}") from error
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OSError(f"the output folder {folder} is not writable")
+
+
+def bake_maps(
+    objects: Sequence["bpy.types.Object"],
+    options: BakeOptions | None = None,
+    *,
+    dry_run: bool = False,
+    force: bool = False,
+    progress: Callable[[float, str], None] | None = None,
+    cancelled: Callable[[], bool] | None = None,
+) -> list["Outcome"]:
+    """Bake ``options.maps`` of ``objects``; returns the list of Outcomes (see ``iter_bake``).
+
+    ``progress(fraction, message)`` is called before and after each step (and as the unwrap
+    goes on); ``cancelled()`` is asked before each map and stops the bake with BakeCancelled
+    when true (to stop within an unwrap, close ``iter_bake``'s generator).
+    """
+    outcomes = []
+    for step in iter_bake(objects, options or BakeOptions(), dry_run=dry_run, force=force):
+        if step.outcome is not None:
+            outcomes.append(step.outcome)
+        elif step.map != LIGHTMAP_STEP and cancelled is not None and cancelled():
+            raise BakeCancelled(f"bake cancelled before {step.message}")
+        if progress is not None:
+            progress(step.fraction, step.message)
+    return outcomes
+
+
+def iter_bake(
+    objects: Sequence["bpy.types.Object"],
+    options: BakeOptions | None = None,
+    *,
+    dry_run: bool = False,
+    force: bool = False,
+) -> Iterator["Step"]:
+    """The Steps of the bake, as a generator (see the module docstring). The objects, the
+    output folder and the image files the bake would replace are checked at once, so a refusal
+    comes before anything starts: OverwriteRefused when a map file was made from another .blend
+    or object (or is not a map), unless ``force``. For image maps each object's unwrap is a
+    step of its own before its maps (``LIGHTMAP_STEP``, reporting as it goes: ``Step.part``,
+    ``Step.stage``). Closing the generator early (cancel) stops an unwrap at once, and undoes
+    the lightmap UV map of the object in progress if none of its maps was written."""
+    options = options or BakeOptions()
+    check_targets(objects, options)
+    options.occluder_collection()  # refuses an unknown collection name up front
+    if options.target == "image":
+        if not dry_run:
+            check_writable_folder(options.out_dir)
+        if not force:
+            for obj in objects:
+                for map_name in options.maps:
+                    refuse_overwrite(image_path(options.out_dir, obj.name, map_name), Provenance.of(obj, map_name))
+    return _steps(objects, options, dry_run, force)
+
+
+def _steps(objects, options, dry_run, force):
+    digests = _Digests()
+    unwraps = options.target == "image"  # each object's unwrap is a step before its maps
+    per_object = len(options.maps) + unwraps
+    total = len(objects) * per_object
+    for number, obj in enumerate(objects):
+        mesh = obj.data
+        scan_checks.warn(obj, rain=maps.RAIN.name in options.maps)
+        uv_map, new_uvs = (yield from _unwrap(obj, options, number * per_object, total)) if unwraps else (None, None)
+        added_uv_map = new_uvs is not None and not dry_run
+        if added_uv_map:
+            lightmap.add_uv_map(mesh, uv_map, new_uvs)
+        written = False
+        try:
+            for offset, map_name in enumerate(options.maps):
+                index = number * per_object + unwraps + offset
+                yield Step(index, total, obj.name, map_name)
+                uvs = new_uvs if new_uvs is not None else (lightmap.corner_uvs(mesh, uv_map) if uv_map else None)
+                inputs = _inputs_hash(obj, map_name, options, uvs, digests)
+                outcome = _bake_one(obj, map_name, options, uv_map, inputs, dry_run, force)
+                written = written or outcome.status == "written"
+                yield Step(index, total, obj.name, map_name, outcome)
+        except BaseException:
+            if added_uv_map and not written:
+                mesh.uv_layers.remove(mesh.uv_layers[uv_map])
+            raise
+
+
+def _unwrap(obj, options, index, total):
+    """The unwrap step of ``obj``: its Steps while it runs (in a child process, stopped when this
+    generator is closed); returns (the UV map to bake on, per-corner UVs to add as it or None)."""
+    unwrap = lightmap.iter_lightmap(obj.data, options.resolution)
+    try:
+        while True:
+            try:
+                part, stage = next(unwrap)
+            except StopIteration as done:
+                unwrapped = done.value
+                break
+            yield Step(index, total, obj.name, LIGHTMAP_STEP, part=part, stage=stage)
+    except lightmap.LightmapError as error:
+        raise ValueError(f"object '{obj.name}': cannot make a lightmap: {error}") from error
+    finally:
+        unwrap.close()
+    made = "new" if unwrapped.uvs is not None else "reused"
+    stage = f"'{unwrapped.name}' ({made}, {unwrapped.report.utilisation:.0%} used)"
+    yield Step(index, total, obj.name, LIGHTMAP_STEP, part=1.0, stage=stage)
+    return unwrapped.name, unwrapped.uvs
+
+
+def _bake_one(obj, map_name, options, uv_map, inputs, dry_run, force):
+    kind = maps.get(map_name)
+    mesh = obj.data
+    made = Provenance.of(obj, map_name)
+    if options.target == "image":
+        where = image_path(options.out_dir, obj.name, map_name)
+        header = imageio.read_metadata(where)
+        unchanged = header.get(HASH_KEY) == inputs and Provenance.from_header(header) == made
+    else:
+        where = kind.attribute
+        unchanged = where in mesh.color_attributes and mesh.get(f"{where}_inputs") == inputs
+    if unchanged:
+        return Outcome(obj.name, map_name, "unchanged", where)
+    if dry_run:
+        return Outcome(obj.name, map_name, "planned", where)
+
+    if options.target == "image":
+        pixels = np.clip(kind.bake_image(obj, uv_map, options, MARGIN), 0.0, 1.0)
+        if not force:  # the file as it is now: another run may have written it meanwhile
+            refuse_overwrite(where, made)
+        imageio.write_image(where, pixels, metadata={HASH_KEY: inputs, UV_MAP_KEY: uv_map, **made.header()})
+    else:
+        kind.bake_attribute(obj, options)
+        _clamp_attribute(mesh.color_attributes[where])
+        mesh[f"{where}_inputs"] = inputs
+        mesh[f"{where}_source"] = made.source
+        mesh[f"{where}_object"] = made.object
+    return Outcome(obj.name, map_name, "written", where)
+
+
+def _clamp_attribute(attribute):
+    colours = np.empty(len(attribute.data) * 4, dtype=np.float32)
+    attribute.data.foreach_get("color", colours)
+    clamped = np.clip(colours, 0.0, 1.0)
+    if not np.array_equal(clamped, colours):
+        attribute.data.foreach_set("color", clamped)
+
+
+# --- the input hash -------------------------------------------------------------------------
+
+
+class _Digests:
+    """Per-object geometry digests of one bake run (occluders are shared between targets)."""
+
+    def __init__(self):
+        self.depsgraph = bpy.context.evaluated_depsgraph_get()
+        self._cache = {}
+
+    def __call__(self, obj):
+        if obj.name not in self._cache:
+            self._cache[obj.name] = _geometry_digest(obj.evaluated_get(self.depsgraph))
+        return self._cache[obj.name]
+
+
+def _geometry_digest(evaluated):
+    """sha256 of the evaluated mesh: world-space vertex positions and face corners."""
+    mesh = evaluated.to_mesh()
+    try:
+        positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+        mesh.vertices.foreach_get("co", positions)
+        corners = np.empty(len(mesh.loops), dtype=np.int32)
+        mesh.loops.foreach_get("vertex_index", corners)
+        sizes = np.empty(len(mesh.polygons), dtype=np.int32)
+        mesh.polygons.foreach_get("loop_total", sizes)
+    finally:
+        evaluated.to_mesh_clear()
+    matrix = np.array(evaluated.matrix_world, dtype=np.float64)
+    world = positions.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+    digest = hashlib.sha256()
+    for array in (world.astype(np.float32), corners, sizes):
+        digest.update(array.tobytes())
+    return digest.hexdigest()
+
+
+def _inputs_hash(obj, map_name, options, uvs, digests):
+    inputs = {"version": BAKE_VERSION, "map": map_name, "target": options.target, "object": digests(obj)}
+    if options.target == "image":
+        inputs.update(
+            resolution=options.resolution,
+            margin=MARGIN,
+            uvs=hashlib.sha256(np.ascontiguousarray(uvs, dtype=np.float32).tobytes()).hexdigest(),
+        )
+    inputs.update(maps.get(map_name).hash_inputs(obj, options, digests))
+    return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
+
+
+# --- linking the maps into the .blend ----------------------------------------------------------
+
+
+def occluder_collection(name: str | bpy.types.Collection | None) -> bpy.types.Collection | None:
+    """The collection whose objects are the rain occluders (given, or named), or None (every
+    other object) for none."""
+    if not name:
+        return None
+    if isinstance(name, bpy.types.Collection):
+        return name
+    if name not in bpy.data.collections:
+        raise ValueError(f"no collection named '{name}' to take the occluders from")
+    return bpy.data.collections[name]
+
+
+def link_images(objects: Sequence["bpy.types.Object"], options: BakeOptions) -> None:
+    """Point each object at its image maps: an Image per map (relative path, Non-Color) named in
+    the object's custom property ``pw_<map>_image``."""
+    for obj in objects:
+        for map_name in options.maps:
+            link_image(obj, map_name, image_path(options.out_dir, obj.name, map_name))
+
+
+def link_image(obj: "bpy.types.Object", map_name: str, path: str) -> "bpy.types.Image":
+    """Point ``obj`` at the map image file ``path`` (also the panel's efflorescence map): an Image
+    (relative path, Non-Color, reloaded) named in the object's custom property ``pw_<map>_image``."""
+    name = os.path.basename(path)
+    image = bpy.data.images.get(name) or bpy.data.images.load(path, check_existing=True)
+    image.name = name
+    image.filepath = bpy.path.relpath(path)
+    image.colorspace_settings.name = "Non-Color"
+    image.use_fake_user = True  # an image nothing uses yet is not saved otherwise
+    image.reload()
+    obj[map_image_property(map_name)] = image.name
+    return image
