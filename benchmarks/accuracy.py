@@ -1,4 +1,4 @@
-"""Accuracy of the rendered porous material against the exact reference (issue 6).
+"""Accuracy of the rendered porous material against the exact reference (docs/accuracy.md).
 
 Prints markdown: per light mode (key light, ambient) the relative RMSE and max error of Cycles
 (and a few EEVEE) renders against benchmarks/reference.py, as a sun moves from the zenith

@@ -50,7 +50,7 @@ from porous_weathering.blender import compat, render, scratch_scene
 from porous_weathering.core import model
 from porous_weathering.core.modes.wet import WATER_NORMAL_REFLECTANCE  # noqa: E402
 from porous_weathering.core.shader_math import Graph  # noqa: E402
-from porous_weathering.publish import export
+from porous_weathering.publish import export, mapping, textures
 from porous_weathering.samples import demo
 from porous_weathering.shading import weathering  # noqa: E402
 
@@ -274,12 +274,12 @@ def water(args):
                 base=np.minimum(kd / (1.0 - rise_f0), 1.0),
                 specular=rise_f90,
                 roughness=float(roughness),
-                tint=rise_f0 / (export.DIELECTRIC_F0 * rise_f90),
+                tint=rise_f0 / (mapping.DIELECTRIC_F0 * rise_f90),
             ),
         }
-        for label, coat in (("W F0 / 0.04", face_on / export.DIELECTRIC_F0), ("W", w)):
+        for label, coat in (("W F0 / 0.04", face_on / mapping.DIELECTRIC_F0), ("W", w)):
             candidates[f"clearcoat of weight {label}"] = dict(
-                base=np.minimum(stone_base / (1.0 - export.DIELECTRIC_F0 * coat), 1.0),
+                base=np.minimum(stone_base / (1.0 - mapping.DIELECTRIC_F0 * coat), 1.0),
                 specular=float(stone_specular),
                 roughness=float(stone_roughness),
                 coat=coat,
@@ -327,7 +327,7 @@ def _two_lobes(obj, kd, ks, m, water, m_water, fresnel=None):
     return tree
 
 
-def _principled(tree, base, specular, roughness, tint=export.SPECULAR_COLOR_FACTOR, coat=0.0, coat_roughness=0.0):
+def _principled(tree, base, specular, roughness, tint=mapping.SPECULAR_COLOR_FACTOR, coat=0.0, coat_roughness=0.0):
     """Make ``tree`` the Principled BSDF of a glTF material as the glTF importer builds it: the
     mapping's (specular factor ``specular``, specular colour factor ``tint``), with a clearcoat
     of weight ``coat`` (IOR 1.5, as glTF's) if given."""
@@ -375,11 +375,11 @@ def plain_bake(sample, size):
     seconds = 0.0
     states = export.states(AGES, True)
     scene = bpy.data.scenes.new("PW Plain Bake")
-    render.use_cycles(scene, samples=export.BAKE_SAMPLES)
+    render.use_cycles(scene, samples=textures.BAKE_SAMPLES)
     try:
         for obj in sample.objects:
             copy = scratch_scene.placed_copy(obj, scene, obj.active_material, own_mesh=True)
-            uv_map, _ = export._bake_uv_map(copy.data, size)  # the map the export bakes on (not timed)
+            uv_map, _ = textures.bake_uv_map(copy.data, size)  # the map the export bakes on (not timed)
             copy.data.uv_layers.active = copy.data.uv_layers[uv_map]
             image = bpy.data.images.new("plain", size, size, float_buffer=True)
             tree = obj.active_material.node_tree

@@ -9,8 +9,8 @@ through the real pipeline, ``bake.bake_maps``:
 - ``rain-image``: rain exposure to a float EXR on the mesh's own (non-overlapping) UV map;
 - ``edges-attribute``: the curvature edge mask to the colour attribute ``pw_edges``;
 - ``scan-image``: both maps of the scan generator's bust (sample_blends/scan_generator.py: no UVs,
-  millimetres) to images, as ``bake`` makes them: its lightmap first (issue 16's target, 2M
-  triangles at 4096²: 4 minutes, 8 GiB);
+  millimetres) to images, as ``bake`` makes them: its lightmap first (target, docs/scans.md
+  "Baking at full size": 2M triangles at 4096² in 4 minutes and 8 GiB);
 - ``scan-attribute``: both maps of the bust to colour attributes (target: 90 s at 2M);
 
 the scan stages give the time of each step (the unwrap, each map) too. Then the curvature alone

@@ -66,12 +66,12 @@ def child(args):
     import scan_generator
     import timing
 
-    from porous_weathering.maps import lightmap
+    from porous_weathering.maps import lightmap, lightmap_child
 
     vertices, faces = scan_generator.bust_mesh(args.triangles, seed=0)
     positions, triangles = vertices.astype(np.float32), faces.astype(np.int64)
     polygons = np.arange(len(triangles))
-    areas = lightmap._areas(positions.astype(np.float64)[triangles])
+    areas = lightmap.triangle_areas(positions.astype(np.float64)[triangles])
     padding = lightmap.padding_for(args.resolution)
     made = {}
 
@@ -79,7 +79,7 @@ def child(args):
         made["uvs"], made["report"] = lightmap.make_lightmap(positions, triangles, polygons, args.resolution, padding)
 
     def xatlas():
-        lightmap.XATLAS_CHARTS = len(triangles)
+        lightmap_child.XATLAS_CHARTS = len(triangles)
         shipped()
 
     def smart():

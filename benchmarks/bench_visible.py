@@ -1,4 +1,4 @@
-"""Visible targets of the weathering modes (issue 13; docs/weathering.md, "Visible targets").
+"""Visible targets of the weathering modes (docs/weathering.md, "Visible targets").
 
     python benchmarks/bench_visible.py [--size 160] [--samples 16] [--bake-samples 32]
                                        [--only NAME ...] [--areas DIR]
@@ -14,7 +14,7 @@ at t = 1 over the mean luminance of the same pixels at t = 0 (only pixels lit at
 Beside it, "k_d, model" is the same ratio of model.py's diffuse weight alone at those pixels (the
 stone's colour, without the light: the water lobe's sheen of the sky, shadows and bounces).
 
-Targets (issue 13): black area <= 0.35x, grey area 0.5-0.9x, white area 0.98-1.02x; wet area,
+Targets (docs/weathering.md): black area <= 0.35x, grey area 0.5-0.9x, white area 0.98-1.02x; wet area,
 away from the mirror direction of the sun (> 25 degrees from it), <= 0.8x on limestone and on
 brick; efflorescence >= 1.5x where salted, <= 1.05x on bare stone. ``VARIANTS`` adds rows for the
 recipe's weathering inputs a result comes from and ``BAKE_VARIANTS`` rows baked with other

@@ -1,5 +1,6 @@
 """Where the porous material's Cycles overhead goes: the cost of one sample of Diffuse + Glossy
-with N extra maths nodes evaluated at run time, against the porous groups (issue 6).
+with N extra maths nodes evaluated at run time, against the porous groups
+(docs/accuracy.md, "What a maths node costs in Cycles").
 
 The extra nodes are a chain that starts from the shading normal (so Cycles cannot fold it to
 a constant) and ends in the diffuse colour, changing it by less than 1e-6.  Same scene and

@@ -1,5 +1,5 @@
 """The porous group as one OSL Script node (benchmarks/osl/porous.osl) against the
-node-math group: agreement and Cycles CPU speed (issue 6).  Not shipped: it does not win by
+node-math group: agreement and Cycles CPU speed (docs/accuracy.md).  Not shipped: it does not win by
 enough (SHIP_MARGIN; docs/accuracy.md, "OSL variant").
 
 Agreement: renders of the lit sphere under one zero-angle sun (deterministic at one sample)

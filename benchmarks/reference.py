@@ -5,7 +5,7 @@ Analytic scenes (a sphere, a plane, a V-groove) are seen by the studio's orthogr
 centre, as Cycles samples them with ``render.use_cycles``' point-sized pixel filter.
 
 The BRDF is evaluated per light direction: model.py's weights at that direction (or at the
-directions a light mode of SPEC 3 assumes instead), times the lobes Blender renders:
+directions a light mode of docs/model.md §3 assumes instead), times the lobes Blender renders:
 Lambert, and Cycles' single-scatter GGX Glossy BSDF (intern/cycles/kernel/closure/
 bsdf_microfacet.h: alpha = roughness^2 saturated to [0, 1], GGX D, height-correlated Smith
 G2 = 1 / (1 + Lambda_l + Lambda_v), no Fresnel; a mirror when alpha^2 <= 1e-7).
@@ -68,7 +68,7 @@ def lambert_times_cosine(n_dot_l):
 
 @dataclass(frozen=True)
 class Porous:
-    """The porous BRDF (SPEC 2) with the weights of a light mode.
+    """The porous BRDF (docs/model.md §2) with the weights of a light mode.
 
     ``light_mode`` EXACT evaluates the weights at every light direction (the ground truth);
     AMBIENT uses model.py's ambient weights; a 3-vector is a key sun's direction (towards

@@ -1,5 +1,5 @@
 """Shading-dominated Cycles speed: the cost of one sample of the porous and weathered materials
-against Diffuse + Glossy, on a sphere that fills the frame (issue 12, item 8).
+against Diffuse + Glossy, on a sphere that fills the frame (docs/benchmarks.md, "Where shading dominates").
 
 The sphere of speed.py (same stone, same sun at 45° and overcast sky) seen by an orthographic
 camera whose frame is the sphere's diameter, so its silhouette touches the four edges and
@@ -83,7 +83,8 @@ def add_map_attribute(obj):
     attribute.data.foreach_set("color", mesh_arrays.grey_rgba(values))
 
 
-#: The lookup texture issue 12 suggests: its side in texels (linear filter, extended edges).
+#: The lookup texture measured against the node maths (docs/benchmarks.md): its side in texels
+#: (linear filter, extended edges).
 LOOKUP_SIZE = 64
 #: Math nodes chained behind a Map Range of constants in folded_chain_material().
 FOLDED_CHAIN = 20

@@ -1,5 +1,5 @@
-"""Shading cost counted in executed instructions: the noise-free twin of shading.py (issue 12,
-item 8).
+"""Shading cost counted in executed instructions: the noise-free twin of shading.py (docs/benchmarks.md,
+"Builds 5 and 6, counted in instructions").
 
 On a shared machine render times scatter by ±20–40% per round (docs/benchmarks.md), more than
 a few nodes change them.  Valgrind's cachegrind counts the instructions a process executes,

@@ -1,5 +1,6 @@
 """Render time against error: the porous material (key light, ambient) and each weathering mode,
-side by side with the base Diffuse + Glossy and the Principled BSDF at equal settings (issue 6).
+side by side with the base Diffuse + Glossy and the Principled BSDF at equal settings
+(docs/accuracy.md, "Render time against error").
 
 One scene (a sphere under a sun at 45° and an overcast sky), Cycles and EEVEE, every material
 at two sample counts in interleaved rounds; timing.py takes the fixed per-render cost out and
@@ -31,7 +32,7 @@ SUN = ref.Sun(sun_towards(45.0), 3.0)
 SKY = ref.Sky("OVERCAST", 0.5)
 SAMPLES = {"CYCLES": (16, 64), "EEVEE": (1, 4)}
 BASELINE = "Diffuse+Glossy"
-#: The issue's target for the porous material's overhead over Diffuse + Glossy at equal samples.
+#: The target (docs/benchmarks.md) for the porous material's overhead over Diffuse + Glossy at equal samples.
 TARGET = 1.15
 #: Mask values that put every mode mid-way through its weathering (all three fills active).
 WEATHERING = dict(time=0.6, rain_map=0.4, edge_map=0.7, efflorescence_map=0.6)

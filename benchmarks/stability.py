@@ -1,4 +1,5 @@
-"""Numerical stability of the porous and weathered node groups on the hard cases (issue 6).
+"""Numerical stability of the porous and weathered node groups on the hard cases
+(docs/accuracy.md, "Numerical stability").
 
 Every input of a group takes values from its list of hard cases (grazing angles, m -> 0 and
 large, k_a -> 0 and 1, s_p -> 0 and large, alpha -> 0 and 1, masks and t at and beyond their

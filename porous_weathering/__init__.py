@@ -1,15 +1,38 @@
 """Porous Weathering: porous stone, brick and plaster, and how they soil, wet and salt.
 
 The public API (docs/api.md):
-    porous_weathering.model                 the SPEC model in plain numpy (no bpy)
+    porous_weathering.model                 the model of docs/model.md in plain numpy (no bpy)
     porous_weathering.make_porous_material  a porous material for EEVEE and Cycles
     porous_weathering.make_base_material    the same Diffuse + Glossy without porosity
     porous_weathering.make_weathered_material  soiling / wet / efflorescence over time
     porous_weathering.make_preset_material  a porous material from a preset (docs/presets.md)
+and the modules of ``PUBLIC_MODULES`` at their documented places (``porous_weathering.bake``,
+``porous_weathering.export``, ...): each is the module of its layer (docs/architecture.md).
 
 Importing this package does not import bpy; the names that need it load on first use,
 so ``porous_weathering.model`` works in plain Python too.
 """
+
+import importlib
+
+#: The documented modules (a file each beside this one, the module of its layer under its
+#: public name), loaded on first use as attributes: ``pw.weathering.animate_weathering``.
+PUBLIC_MODULES = (
+    "bake",
+    "demo",
+    "edges",
+    "efflorescence_map",
+    "export",
+    "maps",
+    "model",
+    "modes",
+    "options",
+    "presets",
+    "rain",
+    "scan_checks",
+    "uv",
+    "weathering",
+)
 
 _LAZY = {
     "make_porous_material": "shading.material",
@@ -21,27 +44,27 @@ _LAZY = {
 
 def __getattr__(name):
     if name in _LAZY:
-        import importlib
-
         return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    if name in PUBLIC_MODULES:
+        return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def register():
+    from . import ui
     from .cli import entry as cli_entry
     from .shading import assets
-    from .ui import panel
 
-    panel.register()
+    ui.register()
     assets.register()
     cli_entry.register()
 
 
 def unregister():
+    from . import ui
     from .cli import entry as cli_entry
     from .shading import assets
-    from .ui import panel
 
     cli_entry.unregister()
     assets.unregister()
-    panel.unregister()
+    ui.unregister()

@@ -324,7 +324,7 @@ def sculpted_stone(scene):
     quick_cycles(scene, 480, 480)
 
 
-#: The bust's least size: as many triangles as a scan of a bust (issue 13: at least 200k).
+#: The bust's least size: as many triangles as a scan of a bust (at least 200k).
 BUST_TRIANGLES = 200_000
 #: What scan_generator is asked for (its count comes within 0.2% of the request): 200,280.
 BUST_REQUEST = 200_500

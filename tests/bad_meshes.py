@@ -191,7 +191,7 @@ def linked_object(scene, tmp):
     return obj
 
 
-#: name -> builder(scene, tmp_path): every kind of awkward object the issue lists.
+#: name -> builder(scene, tmp_path): every kind of awkward object of docs/reliability.md, "Bad meshes".
 BUILDERS = {
     "no faces": no_faces,
     "zero-area faces": zero_area_faces,

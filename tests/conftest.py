@@ -1,4 +1,8 @@
-"""Every test starts from an empty factory scene; a failing test leaves its .blend in tests/failed/."""
+"""Every test starts from an empty factory scene; a failing test leaves its .blend in tests/failed/.
+
+Shared fixtures: ``registered`` (the extension registered for the test), ``bust`` (adds the
+scan-like bust to the scene: ``helpers.add_bust``) and ``toys`` (the toy mode and toy map of
+tests/helpers.py registered for the test)."""
 
 import os
 import pathlib
@@ -8,6 +12,9 @@ import bpy
 
 import pytest
 
+import helpers
+import porous_weathering
+
 FAILED = pathlib.Path(__file__).resolve().parent / "failed"
 
 
@@ -15,6 +22,28 @@ FAILED = pathlib.Path(__file__).resolve().parent / "failed"
 def fresh_scene():
     bpy.ops.wm.read_factory_settings(use_empty=True)
     yield bpy.context.scene
+
+
+@pytest.fixture
+def registered():
+    """The extension registered (its operators, panel and properties) for the test."""
+    porous_weathering.register()
+    yield
+    porous_weathering.unregister()
+
+
+@pytest.fixture
+def bust(fresh_scene):
+    """``bust(triangles=20_000, name="Bust", *, scale=1.0, rotation=(0, 0, 0), scan_noise=True)``
+    adds the scan-like bust (sample_blends/scan_generator.py, in millimetres times ``scale``) to
+    the scene and returns it (``helpers.add_bust``)."""
+    return helpers.add_bust
+
+
+@pytest.fixture
+def toys():
+    with helpers.registered_toys():
+        yield
 
 
 @pytest.hookimpl(wrapper=True)

@@ -9,21 +9,36 @@
 - ``STONE``, ``weathered``, ``lobes``, ``model_weights``, ``expected_image``: a weathered stone
   and the image model.weathered_coefficients predicts for it, k_d D + k_s G + k_water W (W: a
   white GGX of the water's roughness).
-- ``paper_modes``: the modes as the paper writes them, without the layers beyond it (SPEC 6).
+- ``paper_modes``: the modes as the paper writes them, without the layers beyond it (docs/model.md §6).
+- ``run_cli``: ``python -m porous_weathering COMMAND ...`` in a subprocess, as users run it.
+- ``bust_mesh``, ``add_bust``: the scan-like bust of sample_blends/scan_generator.py, in
+  millimetres, and the same bust added to the scene (the ``bust`` fixture of conftest.py).
 """
 
 import contextlib
 import dataclasses
+import functools
+import itertools
+import pathlib
+import subprocess
+import sys
+
+import bpy
 
 import numpy as np
 
 import porous_weathering as pw
-from porous_weathering.blender import render
+from porous_weathering.blender import mesh_arrays, render
+from porous_weathering.common.options import option
+from porous_weathering.contracts import map_attribute
 from porous_weathering.core import model
 from porous_weathering.core import modes as weathering_modes
 from porous_weathering.core.modes import soiling, wet
+from porous_weathering.core.modes.base import TIME, Input, Layer, Mode
+from porous_weathering.maps import registry as maps
 from porous_weathering.samples import studio
 from porous_weathering.shading import weathering
+from scripts import load_script
 
 #: Cycles evaluates the node maths in float32 and stores float32 EXR: agreement to 1e-4
 #: of the brightest pixel is far tighter than anything visible (1/255 = 4e-3).
@@ -133,7 +148,7 @@ def model_weights(modes, n_dot_l, n_dot_v, **state):
     )
 
 
-#: The layers beyond the paper (SPEC 6): the black crust and the wet darkening.
+#: The layers beyond the paper (docs/model.md §6): the black crust and the wet darkening.
 BEYOND_PAPER = (soiling.lay_crust, wet.darken_under_water)
 
 
@@ -156,3 +171,124 @@ def paper_modes(names):
     finally:
         for record in records:
             weathering_modes.unregister(record.name)
+
+
+# --- the command line -------------------------------------------------------------------------
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+
+def cli_command(command, *args):
+    """The words of ``python -m porous_weathering COMMAND ARGS`` (arguments made strings)."""
+    return [sys.executable, "-m", "porous_weathering", command, *map(str, args)]
+
+
+def run_cli(command, *args, timeout=120):
+    """Runs ``python -m porous_weathering COMMAND ARGS`` from the repository root, its output captured."""
+    return subprocess.run(cli_command(command, *args), cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+
+
+# --- the scan-like bust -----------------------------------------------------------------------
+
+SCAN = load_script("sample_blends/scan_generator.py")
+
+
+@functools.cache
+def bust_mesh(triangles=20_000, scan_noise=True):
+    """(vertices, faces) of the scan-like bust of ~``triangles`` faces, in millimetres, seed 0;
+    without ``scan_noise`` the 1.2-4 mm noise field is left out (its 20-80 mm erosion relief stays:
+    the same random draws either way). Built once per argument set (read-only arrays)."""
+    generator_noise = SCAN._fourier_noise
+
+    def noise(points, rng, terms, shortest, longest, rms):
+        values = generator_noise(points, rng, terms, shortest, longest, rms)  # the same draws either way
+        return values if scan_noise or shortest > 10.0 else np.zeros_like(values)
+
+    SCAN._fourier_noise = noise
+    try:
+        vertices, faces = SCAN.bust_mesh(triangles, seed=0)
+    finally:
+        SCAN._fourier_noise = generator_noise
+    vertices.flags.writeable = faces.flags.writeable = False
+    return vertices, faces
+
+
+def add_bust(triangles=20_000, name="Bust", *, scale=1.0, rotation=(0.0, 0.0, 0.0), scan_noise=True):
+    """The bust of ``bust_mesh(triangles, scan_noise)``, scaled from millimetres by ``scale`` and
+    rotated by the Euler angles ``rotation``, as a new object ``name`` in the scene."""
+    vertices, faces = bust_mesh(triangles, scan_noise)
+    obj = SCAN.add_to_scene(name, vertices * scale, faces)
+    obj.rotation_euler = rotation
+    bpy.context.view_layer.update()
+    return obj
+
+
+# --- a toy mode and a toy map: one declaration each is enough (the ``toys`` fixture) -----------
+
+GRIME = Input("grime", 0.0, 0.0, 1.0, "Toy grime: darkens the diffuse where the toy map is high", mask=True, map="toy")
+STRENGTH = Input("grime_strength", 0.5, 0.0, 1.0, "How much the grime darkens at t = 1")
+
+
+def darken_with_grime(xp, point):
+    """Written once: evaluated by numpy in the model, built as nodes in the group."""
+    s = point.state
+    point.kd_w = point.kd_w * (1.0 - xp.channel(s["grime"] * s["grime_strength"] * s["time"]))
+
+
+TOY_MODE = Mode(
+    "grime",
+    "Grime",
+    "Toy mode of the registry tests",
+    (TIME, GRIME, STRENGTH),
+    (Layer(50, darken_with_grime),),
+    catalog="Grime",
+    asset_summary="Toy grime",
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class ToySettings:
+    level: float = option(
+        0.75, label="Toy Level", flag="--toy-level", low=0.0, high=1.0, tooltip="The value the toy map is baked to"
+    )
+
+
+def toy_image(obj, uv_map, options, margin):
+    return np.full((options.resolution, options.resolution), options.toy_settings.level, np.float32)
+
+
+def toy_attribute(obj, options):
+    values = np.full(len(obj.data.loops), options.toy_settings.level)
+    mesh_arrays.write_corner_attribute(obj.data, map_attribute("toy"), values)
+
+
+TOY_MAP = maps.MapKind(
+    "toy",
+    "Toy Map",
+    "Toy map of the registry tests",
+    attribute=map_attribute("toy"),
+    settings=ToySettings,
+    options_field="toy_settings",
+    bake_image=toy_image,
+    bake_attribute=toy_attribute,
+)
+
+
+@contextlib.contextmanager
+def registered_toys():
+    weathering_modes.register(TOY_MODE)
+    maps.register(TOY_MAP)
+    try:
+        yield
+    finally:
+        weathering_modes.unregister(TOY_MODE.name)
+        maps.unregister(TOY_MAP.name)
+
+
+# --- every node group the package builds ----------------------------------------------------
+
+
+def weathered_mode_sets():
+    """Every non-empty set of the registered weathering modes, in registry order."""
+    names = weathering_modes.names()
+    return [modes for size in range(1, len(names) + 1) for modes in itertools.combinations(names, size)]

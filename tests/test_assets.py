@@ -7,10 +7,10 @@ import bpy
 import numpy as np
 import pytest
 
-from generators import OLDEST_LINE, load_script
 from porous_weathering.core import model
 from porous_weathering.core import modes as weathering_modes
 from porous_weathering.shading import assets, nodes
+from scripts import OLDEST_LINE, load_script
 
 NODE_GROUPS = pathlib.Path(__file__).resolve().parent.parent / "node_groups"
 

@@ -1,31 +1,18 @@
 """``python -m porous_weathering bake``, run as users run it: a subprocess on a tiny .blend."""
 
 import os
-import pathlib
-import subprocess
-import sys
 
 import bpy
 
 import numpy as np
 import pytest
 
+from helpers import run_cli
 from porous_weathering.common import imageio
 from porous_weathering.maps import bake, edges
 from porous_weathering.samples import studio
 
-ROOT = pathlib.Path(__file__).resolve().parent.parent
 FAST = ["--resolution", "16", "--samples", "4"]
-
-
-def run_cli(*args):
-    return subprocess.run(
-        [sys.executable, "-m", "porous_weathering", "bake", *map(str, args)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
 
 
 def statuses(result):
@@ -45,7 +32,7 @@ def blend(fresh_scene, tmp_path):
 
 def test_maps_are_written_and_a_rerun_skips_them(blend, tmp_path):
     out = tmp_path / "maps"
-    first = run_cli(blend, "--out", out, *FAST)
+    first = run_cli("bake", blend, "--out", out, *FAST)
     assert first.returncode == 0, first.stderr
     # no --maps: every map
     assert sorted(os.listdir(out)) == ["Cube.edges.exr", "Cube.rain.exr", "Plane.edges.exr", "Plane.rain.exr"]
@@ -55,16 +42,16 @@ def test_maps_are_written_and_a_rerun_skips_them(blend, tmp_path):
     assert plane[0, 0, 0] == pytest.approx(1.0, abs=0.02)  # open corner
     assert plane[8, 8, 0] < 0.05  # under the cube
     stamp = os.stat(out / "Plane.rain.exr").st_mtime_ns
-    again = run_cli(blend, "--out", out, *FAST)
+    again = run_cli("bake", blend, "--out", out, *FAST)
     assert again.returncode == 0, again.stderr
     assert statuses(again) == ["unchanged"] * 4 and os.stat(out / "Plane.rain.exr").st_mtime_ns == stamp
-    changed = run_cli(blend, "--out", out, *FAST, "--rain-cone", "20")  # only the rain maps depend on it
+    changed = run_cli("bake", blend, "--out", out, *FAST, "--rain-cone", "20")  # only the rain maps depend on it
     assert sorted(statuses(changed)) == ["unchanged", "unchanged", "written", "written"]
 
 
 def test_dry_run_writes_nothing(blend, tmp_path):
     out = tmp_path / "maps"
-    result = run_cli(blend, "--out", out, "--objects", "Cube", "--dry-run", *FAST)
+    result = run_cli("bake", blend, "--out", out, "--objects", "Cube", "--dry-run", *FAST)
     assert result.returncode == 0, result.stderr
     assert "planned" in result.stdout and "Cube.rain.exr" in result.stdout
     assert not out.exists()
@@ -89,19 +76,19 @@ def test_dry_run_writes_nothing(blend, tmp_path):
 )
 def test_bad_input_fails_with_one_clear_line(blend, args, code, message):
     """Exit 2 for what is wrong before any file is opened (usage), 1 for a file that fails."""
-    result = run_cli(*[a.format(blend=blend, folder=blend.parent) for a in args])
+    result = run_cli("bake", *[a.format(blend=blend, folder=blend.parent) for a in args])
     assert result.returncode == code, result.stderr
     [line] = result.stderr.splitlines()
     assert line.startswith("error: ") and message in line
 
 
 def test_bad_maps_option_is_refused(blend):
-    result = run_cli(blend, "--maps", "rain,snow")
+    result = run_cli("bake", blend, "--maps", "rain,snow")
     assert result.returncode == 2 and "rain, edges" in result.stderr and len(result.stderr.splitlines()) == 1
 
 
 def test_help_documents_every_option():
-    result = run_cli("--help")
+    result = run_cli("bake", "--help")
     for option in (
         "--objects",
         "--collection",
@@ -128,7 +115,7 @@ def test_occluders_option_chooses_what_shelters(blend, tmp_path):
     """With only an empty collection as occluders, the cube no longer shelters the plane."""
     bpy.context.scene.collection.children.link(bpy.data.collections.new("Open Sky"))
     bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
-    result = run_cli(blend, "--out", tmp_path / "open", "--objects", "Plane", "--occluders", "Open Sky", *FAST)
+    result = run_cli("bake", blend, "--out", tmp_path / "open", "--objects", "Plane", "--occluders", "Open Sky", *FAST)
     assert result.returncode == 0, result.stderr
     plane, _ = imageio.read_image(tmp_path / "open" / "Plane.rain.exr")
     assert plane[8, 8, 0] == pytest.approx(1.0, abs=0.02)  # under the cube, which is not an occluder now
@@ -136,7 +123,7 @@ def test_occluders_option_chooses_what_shelters(blend, tmp_path):
 
 def test_edge_radius_option_sets_the_smoothing_radius(blend):
     result = run_cli(
-        blend, "--objects", "Cube", "--maps", "edges", "--target", "attribute", "--edge-radius", "0.3", "--save"
+        "bake", blend, "--objects", "Cube", "--maps", "edges", "--target", "attribute", "--edge-radius", "0.3", "--save"
     )
     assert result.returncode == 0, result.stderr
     bpy.ops.wm.open_mainfile(filepath=str(blend))
@@ -152,9 +139,9 @@ def test_edge_radius_option_sets_the_smoothing_radius(blend):
 
 def test_save_links_images_and_attributes_into_the_blend(blend, tmp_path):
     out = tmp_path / "maps"
-    result = run_cli(blend, "--out", out, "--objects", "Plane", "--save", *FAST)
+    result = run_cli("bake", blend, "--out", out, "--objects", "Plane", "--save", *FAST)
     assert result.returncode == 0, result.stderr
-    result = run_cli(blend, "--objects", "Cube", "--target", "attribute", "--save", "--samples", "4")
+    result = run_cli("bake", blend, "--objects", "Cube", "--target", "attribute", "--save", "--samples", "4")
     assert result.returncode == 0, result.stderr
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     image = bpy.data.images[bpy.data.objects["Plane"]["pw_rain_image"]]

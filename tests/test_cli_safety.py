@@ -14,6 +14,7 @@ import bpy
 import numpy as np
 import pytest
 
+from helpers import run_cli
 from porous_weathering.common import imageio, interrupts
 from porous_weathering.maps import bake, rain
 from porous_weathering.samples import studio
@@ -21,16 +22,6 @@ from porous_weathering.samples import studio
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FAST = ["--resolution", "16", "--samples", "4"]
 FOUR_SAMPLES = rain.RainSettings(samples=4)
-
-
-def run_cli(*args, timeout=120):
-    return subprocess.run(
-        [sys.executable, "-m", "porous_weathering", "bake", *map(str, args)],
-        cwd=ROOT,
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
 
 
 def outcome_lines(result):
@@ -61,19 +52,19 @@ def two_files(fresh_scene, tmp_path):
 def test_a_map_from_another_blend_is_refused_unless_forced(two_files, tmp_path):
     first, second = two_files
     out = tmp_path / "maps"
-    assert run_cli(first, "--out", out, "--maps", "rain", *FAST).returncode == 0
+    assert run_cli("bake", first, "--out", out, "--maps", "rain", *FAST).returncode == 0
     made = digest(out / "Ground.rain.exr")
     for extra in ([], ["--dry-run"]):
-        refused = run_cli(second, "--out", out, "--maps", "rain", *FAST, *extra)
+        refused = run_cli("bake", second, "--out", out, "--maps", "rain", *FAST, *extra)
         assert refused.returncode == 3, refused.stderr
         [line] = refused.stderr.splitlines()
         assert f"was made from {first} (object 'Ground'), not from {second} (object 'Ground')" in line
         assert "--force" in line and digest(out / "Ground.rain.exr") == made
-    forced = run_cli(second, "--out", out, "--maps", "rain", *FAST, "--force")
+    forced = run_cli("bake", second, "--out", out, "--maps", "rain", *FAST, "--force")
     assert forced.returncode == 0, forced.stderr
     assert imageio.read_metadata(out / "Ground.rain.exr")[bake.SOURCE_KEY] == str(second)
     # in one run, the second file is refused before it writes anything; the first one's maps stay
-    both = run_cli(first, second, "--out", tmp_path / "both", "--maps", "rain", *FAST)
+    both = run_cli("bake", first, second, "--out", tmp_path / "both", "--maps", "rain", *FAST)
     assert both.returncode == 3 and outcome_lines(both) == [["written", "Ground.rain"]]
     assert imageio.read_metadata(tmp_path / "both" / "Ground.rain.exr")[bake.SOURCE_KEY] == str(first)
 
@@ -124,10 +115,10 @@ def test_names_that_sanitise_alike_get_distinct_files(fresh_scene, tmp_path):
     blend = save_scene(tmp_path / "walls.blend")
     suffix = hashlib.sha256(b"Wall/1").hexdigest()[:8]
     expected = sorted([f"Wall_1-{suffix}.rain.exr", "Wall_1.rain.exr"])
-    first = run_cli(blend, "--out", tmp_path / "maps", "--maps", "rain", *FAST)
+    first = run_cli("bake", blend, "--out", tmp_path / "maps", "--maps", "rain", *FAST)
     assert first.returncode == 0, first.stderr
     assert sorted(os.listdir(tmp_path / "maps")) == expected
-    again = run_cli(blend, "--out", tmp_path / "maps", "--maps", "rain", *FAST)
+    again = run_cli("bake", blend, "--out", tmp_path / "maps", "--maps", "rain", *FAST)
     assert sorted(outcome_lines(again)) == [["unchanged", "Wall/1.rain"], ["unchanged", "Wall_1.rain"]]
     assert bake.image_path("d", "a:b", "rain") != bake.image_path("d", "a_b", "rain")  # unsafe on Windows
 
@@ -175,21 +166,22 @@ def test_a_signal_stops_the_bake_at_once(slow_blend, tmp_path, sent, code):
 
 CHILD_STOPPED_WRITING = r"""
 import sys, time
-from porous_weathering import cli, imageio
+from porous_weathering.cli import entry
+from porous_weathering.common import imageio
 write = imageio._write_file
 def stalled(*args):
     write(*args)
     print("TEMPORARY WRITTEN", flush=True)
     time.sleep(120)
 imageio._write_file = stalled
-cli.exit_with(sys.argv[1:])
+entry.exit_with(sys.argv[1:])
 """
 
 
 def test_an_interrupted_write_leaves_no_temporary_file_and_the_old_map(slow_blend, tmp_path):
     out = tmp_path / "maps"
     common = [slow_blend, "--objects", "Plane", "--maps", "rain", "--out", out, *FAST]
-    assert run_cli(*common).returncode == 0
+    assert run_cli("bake", *common).returncode == 0
     previous = (out / "Plane.rain.exr").read_bytes()
     child = subprocess.Popen(
         [sys.executable, "-c", CHILD_STOPPED_WRITING, "bake", *map(str, common), "--rain-cone", "20"],
@@ -211,9 +203,9 @@ def test_an_interrupted_write_leaves_no_temporary_file_and_the_old_map(slow_blen
 
 CHILD_UNCUT = r"""
 import sys, time
-from porous_weathering import interrupts
+from porous_weathering.common import atomic, interrupts
 with interrupts.exit_on_signals(lambda name: f"stopped by {name}"):
-    with interrupts.uncut():
+    with atomic.uncut():
         print("IN", flush=True)
         time.sleep(1.0)
         open(sys.argv[1], "w").write("whole")
@@ -261,7 +253,7 @@ def test_map_files_follow_the_umask(tmp_path, umask, mode):
 
 
 def test_blend_files_after_objects_are_files(slow_blend, tmp_path):
-    result = run_cli("--maps", "rain", "--objects", "Cube", slow_blend, "--out", tmp_path, "--dry-run", *FAST)
+    result = run_cli("bake", "--maps", "rain", "--objects", "Cube", slow_blend, "--out", tmp_path, "--dry-run", *FAST)
     assert result.returncode == 0, result.stderr
     assert [line.split()[:2] for line in result.stdout.splitlines() if line.startswith("planned")] == [
         ["planned", "Cube.rain"]
@@ -271,7 +263,9 @@ def test_blend_files_after_objects_are_files(slow_blend, tmp_path):
 def test_a_failed_save_says_the_maps_were_not_saved(slow_blend):
     pathlib.Path(f"{slow_blend}@").mkdir()  # where Blender writes before renaming: the save fails
     before = digest(slow_blend)
-    result = run_cli(slow_blend, "--objects", "Cube", "--maps", "rain", "--target", "attribute", "--save", *FAST)
+    result = run_cli(
+        "bake", slow_blend, "--objects", "Cube", "--maps", "rain", "--target", "attribute", "--save", *FAST
+    )
     assert result.returncode == 1
     [error] = [line for line in result.stderr.replace("\r", "\n").splitlines() if line.startswith("error: ")]
     assert "cannot save it" in error and "the 1 attribute map(s) baked into it were NOT saved" in error

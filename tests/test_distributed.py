@@ -9,7 +9,6 @@ import select
 import shutil
 import signal
 import subprocess
-import sys
 import time
 
 import bpy
@@ -19,6 +18,7 @@ import psutil
 import pytest
 from distributed import LocalCluster
 
+from helpers import cli_command, run_cli
 from porous_weathering.common import imageio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -27,14 +27,6 @@ SMALL = ["--resolution", "64", "--samples", "4"]
 TIMEOUT = 240
 #: The lines of the bake command that say what it did, or failed to do, with a file or map.
 OUTCOME = re.compile(r"^(written|unchanged|planned|saved|error:) ")
-
-
-def bake_command(*args):
-    return [sys.executable, "-m", "porous_weathering", "bake", *map(str, args)]
-
-
-def run_cli(*args):
-    return subprocess.run(bake_command(*args), cwd=ROOT, capture_output=True, text=True, timeout=TIMEOUT)
 
 
 def outcomes(result, out):
@@ -59,7 +51,7 @@ def assert_same_maps(folder, expected):
 def bake_processes(cli):
     """The bake processes under the command ``cli`` (each a child of a worker)."""
     processes = psutil.Process(cli.pid).children(recursive=True)
-    return [p for p in processes if "porous_weathering.distributed import serve" in " ".join(p.cmdline())]
+    return [p for p in processes if "porous_weathering.cli.dask_worker import serve" in " ".join(p.cmdline())]
 
 
 def gone(process):
@@ -103,16 +95,19 @@ def running_scheduler():
 def test_a_name_clash_is_refused_as_in_the_serial_run_and_a_rerun_skips_what_is_done(scenes, tmp_path):
     files = [scenes / f"scene{index}.blend" for index in range(3)]
     serial, dask = tmp_path / "serial", tmp_path / "dask"
-    first = run_cli(*files, "--out", serial, *SMALL)
+    first = run_cli("bake", *files, "--out", serial, *SMALL, timeout=TIMEOUT)
     code, lines = outcomes(first, serial)
     assert code == 3 and any("scene1.blend" in line and "Ground" in line for line in lines if "error:" in line)
-    assert outcomes(run_cli(*files, "--out", dask, "--workers", "2", *SMALL), dask) == (code, lines)
+    assert outcomes(run_cli("bake", *files, "--out", dask, "--workers", "2", *SMALL, timeout=TIMEOUT), dask) == (
+        code,
+        lines,
+    )
     assert_same_maps(dask, maps_of(serial))
 
     stamps = {name: os.stat(dask / name).st_mtime_ns for name in os.listdir(dask)}
     with running_scheduler() as address:
-        again = outcomes(run_cli(*files, "--out", dask, "--scheduler", address, *SMALL), dask)
-    assert again == outcomes(run_cli(*files, "--out", serial, *SMALL), serial)
+        again = outcomes(run_cli("bake", *files, "--out", dask, "--scheduler", address, *SMALL, timeout=TIMEOUT), dask)
+    assert again == outcomes(run_cli("bake", *files, "--out", serial, *SMALL, timeout=TIMEOUT), serial)
     assert again[0] == 3 and "unchanged Block0.rain -> OUT/Block0.rain.exr" in again[1]
     assert all(os.stat(dask / name).st_mtime_ns == stamp for name, stamp in stamps.items())
 
@@ -120,9 +115,11 @@ def test_a_name_clash_is_refused_as_in_the_serial_run_and_a_rerun_skips_what_is_
 def test_forced_clashes_and_a_failed_file_end_as_in_the_serial_run(scenes, tmp_path):
     files = [scenes / name for name in ("scene0.blend", "empty.blend", "scene1.blend", "scene2.blend")]
     serial, dask = tmp_path / "serial", tmp_path / "dask"
-    code, lines = outcomes(run_cli(*files, "--out", serial, "--force", *SMALL), serial)
+    code, lines = outcomes(run_cli("bake", *files, "--out", serial, "--force", *SMALL, timeout=TIMEOUT), serial)
     assert code == 1 and sum(line.startswith("written   Ground.") for line in lines) == 4  # scene1 replaced scene0's
-    assert outcomes(run_cli(*files, "--out", dask, "--force", "--workers", "2", *SMALL), dask) == (code, lines)
+    assert outcomes(
+        run_cli("bake", *files, "--out", dask, "--force", "--workers", "2", *SMALL, timeout=TIMEOUT), dask
+    ) == (code, lines)
     assert_same_maps(dask, maps_of(serial))
 
 
@@ -139,10 +136,10 @@ def progress_shows(cli, text, deadline):
 @pytest.mark.parametrize("victim", ["worker", "bake process"])
 def test_a_task_whose_worker_or_bake_process_is_killed_is_retried_and_no_map_is_lost(tmp_path, victim):
     serial = tmp_path / "serial"
-    assert run_cli(FACADE, "--out", serial, "--maps", "rain", *SMALL).returncode == 0
+    assert run_cli("bake", FACADE, "--out", serial, "--maps", "rain", *SMALL, timeout=TIMEOUT).returncode == 0
     out = tmp_path / "dask"
     cli = subprocess.Popen(
-        bake_command(FACADE, "--out", out, "--maps", "rain", "--workers", "2", *SMALL),
+        cli_command("bake", FACADE, "--out", out, "--maps", "rain", "--workers", "2", *SMALL),
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -166,7 +163,7 @@ def test_an_interrupt_cancels_the_bake_and_saves_nothing(tmp_path):
     scene, out = tmp_path / "facade.blend", tmp_path / "maps"
     shutil.copyfile(FACADE, scene)
     cli = subprocess.Popen(
-        bake_command(scene, "--out", out, "--maps", "rain", "--save", "--workers", "1", *SMALL),
+        cli_command("bake", scene, "--out", out, "--maps", "rain", "--save", "--workers", "1", *SMALL),
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -196,6 +193,6 @@ def test_an_interrupt_cancels_the_bake_and_saves_nothing(tmp_path):
     ],
 )
 def test_bad_cluster_options_fail_with_one_line(scenes, args, message):
-    result = run_cli(scenes / "scene0.blend", *args)
+    result = run_cli("bake", scenes / "scene0.blend", *args, timeout=TIMEOUT)
     assert result.returncode == 2
     assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1, result.stderr

@@ -1,4 +1,4 @@
-"""Docs that run (issue 14, item 7): every shell and Python block of README.md and docs/*.md is
+"""Docs that run (docs/architecture.md, "Docs that run"): every shell and Python block of README.md and docs/*.md is
 one test case (id ``file:line``) that runs it, unless the Markdown marks it as an illustration,
 with a reason, in an HTML comment right before it (invisible when rendered):
 

@@ -12,33 +12,16 @@ import bpy
 import numpy as np
 import pytest
 
-from generators import load_script
 from porous_weathering.cli import bake as bake_command
 from porous_weathering.common import imageio, options
 from porous_weathering.maps import bake, edges
 from porous_weathering.ui import bake_operator as ops_bake
+from scripts import load_script
 
 scan_generator = load_script("sample_blends/scan_generator.py")
 
 #: Scale factors from a bust in millimetres: to metres, and to a bust 0.1 units across.
 UNITS = {"mm": 1.0, "m": 0.001, "tenth": 0.1 / scan_generator.NOMINAL_DIAGONAL_MM}
-
-
-def bust(name, triangles, unit="mm", scan_noise=True):
-    """The scan-like bust (sample_blends/scan_generator.py), optionally without its scan noise
-    (the 1.2-4 mm field; its erosion relief, 20-80 mm, stays), scaled from millimetres."""
-    generator_noise = scan_generator._fourier_noise
-
-    def noise(points, rng, terms, shortest, longest, rms):
-        values = generator_noise(points, rng, terms, shortest, longest, rms)  # the same draws either way
-        return values if scan_noise or shortest > 10.0 else np.zeros_like(values)
-
-    scan_generator._fourier_noise = noise
-    try:
-        vertices, faces = scan_generator.bust_mesh(triangles, seed=0)
-    finally:
-        scan_generator._fourier_noise = generator_noise
-    return scan_generator.add_to_scene(name, vertices * UNITS[unit], faces)
 
 
 #: Bumps on the sphere: (longitude, latitude), angular width, height (in radii).
@@ -120,8 +103,8 @@ def corner_uvs_and_vertices(obj, inset=0.03):
 # --- the same mask at every unit ----------------------------------------------------------------
 
 
-def test_attribute_mask_is_the_same_in_millimetres_metres_and_tenths(fresh_scene):
-    busts = {unit: bust(f"Bust {unit}", 30_000, unit) for unit in UNITS}
+def test_attribute_mask_is_the_same_in_millimetres_metres_and_tenths(bust):
+    busts = {unit: bust(30_000, f"Bust {unit}", scale=UNITS[unit]) for unit in UNITS}
     masks = {unit: edges.write_curvature_attribute(obj) for unit, obj in busts.items()}
     assert masks["mm"].max() == 1.0 and 0.02 < masks["mm"].mean() < 0.3  # the mask shows the form
     for unit in ("m", "tenth"):
@@ -150,11 +133,11 @@ def test_image_mask_is_the_same_at_every_unit_and_matches_the_attribute(fresh_sc
 # --- detail below the scale ---------------------------------------------------------------------
 
 
-def test_scan_noise_below_the_scale_does_not_light_up_the_mask(fresh_scene):
+def test_scan_noise_below_the_scale_does_not_light_up_the_mask(bust):
     """The 100k-triangle bust with and without its scan noise (1.2-4 mm, RMS 0.1 mm): the
     same mask within 0.1 everywhere at the default scale, while at a scale near the noise's
     own the noise lights it up (so the comparison can tell)."""
-    noisy, clean = bust("Noisy", 100_000), bust("Clean", 100_000, scan_noise=False)
+    noisy, clean = bust(100_000, "Noisy"), bust(100_000, "Clean", scan_noise=False)
     masks = [edges.write_curvature_attribute(obj) for obj in (noisy, clean)]
     difference = np.abs(masks[0] - masks[1])
     assert difference.max() < 0.1 and difference.mean() < 0.01

@@ -6,6 +6,7 @@ import bmesh
 import numpy as np
 import pytest
 
+from porous_weathering.maps import curvature as curvature_maths
 from porous_weathering.maps import edges
 
 
@@ -256,7 +257,7 @@ def test_curvature_refuses_what_it_cannot_measure(fresh_scene):
 
 @pytest.mark.parametrize(
     "block, direct_cells_max",
-    [(7, edges.DIRECT_CELLS_MAX), (edges.BLOCK, 0), (64, 0)],
+    [(7, curvature_maths.DIRECT_CELLS_MAX), (curvature_maths.BLOCK, 0), (64, 0)],
     ids=["small blocks", "sorted numbering", "both"],
 )
 def test_curvature_does_not_depend_on_how_the_work_is_split(fresh_scene, monkeypatch, block, direct_cells_max):
@@ -265,8 +266,8 @@ def test_curvature_does_not_depend_on_how_the_work_is_split(fresh_scene, monkeyp
     obj = cube(fresh_scene, 3)
     obj.modifiers.new("Bevel", "BEVEL").width = 0.2  # triangles, quads and n-gons
     expected = edges.curvature(obj, 0.3)
-    monkeypatch.setattr(edges, "BLOCK", block)
-    monkeypatch.setattr(edges, "DIRECT_CELLS_MAX", direct_cells_max)
+    monkeypatch.setattr(curvature_maths, "BLOCK", block)
+    monkeypatch.setattr(curvature_maths, "DIRECT_CELLS_MAX", direct_cells_max)
     assert np.array_equal(edges.curvature(obj, 0.3), expected)
 
 

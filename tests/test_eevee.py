@@ -1,4 +1,4 @@
-"""One EEVEE scene: the same porous group, rasterised (SPEC 2 in EEVEE's own lobes)."""
+"""One EEVEE scene: the same porous group, rasterised (docs/model.md §2 in EEVEE's own lobes)."""
 
 import numpy as np
 import pytest

@@ -16,13 +16,13 @@ import bpy
 import numpy as np
 import pytest
 
+from helpers import run_cli
 from porous_weathering.core import model
 from porous_weathering.maps import lightmap
-from porous_weathering.publish import export
+from porous_weathering.publish import export, mapping
 from porous_weathering.samples.studio import add_sun
 from porous_weathering.shading import weathering
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SIZE = 32  #: texels: the wall's UV map is the whole square, so every texel is one point of the model
 STONE = dict(base_color=(0.6, 0.55, 0.45), ks=0.1, roughness=0.4, porosity=0.3, pore_depth_ratio=0.5)
 SOILING = dict(rain_threshold=0.6, deposit_color=(0.06, 0.055, 0.05))
@@ -158,7 +158,7 @@ def test_mapping_keeps_each_lobe_weight_at_every_angle():
     base, specular, roughness = export.pbr_from_weights(kd, ks, water, m, water_roughness)
     assert base.max() <= 1.0 and specular.max() <= 1.0
     for v_dot_h in (1.0, 0.5, 0.05):
-        diffuse_weight, specular_weight = gltf_dielectric(base, specular, export.SPECULAR_COLOR_FACTOR, v_dot_h)
+        diffuse_weight, specular_weight = gltf_dielectric(base, specular, mapping.SPECULAR_COLOR_FACTOR, v_dot_h)
         np.testing.assert_allclose(diffuse_weight, kd, atol=1e-9)
         np.testing.assert_allclose(specular_weight, ks + water.mean(axis=1), atol=1e-9)
     dry = water.max(axis=1) == 0.0
@@ -169,7 +169,7 @@ def test_mapping_keeps_each_lobe_weight_at_every_angle():
 
 def test_srgb_encoding():
     linear = np.array([0.0, 0.0031308, 0.2140, 0.5, 1.0])
-    np.testing.assert_allclose(export.linear_to_srgb(linear), [0.0, 0.04045, 0.5, 0.7354, 1.0], atol=2e-4)
+    np.testing.assert_allclose(mapping.linear_to_srgb(linear), [0.0, 0.04045, 0.5, 0.7354, 1.0], atol=2e-4)
 
 
 # --- the textures against the model -----------------------------------------------------------
@@ -201,7 +201,7 @@ def material_values(material, gltf, binary, tmp_path, size=SIZE):
     """(base colour, S, roughness) per texel of a glTF material, decoded as a viewer does."""
     pbr = material["pbrMetallicRoughness"]
     specular = material["extensions"]["KHR_materials_specular"]
-    assert specular["specularColorFactor"] == [export.SPECULAR_COLOR_FACTOR] * 3
+    assert specular["specularColorFactor"] == [mapping.SPECULAR_COLOR_FACTOR] * 3
     assert pbr["metallicFactor"] == 0
     if "baseColorTexture" in pbr:
         codes = glb_image(gltf, binary, pbr["baseColorTexture"]["index"], tmp_path)[..., :3] / 255.0
@@ -227,7 +227,7 @@ def test_textures_match_the_model(exported, tmp_path, variant, age, wet):
     gltf, binary = read_glb(exported["results"]["png"].path)
     base, s, r = material_values(variant_materials(gltf)[variant], gltf, binary, tmp_path)
     want_base, want_s, want_r = expected_weights(age, wet)
-    srgb = export.linear_to_srgb
+    srgb = mapping.linear_to_srgb
     assert np.abs(srgb(base) - srgb(want_base)).max() <= 1.5 / 255
     assert np.abs(s - want_s).max() <= want_s.max() / 255 + 1e-6
     assert np.abs(r - want_r).max() <= 1.5 / 255
@@ -251,7 +251,7 @@ def test_webp_textures_match_the_png_ones(exported, tmp_path):
         lossless = material_values(variant_materials(png)[variant], png, png_binary, tmp_path)
         lossy = material_values(variant_materials(webp)[variant], webp, webp_binary, tmp_path)
         for exact, compressed in zip(lossless, lossy):
-            assert np.abs(export.linear_to_srgb(exact) - export.linear_to_srgb(compressed)).mean() < 3 / 255
+            assert np.abs(mapping.linear_to_srgb(exact) - mapping.linear_to_srgb(compressed)).mean() < 3 / 255
 
 
 # --- the .glb, its re-import and the validator -----------------------------------------------
@@ -288,7 +288,7 @@ def test_glb_reimports_with_its_variants(exported):
     assert variants == ["clean", "t=0.5", "t=1", "wet"]
     assert mapped == {name: f"Wall {name}" for name in variants}
     principled = bpy.data.materials["Wall wet"].node_tree.nodes["Principled BSDF"]
-    assert principled.inputs["Specular Tint"].default_value[0] == pytest.approx(export.SPECULAR_COLOR_FACTOR)
+    assert principled.inputs["Specular Tint"].default_value[0] == pytest.approx(mapping.SPECULAR_COLOR_FACTOR)
     # textures: the wet wall's colour and specular vary (its roughness does not: the water lobe weighs ~2% face on)
     assert principled.inputs["Base Color"].is_linked and principled.inputs["Specular IOR Level"].is_linked
 
@@ -503,22 +503,25 @@ def test_an_interrupted_export_leaves_nothing(tmp_path):
 # --- the command line and the operator --------------------------------------------------------
 
 
-def run_cli(*words):
-    return subprocess.run(
-        [sys.executable, "-m", "porous_weathering", "export", *words],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=300,
-    )
-
-
 def test_command_line(tmp_path):
     make_wall()
     blend = save(tmp_path)
     out = tmp_path / "out"
     done = run_cli(
-        blend, "--objects", "Wall", "--ages", "0,1", "--wet", "--size", "16", "--out", str(out), "--note", "author=me"
+        "export",
+        blend,
+        "--objects",
+        "Wall",
+        "--ages",
+        "0,1",
+        "--wet",
+        "--size",
+        "16",
+        "--out",
+        str(out),
+        "--note",
+        "author=me",
+        timeout=300,
     )
     assert done.returncode == 0, done.stderr
     assert sorted(os.listdir(out)) == ["wall.glb", "wall.paradata.json"]
@@ -530,14 +533,14 @@ def test_command_line(tmp_path):
         (["--size", "3000"], "power of two"),
         (["--ages", "0,x"], "not 'x'"),
     ):
-        done = run_cli(blend, *words, "--out", str(tmp_path / "bad"))
+        done = run_cli("export", blend, *words, "--out", str(tmp_path / "bad"), timeout=300)
         errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
         assert done.returncode == 2 and len(errors) == 1 and message in errors[0], done.stderr
         assert not os.path.exists(tmp_path / "bad") or not os.listdir(tmp_path / "bad")
-    done = run_cli(str(tmp_path / "missing.blend"))
+    done = run_cli("export", str(tmp_path / "missing.blend"), timeout=300)
     assert done.returncode == 2 and "no such .blend file" in done.stderr
     (tmp_path / "broken.blend").write_bytes(b"not a blend file")
-    done = run_cli(str(tmp_path / "broken.blend"), "--out", str(tmp_path / "bad"))
+    done = run_cli("export", str(tmp_path / "broken.blend"), "--out", str(tmp_path / "bad"), timeout=300)
     errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
     assert done.returncode == 1 and len(errors) == 1 and "broken.blend" in errors[0], done.stderr
 

@@ -7,9 +7,9 @@ import pytest
 
 import porous_weathering
 from helpers import LitSphere
+from porous_weathering import ui
 from porous_weathering.blender import render
 from porous_weathering.samples import studio
-from porous_weathering.ui import panel as ui
 
 PARAMS = dict(base_color=(0.6, 0.5, 0.4), ks=0.1, roughness=0.5, porosity=0.35, pore_depth_ratio=2.0)
 

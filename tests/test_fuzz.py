@@ -23,7 +23,7 @@ cosine = st.floats(-1.0, 1.0)
 
 @st.composite
 def porous_parameters(draw):
-    """(kd RGB, ks, m, alpha, sp), valid: k_s + k_d <= 1 per channel (SPEC 1)."""
+    """(kd RGB, ks, m, alpha, sp), valid: k_s + k_d <= 1 per channel (docs/model.md §1)."""
     ks = draw(unit)
     kd = tuple(draw(st.floats(0.0, 1.0 - ks)) for _ in range(3))
     return kd, ks, draw(st.floats(0.0, 1.5)), draw(unit), draw(st.floats(0.0, 10.0))

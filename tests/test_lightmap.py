@@ -1,4 +1,5 @@
-"""Lightmaps that are right or refused, at any unit (issue 16, docs/maps.md "Lightmap").
+"""Lightmaps that are right or refused, at any unit (docs/maps.md, "The lightmap"; docs/scans.md,
+"Lightmaps at scan size").
 
 The check finds each fault it is for; a new lightmap of a scan-like bust passes it in
 millimetres, metres and normalised units, with the same quality; the extension's own lightmap
@@ -18,27 +19,17 @@ import bpy
 import numpy as np
 import pytest
 
-from generators import load_script
 from porous_weathering.common import imageio
-from porous_weathering.maps import bake, lightmap, rain
+from porous_weathering.maps import bake, lightmap, lightmap_child, rain
+from scripts import load_script
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SCAN = load_script("sample_blends/scan_generator.py")
 #: Above uv.XATLAS_CHARTS: the scans' path (charts by projection on the axes).
 TRIANGLES = 30_000
-#: The scan generator's units, and the 269k-triangle head of the issue: about 0.1 units across.
+#: The scan generator's units, and a 269k-triangle head scan's size: about 0.1 units across.
 SCALES = {unit: factor for unit, factor in SCAN.UNITS.items()} | {"tenth": 0.1 * SCAN.UNITS["normalised"]}
 FAST_RAIN = rain.RainSettings(samples=1)
-
-
-@pytest.fixture(scope="module")
-def bust_mm():
-    return SCAN.bust_mesh(TRIANGLES, seed=0)
-
-
-def bust(bust_mm, scale=1.0, name="Bust"):
-    vertices, faces = bust_mm
-    return SCAN.add_to_scene(name, vertices * scale, faces)
 
 
 def report_of(obj, name, resolution):
@@ -87,10 +78,10 @@ def test_the_check_does_not_count_shared_edges_as_overlaps():
 # --- new lightmaps, at every unit ----------------------------------------------------------------
 
 
-def test_a_new_lightmap_passes_the_check_at_every_unit_with_the_same_quality(bust_mm):
+def test_a_new_lightmap_passes_the_check_at_every_unit_with_the_same_quality(bust):
     reports = {}
     for unit, scale in SCALES.items():
-        mesh = bust(bust_mm, scale, unit).data
+        mesh = bust(TRIANGLES, unit, scale=scale).data
         geometry = lightmap.Geometry.of(mesh)
         reports[unit] = lightmap.check_uvs(lightmap.lightmap_uvs(mesh, 1024)[geometry.corners], geometry.areas(), 1024)
     for unit, report in reports.items():
@@ -113,14 +104,14 @@ def test_a_fold_of_the_projection_is_found_and_cut_apart(monkeypatch):
     quads = np.stack([corner, corner + rings + 1, corner + rings + 2, corner + 1], axis=1)
     faces = np.concatenate([quads[:, :3], quads[:, [0, 2, 3]]]).astype(np.int32)
     mesh = SCAN.add_to_scene("Ramp", vertices, faces).data
-    monkeypatch.setattr(lightmap, "XATLAS_CHARTS", 0)  # the scans' projection on the axes, whatever the size
+    monkeypatch.setattr(lightmap_child, "XATLAS_CHARTS", 0)  # the scans' projection on the axes, whatever the size
     geometry = lightmap.Geometry.of(mesh)
     points = lightmap.normalised(geometry.positions, geometry.vertices)
     normals = lightmap.polygon_normals(points, geometry.vertices, geometry.polygons)
     keys, projected = lightmap.cube_charts(points, geometry.vertices, geometry.polygons, normals)
     assert len(np.unique(keys)) == len(vertices)  # one chart along +Z ...
-    chart_uvs, triangles = lightmap._chart_points(keys, projected)
-    folded = lightmap._folds(chart_uvs, triangles, lightmap._charts_of(chart_uvs, triangles), 4.0)
+    chart_uvs, triangles = lightmap_child._chart_points(keys, projected)
+    folded = lightmap_child._folds(chart_uvs, triangles, lightmap_child._charts_of(chart_uvs, triangles), 4.0)
     assert folded.mean() > 0.2  # ... that lies over itself for half a turn
     unwrapped = lightmap.lightmap_uvs(mesh, 512)
     assert lightmap.check_uvs(unwrapped[geometry.corners], geometry.areas(), 512).ok
@@ -134,11 +125,11 @@ def bake_image(objects, out, resolution=256, maps=("rain",)):
     return bake.bake_maps(objects, options)
 
 
-def test_image_bakes_at_every_unit_give_lightmaps_of_equal_quality(bust_mm, tmp_path):
+def test_image_bakes_at_every_unit_give_lightmaps_of_equal_quality(bust, tmp_path):
     reports = {}
     for unit, scale in SCAN.UNITS.items():
         bpy.ops.wm.read_factory_settings(use_empty=True)
-        obj = bust(bust_mm, scale)
+        obj = bust(TRIANGLES, scale=scale)
         [outcome] = bake_image([obj], tmp_path / unit)
         assert outcome.status == "written"
         pixels, metadata = imageio.read_image(outcome.where)
@@ -151,7 +142,7 @@ def test_image_bakes_at_every_unit_give_lightmaps_of_equal_quality(bust_mm, tmp_
 
 
 @pytest.mark.parametrize("per", ["vertex", "corner"])
-def test_attribute_maps_are_the_same_at_every_unit(bust_mm, per):
+def test_attribute_maps_are_the_same_at_every_unit(bust, per):
     """Within 1e-3, but for the rare grazing rain sample that float rounding of the same scene at
     another size turns from lit to shaded (docs/scans.md: under 0.1% of corners). A smooth scan's
     rain is baked per vertex; with one sharp edge, per corner, where Cycles' fixed ray offsets made
@@ -159,7 +150,7 @@ def test_attribute_maps_are_the_same_at_every_unit(bust_mm, per):
     values = {}
     for unit, scale in SCAN.UNITS.items():
         bpy.ops.wm.read_factory_settings(use_empty=True)
-        obj = bust(SCAN.bust_mesh(8_000) if per == "corner" else bust_mm, scale)
+        obj = bust(8_000 if per == "corner" else TRIANGLES, scale=scale)
         if per == "corner":
             obj.data.attributes.new("sharp_edge", "BOOLEAN", "EDGE").data[0].value = True
         assert rain.smooth_at_vertices(obj) == (per == "vertex")
@@ -179,8 +170,8 @@ def colour_attribute(mesh, name):
     return colours[0::4]
 
 
-def test_a_second_bake_of_a_saved_scan_reuses_its_lightmap_and_is_unchanged(bust_mm, tmp_path):
-    obj = bust(bust_mm)
+def test_a_second_bake_of_a_saved_scan_reuses_its_lightmap_and_is_unchanged(bust, tmp_path):
+    obj = bust(TRIANGLES)
     saved = tmp_path / "bust.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(saved))  # maps record the .blend they come from
     assert [o.status for o in bake_image([obj], tmp_path / "maps")] == ["written"]
@@ -194,10 +185,10 @@ def test_a_second_bake_of_a_saved_scan_reuses_its_lightmap_and_is_unchanged(bust
     assert [layer.name for layer in obj.data.uv_layers] == [lightmap.LIGHTMAP_UV]
 
 
-def test_the_command_line_rebakes_a_saved_scan_as_unchanged(bust_mm, tmp_path):
-    """The issue's case: the same command again on the --save'd bust (it failed on the
-    extension's own lightmap)."""
-    bust(bust_mm)
+def test_the_command_line_rebakes_a_saved_scan_as_unchanged(bust, tmp_path):
+    """The same command again on the --save'd bust reports "unchanged": the extension's own
+    lightmap is reused (docs/maps.md, "The lightmap")."""
+    bust(TRIANGLES)
     path = tmp_path / "bust.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
     command = [sys.executable, "-m", "porous_weathering", "bake", str(path), "--save", "--out", str(tmp_path / "maps")]
@@ -209,8 +200,8 @@ def test_the_command_line_rebakes_a_saved_scan_as_unchanged(bust_mm, tmp_path):
         assert lines == [expected, expected], run.stdout
 
 
-def test_the_own_lightmap_that_no_longer_fits_is_refused_with_why(bust_mm, tmp_path):
-    obj = bust(bust_mm)
+def test_the_own_lightmap_that_no_longer_fits_is_refused_with_why(bust, tmp_path):
+    obj = bust(TRIANGLES)
     bake_image([obj], tmp_path / "first", resolution=512)
     with pytest.raises(ValueError, match=rf"'{lightmap.LIGHTMAP_UV}' cannot hold a bake at 64²: .*another island"):
         bake_image([obj], tmp_path / "second", resolution=64)
@@ -231,8 +222,8 @@ def test_a_lightmap_that_cannot_be_made_is_refused_leaving_nothing(fresh_scene, 
 # --- progress and cancel ------------------------------------------------------------------------
 
 
-def test_the_unwrap_is_a_step_of_its_own_with_progress(bust_mm, tmp_path):
-    obj = bust(bust_mm)
+def test_the_unwrap_is_a_step_of_its_own_with_progress(bust, tmp_path):
+    obj = bust(TRIANGLES)
     options = bake.BakeOptions(resolution=256, out_dir=str(tmp_path), rain_settings=FAST_RAIN)
     steps = list(bake.iter_bake([obj], options))
     unwrap = [step for step in steps if step.map == bake.LIGHTMAP_STEP]
@@ -245,7 +236,7 @@ def test_the_unwrap_is_a_step_of_its_own_with_progress(bust_mm, tmp_path):
     assert [(s.map, s.outcome.status) for s in steps if s.outcome] == [("rain", "written"), ("edges", "written")]
 
 
-def test_closing_the_bake_during_the_unwrap_stops_it_at_once(bust_mm, tmp_path, monkeypatch):
+def test_closing_the_bake_during_the_unwrap_stops_it_at_once(bust, tmp_path, monkeypatch):
     started = []
     original = lightmap.subprocess.Popen
 
@@ -254,7 +245,7 @@ def test_closing_the_bake_during_the_unwrap_stops_it_at_once(bust_mm, tmp_path, 
         return started[-1]
 
     monkeypatch.setattr(lightmap.subprocess, "Popen", recorded)
-    obj = bust(bust_mm)
+    obj = bust(TRIANGLES)
     steps = bake.iter_bake([obj], bake.BakeOptions(maps=("rain",), resolution=256, out_dir=str(tmp_path)))
     first = next(steps)
     assert first.map == bake.LIGHTMAP_STEP and started and started[0].poll() is None  # it runs

@@ -35,7 +35,7 @@ def test_alpha_zero_is_the_base_brdf_exactly():
 @pytest.mark.parametrize("nl, nv", [(0.0, 0.7), (0.7, 0.0), (0.0, 0.0), (1e-9, 1e-9)])
 @pytest.mark.parametrize("m", [0.0, 1e-8, 0.5, 1.5])
 def test_grazing_and_smooth_are_finite(nl, nv, m):
-    """SPEC 2: at m = 0, g = 1 for x > 0 and g = 0 at x = 0; no NaN or Inf at grazing angles."""
+    """docs/model.md §2: at m = 0, g = 1 for x > 0 and g = 0 at x = 0; no NaN or Inf at grazing angles."""
     kd_poro, ks_poro = porous_coefficients((0.6, 0.5, 0.4), 0.1, m, 0.3, 2.0, nl, nv)
     assert np.isfinite(kd_poro).all() and np.isfinite(ks_poro)
     if nl == 0.0 or nv == 0.0:  # G_p = 0: no pore effect at all

@@ -1,167 +1,152 @@
-"""The node groups are the same maths, node for node, as the baseline snapshot.
+"""The node groups are the same maths, node for node, as their snapshot.
 
-tests/data/node_groups.json was captured from the code before the node-builder refactor
-(identical on Blender 4.5 and 5.2), with tests/snapshots.py. A difference in a group's
-interface, its properties or any node (type, setting, constant, link) fails that group's
-test with a diff that names the first nodes that differ. If the maths is meant to change,
-regenerate the baseline (see the end of tests/snapshots.py) in the same commit.
+Every group the package builds is one case: the porous group in each light mode and the
+weathered group of every non-empty set of registered weathering modes in each light mode, read
+from the registries (``modes.names()``, ``nodes.LIGHT_MODES``), so a new mode or light mode is
+covered by construction. ``group_data`` turns a group into plain data (its interface, its
+properties and its nodes: type, settings, constants and links) that syrupy compares with
+tests/__snapshots__/test_node_snapshot.ambr; one snapshot serves Blender 4.5 and 5.2. If a group
+is meant to change, regenerate it in the same commit:
+``python -m pytest tests/test_node_snapshot.py --snapshot-update``.
 """
 
+import hashlib
 import json
-import pathlib
+import math
 
 import bpy
 
 import pytest
 
-from snapshots import all_group_snapshots
+from helpers import weathered_mode_sets
+from porous_weathering.shading import nodes
 
-BASELINE_PATH = pathlib.Path(__file__).resolve().parent / "data" / "node_groups.json"
-BASELINE = json.loads(BASELINE_PATH.read_text())
-
-
-@pytest.fixture(scope="module")
-def current():
-    bpy.ops.wm.read_factory_settings(use_empty=True)  # groups of earlier tests are not reused
-    return all_group_snapshots()
+# --- a node group as plain data -------------------------------------------------------------
 
 
-# --- a readable diff ----------------------------------------------------------------------
+def _rounded(value, digits):
+    """Floats to ``digits`` significant digits (-0.0 as 0.0), the rest as they are."""
+    if isinstance(value, bool) or not isinstance(value, float):
+        return value
+    return float(f"{value:.{digits - 1}e}") + 0.0 if math.isfinite(value) else repr(value)
 
 
-def _show(value):
-    return json.dumps(value, sort_keys=True)
+def _plain(value):
+    """An RNA value as plain data: floats rounded, arrays as lists, enum flags sorted, IDs by name."""
+    if isinstance(value, (bool, int, str, float)) or value is None:
+        return _rounded(value, 6)
+    if isinstance(value, (set, frozenset)):
+        return sorted(value)
+    if hasattr(value, "name") and hasattr(value, "bl_rna"):
+        return value.name
+    try:
+        return [_plain(item) for item in value]
+    except TypeError:
+        return repr(value)
 
 
-def _reaches(source, ids):
-    return any(upstream[0] in ids for upstream in ([source] if isinstance(source[0], str) else source))
+def _interface(tree):
+    """The interface items in order: sockets (name, direction, type, description, default, range,
+    panel) and panels."""
+    items = []
+    for item in tree.interface.items_tree:
+        if item.item_type == "PANEL":
+            items.append({"panel": item.name, "description": item.description})
+            continue
+        entry = {"name": item.name, "in_out": item.in_out, "socket_type": item.socket_type}
+        entry["description"] = item.description
+        for key, attribute in (("default", "default_value"), ("min", "min_value"), ("max", "max_value")):
+            if hasattr(item, attribute):
+                entry[key] = _plain(getattr(item, attribute))
+        if getattr(item, "parent", None) is not None and item.parent.name:  # the root panel has no name
+            entry["panel"] = item.parent.name
+        items.append(entry)
+    return items
 
 
-def _outputs_fed(nodes, node_id):
-    """The group outputs whose value depends on ``node_id``."""
-    downstream = {}
-    for key, node in nodes.items():
-        for source in node["inputs"].values():
-            for upstream in [source] if isinstance(source[0], str) else source:
-                downstream.setdefault(upstream[0], set()).add(key)
-    reached, todo = {node_id}, [node_id]
-    while todo:
-        for key in downstream.get(todo.pop(), ()):
-            if key not in reached:
-                reached.add(key)
-                todo.append(key)
-    return sorted(
-        name
-        for key in reached
-        if nodes[key]["type"] == "NodeGroupOutput"
-        for name, source in nodes[key]["inputs"].items()
-        if _reaches(source, reached)
+#: Properties every node has (layout and UI state), but label and mute, kept when set.
+BASE_PROPERTIES = {p.identifier for cls in (bpy.types.Node, bpy.types.ShaderNode) for p in cls.bl_rna.properties}
+KEPT_BASE_PROPERTIES = {"label": "", "mute": False}
+
+
+def _settings(node):
+    """A node's own settings (operation, data_type, use_clamp, a group's tree ...)."""
+    settings = {}
+    for prop in node.bl_rna.properties:
+        key = prop.identifier
+        if key in BASE_PROPERTIES or prop.type == "COLLECTION":
+            continue
+        if prop.type == "POINTER" and not hasattr(getattr(node, key), "users"):
+            continue  # structs such as texture_mapping: not used by these groups; IDs by name
+        settings[key] = _plain(getattr(node, key))
+    settings.update(
+        {key: getattr(node, key) for key, unset in KEPT_BASE_PROPERTIES.items() if getattr(node, key) != unset}
     )
+    return settings
 
 
-def _upstream_ids(node):
+def _socket_key(socket):
+    """A socket's identifier ('Value_001'), but the name on group input/output nodes (whose
+    identifiers count interface items in creation order)."""
+    return socket.name if socket.node.bl_idname in ("NodeGroupInput", "NodeGroupOutput") else socket.identifier
+
+
+def _nodes(tree):
+    """{node id: node} of every node. A node's id is its short type and a hash of what it
+    computes (type, settings, constants of its unlinked available inputs, and for linked ones the
+    ids and sockets upstream), so node names, locations and creation order do not matter, and
+    nodes computing the same thing share an entry (``count``)."""
+    links_into = {}
+    for link in tree.links:
+        links_into.setdefault(link.to_socket.as_pointer(), []).append(link)
+    ids, entries = {}, {}
+
+    def visit(node):
+        if node.as_pointer() in ids:
+            return ids[node.as_pointer()]
+        constants, inputs = {}, {}
+        for socket in node.inputs:
+            incoming = links_into.get(socket.as_pointer(), [])
+            if incoming:
+                sources = sorted(
+                    [visit(link.from_node), _socket_key(link.from_socket)]
+                    + ([] if link.is_valid and not link.is_muted else [f"valid={link.is_valid} muted={link.is_muted}"])
+                    for link in incoming
+                )
+                inputs[_socket_key(socket)] = sources[0] if len(sources) == 1 else sources
+            elif socket.enabled and not getattr(socket, "is_unavailable", False) and hasattr(socket, "default_value"):
+                constants[_socket_key(socket)] = _plain(socket.default_value)
+        entry = {"type": node.bl_idname, "properties": _settings(node), "constants": constants, "inputs": inputs}
+        operation = entry["properties"].get("operation")
+        digest = hashlib.sha256(json.dumps(entry, sort_keys=True).encode()).hexdigest()[:12]
+        node_id = f"{node.bl_idname.removeprefix('ShaderNode')}{'.' + operation if operation else ''}:{digest}"
+        ids[node.as_pointer()] = node_id
+        entries.setdefault(node_id, {**entry, "count": 0})["count"] += 1
+        return node_id
+
+    for node in tree.nodes:
+        visit(node)
+    return entries
+
+
+def group_data(tree):
+    """The shader node group ``tree`` as plain data: interface, custom properties and nodes."""
     return {
-        upstream[0]
-        for source in node["inputs"].values()
-        for upstream in ([source] if isinstance(source[0], str) else source)
+        "interface": _interface(tree),
+        "properties": {key: _plain(tree[key]) for key in sorted(tree.keys())},
+        "nodes": _nodes(tree),
     }
 
 
-def _first_differences(only_here, here, there):
-    """Nodes of ``only_here`` whose upstream nodes all exist in ``there``: where a change starts
-    (every node downstream of a changed node has a new id too)."""
-    return sorted(key for key in only_here if _upstream_ids(here[key]) <= set(there))
+# --- every group the package builds ----------------------------------------------------------
 
 
-def _field_diff(old, new):
-    lines = []
-    for field in ("type", "properties", "constants", "inputs"):
-        if field == "type":
-            if old["type"] != new["type"]:
-                lines.append(f"      type: {old['type']} -> {new['type']}")
-            continue
-        for key in sorted(set(old[field]) | set(new[field])):
-            a, b = old[field].get(key, "<absent>"), new[field].get(key, "<absent>")
-            if a != b:
-                lines.append(f"      {field}[{key}]: {_show(a)} -> {_show(b)}")
-    return lines
+@pytest.mark.parametrize("light_mode", nodes.LIGHT_MODES)
+def test_porous_group_matches_its_snapshot(light_mode, snapshot):
+    assert group_data(nodes.porous_group(light_mode)) == snapshot
 
 
-def node_differences(expected, actual):
-    """Readable lines for the node differences between two snapshots' ``nodes``."""
-    only_expected = set(expected) - set(actual)
-    only_actual = set(actual) - set(expected)
-    lines = [
-        f"  nodes: {len(only_expected)} of {len(expected)} baseline node ids are gone, "
-        f"{len(only_actual)} of {len(actual)} current node ids are new "
-        "(a change also renews the id of every node downstream of it)"
-    ]
-    removed = _first_differences(only_expected, expected, actual)
-    added = _first_differences(only_actual, actual, expected)
-    for new_id in list(added):
-        new = actual[new_id]
-        # the baseline node it most likely replaces: same type and same upstream nodes
-        candidates = [
-            old_id
-            for old_id in removed
-            if expected[old_id]["type"] == new["type"] and expected[old_id]["inputs"] == new["inputs"]
-        ]
-        candidates = candidates or [
-            old_id
-            for old_id in removed
-            if expected[old_id]["type"] == new["type"] and _upstream_ids(expected[old_id]) == _upstream_ids(new)
-        ]
-        if len(candidates) == 1:
-            old_id = candidates[0]
-            removed.remove(old_id)
-            added.remove(new_id)
-            lines.append(f"    changed {old_id} -> {new_id} (feeds {', '.join(_outputs_fed(actual, new_id))}):")
-            lines += _field_diff(expected[old_id], new)
-    for old_id in removed:
-        lines.append(
-            f"    baseline only: {old_id} (fed {', '.join(_outputs_fed(expected, old_id))}) "
-            f"{_show({k: v for k, v in expected[old_id].items() if k != 'count'})}"
-        )
-    for new_id in added:
-        lines.append(
-            f"    current only: {new_id} (feeds {', '.join(_outputs_fed(actual, new_id))}) "
-            f"{_show({k: v for k, v in actual[new_id].items() if k != 'count'})}"
-        )
-    for key in sorted(set(expected) & set(actual)):
-        if expected[key]["count"] != actual[key]["count"]:
-            lines.append(
-                f"    {key}: {expected[key]['count']} identical node(s) in the baseline, {actual[key]['count']} now"
-            )
-    return lines
-
-
-def group_differences(expected, actual):
-    """Readable lines for every difference between two group snapshots ([] when equal)."""
-    lines = []
-    old_items, new_items = expected["interface"], actual["interface"]
-    for index in range(max(len(old_items), len(new_items))):
-        old = old_items[index] if index < len(old_items) else "<absent>"
-        new = new_items[index] if index < len(new_items) else "<absent>"
-        if old != new:
-            lines.append(f"  interface item {index}: {_show(old)}\n                     now: {_show(new)}")
-    if expected["properties"] != actual["properties"]:
-        lines.append(f"  tree properties: {_show(expected['properties'])} -> {_show(actual['properties'])}")
-    if expected["nodes"] != actual["nodes"]:
-        lines += node_differences(expected["nodes"], actual["nodes"])
-    return lines
-
-
-# --- the tests ----------------------------------------------------------------------------
-
-
-def test_the_same_groups_are_built(current):
-    assert sorted(current) == sorted(BASELINE)
-
-
-@pytest.mark.parametrize("name", sorted(BASELINE))
-def test_group_matches_the_baseline(current, name):
-    if name not in current:
-        pytest.fail(f"{name}: not built any more (built: {sorted(current)})")
-    lines = group_differences(BASELINE[name], current[name])
-    if lines:
-        pytest.fail(f"{name} differs from {BASELINE_PATH.name}:\n" + "\n".join(lines), pytrace=False)
+@pytest.mark.parametrize("light_mode", nodes.LIGHT_MODES)
+@pytest.mark.parametrize("modes", weathered_mode_sets(), ids="+".join)
+def test_weathered_group_matches_its_snapshot(modes, light_mode, snapshot):
+    assert group_data(nodes.weathered_group(modes, light_mode)) == snapshot

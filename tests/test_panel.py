@@ -9,14 +9,14 @@ import bpy
 import numpy as np
 import pytest
 
-import porous_weathering
+from porous_weathering import ui
 from porous_weathering.common import imageio
 from porous_weathering.core import modes as weathering_modes
-from porous_weathering.maps import efflorescence_map
+from porous_weathering.maps import efflorescence_map, linking
 from porous_weathering.maps import registry as maps
 from porous_weathering.samples import studio
 from porous_weathering.shading import presets
-from porous_weathering.ui import panel as ui
+from porous_weathering.ui import settings as ui_settings
 
 SAMPLES = sorted((pathlib.Path(__file__).resolve().parents[1] / "sample_blends").glob("*.blend"))
 #: Scan-sized samples (the bust: 200k triangles) skip the per-sample tests below, which bake every
@@ -28,13 +28,6 @@ def per_sample(paths):
     """Each sample path as a test parameter; the scan-sized ones skipped, with the reason."""
     skip = pytest.mark.skip(reason="scan-sized sample: weathered end to end once in tests/test_samples.py")
     return [pytest.param(path, id=path.stem, marks=skip if path.stem in SCAN_SIZED else ()) for path in paths]
-
-
-@pytest.fixture
-def registered():
-    porous_weathering.register()
-    yield
-    porous_weathering.unregister()
 
 
 def first_mesh():
@@ -59,9 +52,9 @@ def test_panel_operators_run_on_sample(sample, registered, tmp_path):
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
     assert obj.active_material["pw_light_mode"] in ("SUN", "POINT", "AMBIENT")
 
-    assert ui.missing_maps(obj, ("soiling",)) == ["edges", "rain"]
+    assert linking.missing_maps(obj, ("soiling",)) == ["edges", "rain"]
     result = bpy.ops.porous_weathering.bake_maps(maps={"rain", "edges"}, target="attribute", samples=4)
-    assert result == {"FINISHED"} and ui.missing_maps(obj, ("soiling", "wet")) == []
+    assert result == {"FINISHED"} and linking.missing_maps(obj, ("soiling", "wet")) == []
 
     settings.soiling = settings.wet = True
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
@@ -130,18 +123,18 @@ def test_bake_then_make_connects_every_baked_map(sample, target, registered, tmp
     settings = bpy.context.scene.porous_weathering
 
     for mode, inputs in MAP_MODES.items():  # nothing baked yet: each mode warns
-        assert ui.missing_maps(obj, (mode,)) == sorted({item.map for item in inputs})
+        assert linking.missing_maps(obj, (mode,)) == sorted({item.map for item in inputs})
     # 512: the brick wall's 864 UV islands cannot lie 4 texels apart in fewer (docs/maps.md)
     assert bpy.ops.porous_weathering.bake_maps(
         maps={"rain"}, target=target, resolution=512, samples=2, out_dir=str(tmp_path)
     ) == {"FINISHED"}
-    assert ui.missing_maps(obj, ("soiling",)) == ["edges"]  # half baked: the warning stays
+    assert linking.missing_maps(obj, ("soiling",)) == ["edges"]  # half baked: the warning stays
     assert bpy.ops.porous_weathering.bake_maps(
         maps=set(maps.names()), target=target, resolution=512, samples=2, out_dir=str(tmp_path)
     ) == {"FINISHED"}
-    baked = ui.object_maps(obj)
+    baked = linking.discover_maps(obj)
     for mode, inputs in MAP_MODES.items():
-        assert ui.missing_maps(obj, (mode,)) == []
+        assert linking.missing_maps(obj, (mode,)) == []
         for name in weathering_modes.names():
             setattr(settings, name, name == mode)
         assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
@@ -163,17 +156,17 @@ def test_key_light_defaults_to_the_scenes_strongest_sun(registered, fresh_scene)
     """An empty Key Light is the strongest sun that renders (first by name among equals); no sun:
     ambient. Make wires what the rule picks."""
     settings = fresh_scene.porous_weathering
-    assert settings.key_light is None and ui.key_light(fresh_scene, settings) is None
+    assert settings.key_light is None and ui_settings.key_light(fresh_scene, settings) is None
     lamp = add_light(fresh_scene, "Lamp", "POINT", 1000.0)
-    assert ui.key_light(fresh_scene, settings) is None, "a point light is never picked for the artist"
+    assert ui_settings.key_light(fresh_scene, settings) is None, "a point light is never picked for the artist"
     low = add_light(fresh_scene, "Low Sun", "SUN", 1.0)
-    assert ui.key_light(fresh_scene, settings) is low, "the only sun"
+    assert ui_settings.key_light(fresh_scene, settings) is low, "the only sun"
     strong = add_light(fresh_scene, "Strong Sun", "SUN", 4.0)
     add_light(fresh_scene, "Strong Sun 2", "SUN", 4.0)
     add_light(fresh_scene, "Hidden Sun", "SUN", 9.0).hide_render = True
-    assert ui.key_light(fresh_scene, settings) is strong
+    assert ui_settings.key_light(fresh_scene, settings) is strong
     settings.key_light = lamp
-    assert ui.key_light(fresh_scene, settings) is lamp, "a light the artist picks wins"
+    assert ui_settings.key_light(fresh_scene, settings) is lamp, "a light the artist picks wins"
     settings.key_light = None
 
     plane = studio.add_plane(fresh_scene)
@@ -193,7 +186,7 @@ def test_panel_weathering_values_come_from_the_registry_and_the_stone(registered
         prop = settings.bl_rna.properties[item.name]
         assert prop.description == item.tooltip and (prop.hard_min, prop.hard_max) == (item.low, item.high)
         assert getattr(settings, item.name) == pytest.approx(
-            presets.PRESETS[ui.DEFAULT_SOURCE].panel_weathering()[item.name]
+            presets.PRESETS[ui_settings.DEFAULT_SOURCE].panel_weathering()[item.name]
         )
     settings.source = "BRICK"
     assert settings.crust == pytest.approx(presets.PRESETS["BRICK"].weathering["crust"])
@@ -205,7 +198,7 @@ def test_panel_weathering_values_come_from_the_registry_and_the_stone(registered
     group = plane.active_material.node_tree.nodes["Porous"]
     assert group.inputs["Crust"].default_value == pytest.approx(0.3)
     assert group.inputs["Wet Darkening"].default_value == pytest.approx(0.45)
-    settings.source = ui.FROM_MATERIAL  # no preset: the API defaults
+    settings.source = ui_settings.FROM_MATERIAL  # no preset: the API defaults
     assert settings.crust == pytest.approx(weathering_modes.inputs()["crust"].default)
 
 
@@ -221,19 +214,19 @@ def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_pa
 
     settings.source = "BRICK"
     settings.wet = settings.efflorescence = True
-    assert settings.key_light is None and ui.scene_sun(scene) is not None
-    assert ui.missing_maps(obj, settings.modes()) == ["efflorescence", "rain"]
+    assert settings.key_light is None and ui_settings.scene_sun(scene) is not None
+    assert linking.missing_maps(obj, settings.modes()) == ["efflorescence", "rain"]
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}  # warns, and still makes it
     assert bpy.ops.porous_weathering.bake_maps(maps={"rain"}, target="attribute", samples=2) == {"FINISHED"}
-    assert ui.missing_maps(obj, settings.modes()) == ["efflorescence"]
+    assert linking.missing_maps(obj, settings.modes()) == ["efflorescence"]
 
     assert bpy.ops.porous_weathering.make_efflorescence_map(source="BRICK_JOINTS", resolution=64) == {"FINISHED"}
     path = efflorescence_map.default_path(obj.name)
     assert os.path.dirname(path) == str(tmp_path)
     joints = efflorescence_map.brick_joint_map(64)
     assert np.array_equal(imageio.read_image(path)[0][..., 0], joints)
-    image = ui.object_maps(obj)["efflorescence"]
-    assert ui.missing_maps(obj, settings.modes()) == [] and bpy.path.abspath(image.filepath) == path
+    image = linking.discover_maps(obj)["efflorescence"]
+    assert linking.missing_maps(obj, settings.modes()) == [] and bpy.path.abspath(image.filepath) == path
 
     photo = np.full((48, 48, 3), 0.2, dtype=np.float32)
     photo[10:30, 5:40] = 0.9  # a salt patch
@@ -248,15 +241,15 @@ def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_pa
     ) == {"FINISHED"}
     from_photo = efflorescence_map.photo_map(tmp_path / "salt.png", size=64)
     assert np.array_equal(imageio.read_image(path)[0][..., 0], from_photo)
-    assert ui.object_maps(obj)["efflorescence"] is image, "the same image, reloaded"
+    assert linking.discover_maps(obj)["efflorescence"] is image, "the same image, reloaded"
 
     settings.wet_darkening = 0.7
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
     made = obj.active_material
     group = made.node_tree.nodes["Porous"]
-    assert made["pw_light_mode"] == "SUN" and made.node_tree["pw_key_light"] == ui.scene_sun(scene).name
+    assert made["pw_light_mode"] == "SUN" and made.node_tree["pw_key_light"] == ui_settings.scene_sun(scene).name
     assert_reads(group.inputs["Efflorescence Map"], image, obj)
-    assert_reads(group.inputs["Rain Map"], ui.object_maps(obj)["rain"], obj)
+    assert_reads(group.inputs["Rain Map"], linking.discover_maps(obj)["rain"], obj)
     assert group.inputs["Wet Darkening"].default_value == pytest.approx(0.7)
     pixels = np.empty(len(image.pixels), dtype=np.float32)
     image.pixels.foreach_get(pixels)

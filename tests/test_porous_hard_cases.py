@@ -1,4 +1,4 @@
-"""Hard cases rendered: the node group stays finite and agrees with model.py (SPEC 2)."""
+"""Hard cases rendered: the node group stays finite and agrees with model.py (docs/model.md §2)."""
 
 import math
 import warnings
@@ -93,7 +93,7 @@ def test_group_sockets_outside_their_range_stay_finite(fresh_scene):
 
 
 def test_point_light_position_drives_the_shading(fresh_scene):
-    """Point-like key lights: S runs from the shading point to the light (SPEC 3)."""
+    """Point-like key lights: S runs from the shading point to the light (docs/model.md §3)."""
     plane = studio.add_plane(fresh_scene, size=2.0)
     lamp = studio.add_point_light(fresh_scene, (0.6, -0.3, 0.8))
     studio.add_ortho_camera(fresh_scene, scale=2.0)

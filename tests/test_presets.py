@@ -28,7 +28,7 @@ def test_preset_values_are_physical(key):
     assert 0.0 < preset.roughness <= 1.0
     kd = preset.linear_base_color()[:3]
     assert all(0.0 < c < 1.0 for c in kd)
-    assert max(kd) + preset.ks <= 1.0, "k_s + k_d > 1 would be clamped (SPEC 1)"
+    assert max(kd) + preset.ks <= 1.0, "k_s + k_d > 1 would be clamped (docs/model.md §1)"
 
 
 @pytest.mark.parametrize("key", PRESETS)

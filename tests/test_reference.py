@@ -16,7 +16,7 @@ SUN = ref.Sun((0.5, 0.3, 0.8))
 #: Relative RMSE allowed for the white lobes: measured 0.03-0.07% (tessellation of the mesh
 #: sphere); roughness alpha = r instead of r^2, or Fresnel, or a missing Smith term is > 5%.
 LOBE_TOLERANCE = 0.005
-#: Key-light mode against the exact reference, Cycles converged (the issue's 1% RMSE).
+#: Key-light mode against the exact reference, Cycles converged: 1% RMSE (docs/accuracy.md).
 KEY_LIGHT_TOLERANCE = 0.01
 
 

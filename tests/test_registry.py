@@ -1,10 +1,13 @@
-"""One declaration is enough: a toy mode and a toy map, defined here only, appear in the model,
-the node group (its Cycles render matches its numpy backend), the panel, the bake operator's
-properties, BakeOptions and ``bake --help``."""
+"""One declaration is enough: the toy mode and toy map of tests/helpers.py, registered by the
+``toys`` fixture, appear in the model, the node group (its Cycles render matches its numpy
+backend), the node-group snapshot's cases, the panel, the bake operator's properties,
+BakeOptions, ``bake --help``, the input hash (a changed setting re-bakes) and the export; the
+docs tables' check sees them too (tests/test_docs_tables.py)."""
 
 import contextlib
 import io
-from dataclasses import dataclass
+import json
+import pathlib
 
 import bpy
 
@@ -12,74 +15,25 @@ import numpy as np
 import pytest
 
 import porous_weathering
-from helpers import STONE, LitSphere, assert_matches, expected_image, lobes, model_weights, weathered
-from porous_weathering.blender import mesh_arrays
+from helpers import (
+    STONE,
+    TOY_MAP,
+    LitSphere,
+    ToySettings,
+    assert_matches,
+    expected_image,
+    lobes,
+    model_weights,
+    weathered,
+    weathered_mode_sets,
+)
 from porous_weathering.cli import entry
-from porous_weathering.common.options import option
-from porous_weathering.core import model, modes
-from porous_weathering.core.modes.base import TIME, Input, Layer, Mode
+from porous_weathering.core import model
 from porous_weathering.maps import bake
 from porous_weathering.maps import registry as maps
+from porous_weathering.publish import export
 from porous_weathering.shading import nodes
 from porous_weathering.ui import panel as ui
-
-GRIME = Input("grime", 0.0, 0.0, 1.0, "Toy grime: darkens the diffuse where the toy map is high", mask=True, map="toy")
-STRENGTH = Input("grime_strength", 0.5, 0.0, 1.0, "How much the grime darkens at t = 1")
-
-
-def darken_with_grime(xp, point):
-    """Written once: evaluated by numpy in the model, built as nodes in the group."""
-    s = point.state
-    point.kd_w = point.kd_w * (1.0 - xp.channel(s["grime"] * s["grime_strength"] * s["time"]))
-
-
-TOY_MODE = Mode(
-    "grime",
-    "Grime",
-    "Toy mode of the registry test",
-    (TIME, GRIME, STRENGTH),
-    (Layer(50, darken_with_grime),),
-    catalog="Grime",
-    asset_summary="Toy grime",
-)
-
-
-@dataclass(frozen=True)
-class ToySettings:
-    level: float = option(
-        0.75, label="Toy Level", flag="--toy-level", low=0.0, high=1.0, tooltip="The value the toy map is baked to"
-    )
-
-
-def toy_image(obj, uv_map, options, margin):
-    return np.full((options.resolution, options.resolution), options.toy_settings.level, np.float32)
-
-
-def toy_attribute(obj, options):
-    mesh_arrays.write_corner_attribute(obj.data, "pw_toy", np.full(len(obj.data.loops), options.toy_settings.level))
-
-
-TOY_MAP = maps.MapKind(
-    "toy",
-    "Toy Map",
-    "Toy map of the registry test",
-    attribute="pw_toy",
-    settings=ToySettings,
-    options_field="toy_settings",
-    bake_image=toy_image,
-    bake_attribute=toy_attribute,
-)
-
-
-@pytest.fixture
-def toys():
-    modes.register(TOY_MODE)
-    maps.register(TOY_MAP)
-    try:
-        yield
-    finally:
-        modes.unregister(TOY_MODE.name)
-        maps.unregister(TOY_MAP.name)
 
 
 def test_toy_mode_is_in_the_model(toys):
@@ -156,3 +110,36 @@ def test_toy_map_through_the_panel(toys, fresh_scene, tmp_path, target):
             assert source.image.filepath.endswith("Plane.toy.exr")
     finally:
         porous_weathering.unregister()
+
+
+def test_toy_mode_is_in_the_node_group_snapshot_cases(toys):
+    assert [mode_set for mode_set in weathered_mode_sets() if "grime" in mode_set][0] == ("grime",)
+    assert ("soiling", "wet", "efflorescence", "grime") in weathered_mode_sets()
+
+
+def test_toy_map_rebakes_when_its_setting_changes(toys, fresh_scene, tmp_path):
+    """Every setting of a map is in its input hash by default: the record lists none by hand."""
+    bpy.ops.mesh.primitive_plane_add()
+    plane = bpy.context.active_object
+    options = bake.BakeOptions(maps=("toy",), target="attribute", toy_settings=ToySettings(level=0.25))
+    assert [o.status for o in bake.bake_maps([plane], options)] == ["written"]
+    assert [o.status for o in bake.bake_maps([plane], options)] == ["unchanged"]
+    changed = bake.BakeOptions(maps=("toy",), target="attribute", toy_settings=ToySettings(level=0.5))
+    assert [o.status for o in bake.bake_maps([plane], changed)] == ["written"]
+    values = np.zeros(len(plane.data.loops) * 4, np.float32)
+    plane.data.color_attributes[TOY_MAP.attribute].data.foreach_get("color", values)
+    assert np.allclose(values.reshape(-1, 4)[:, 0], 0.5)
+
+
+def test_toy_mode_is_exported(toys, fresh_scene, tmp_path):
+    """The export bakes whatever a material's modes are: a variant per age, and the paradata
+    names the toy mode and its inputs."""
+    bpy.ops.mesh.primitive_plane_add()
+    plane = bpy.context.active_object
+    plane.data.materials.append(weathered("Grimy", ("grime",), grime=1.0, grime_strength=1.0))
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "toy.blend"))
+    result = export.export_variants([plane], (0.0, 1.0), size=16, out_dir=str(tmp_path / "out"))
+    assert list(result.variants) == ["clean", "t=1"]
+    paradata = json.loads(pathlib.Path(result.paradata).read_text())
+    (material,) = [m for obj in paradata["objects"] for m in obj["materials"]]
+    assert material["modes"] == ["grime"] and material["inputs"]["Grime Strength"] == 1.0

@@ -21,10 +21,10 @@ import pytest
 
 import porous_weathering
 from bad_meshes import cube, snapshot
+from porous_weathering import ui
 from porous_weathering.common import imageio
 from porous_weathering.maps import bake, lightmap, rain
 from porous_weathering.samples import studio
-from porous_weathering.ui import panel as ui
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FAST = dict(resolution=16, rain_settings=rain.RainSettings(samples=2))
@@ -109,7 +109,8 @@ def test_cancel_before_any_map_removes_the_new_lightmap(fresh_scene, tmp_path):
 CHILD = r"""
 import os, resource, signal, sys, time
 import bpy
-from porous_weathering import bake, imageio, rain
+from porous_weathering import bake, rain
+from porous_weathering.common import imageio
 blend, out, mode = sys.argv[1:4]
 bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False, use_scripts=False)
 if mode == "kill-in-cycles":
@@ -218,13 +219,6 @@ def undo_restores(operation, names):
     bpy.ops.ed.undo()
     after = snapshot([bpy.data.objects[name] for name in names])  # objects are new Python objects now
     return before, changed, after
-
-
-@pytest.fixture
-def registered():
-    porous_weathering.register()
-    yield
-    porous_weathering.unregister()
 
 
 def test_undo_after_adding_a_porous_material(fresh_scene, registered):

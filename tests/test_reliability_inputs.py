@@ -26,7 +26,7 @@ from porous_weathering.samples import studio
 
 NAN = math.nan
 
-#: make_porous_material keyword -> (group socket, low, high): the ranges of SPEC 1.
+#: make_porous_material keyword -> (group socket, low, high): the ranges of docs/model.md §1.
 MATERIAL_INPUTS = {
     "ks": ("Specular", 0.0, 1.0),
     "roughness": ("Roughness", 0.0, 1.5),

@@ -10,7 +10,6 @@ import bpy
 import numpy as np
 import pytest
 
-import porous_weathering
 from bad_meshes import BUILDERS, cube, data_counts, snapshot
 from porous_weathering.blender import mesh_arrays
 from porous_weathering.common import imageio
@@ -41,13 +40,6 @@ def cases():
         for name in BUILDERS
         for operation in ("operator", "image", "attribute")
     ]
-
-
-@pytest.fixture
-def registered():
-    porous_weathering.register()
-    yield
-    porous_weathering.unregister()
 
 
 def run(operation, obj, out_dir):

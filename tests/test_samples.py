@@ -16,13 +16,13 @@ import numpy as np
 import pytest
 
 import porous_weathering
-from generators import OLDEST_LINE, load_script
 from helpers import assert_matches, expected_image
 from porous_weathering.blender import render
 from porous_weathering.core import model
 from porous_weathering.samples import demo, studio
 from porous_weathering.shading import nodes, weathering
 from porous_weathering.ui import panel as ui
+from scripts import OLDEST_LINE, load_script
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SAMPLES = ROOT / "sample_blends"
@@ -31,7 +31,7 @@ build_samples = load_script("sample_blends/build_samples.py")
 
 #: Most bytes and triangles of a sample: small, for the repository and quick tests; but the
 #: scan-like bust, whose size is its point (a scan of a bust has 100k-1M triangles): at least
-#: 200k triangles (issue 13), 4.5 MB compressed.
+#: 200k triangles, 4.5 MB compressed.
 LIMITS = {"bust": (6_000_000, 250_000)}
 SMALL = (2_000_000, 40_000)
 
@@ -173,7 +173,7 @@ def luminance(image):
 
 
 def soiling_areas(weathered):
-    """SPEC 4's three areas by the baked maps: white where rain washes (E at or above the
+    """docs/model.md §4's three areas by the baked maps: white where rain washes (E at or above the
     threshold), grey where it is sheltered and flat, black where sheltered on an edge or cavity."""
     threshold, width = weathered.inputs["rain_threshold"], weathered.inputs["front_width"]
     sheltered = (0.0, threshold - width)
@@ -243,7 +243,7 @@ def test_brick_wall_wets_where_rain_reaches(tmp_path):
 
 # --- pixel by pixel against model.py, with the defaults and the paper-exact settings --------------
 
-#: Each mode's inputs beyond the paper (SPEC 6) at their paper-exact values.
+#: Each mode's inputs beyond the paper (docs/model.md §6) at their paper-exact values.
 PAPER_EXACT = {model.SOILING: dict(crust=0.0), model.WET: dict(wet_darkening=0.0)}
 
 

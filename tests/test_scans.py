@@ -1,6 +1,6 @@
-"""Scans as they come (issue 16, docs/scans.md): the bake warns, one line naming the object,
-when a scan's up axis looks wrong for rain or when it is flat-shaded as a scan saved without
-normals is; objects set up right, the sample scenes' included, get no warning. A smooth scan's
+"""Scans as they come (docs/scans.md, "What the bake checks"): the bake warns, one line naming
+the object, when a scan's up axis looks wrong for rain or when it is flat-shaded as a scan saved
+without normals is; objects set up right, the sample scenes' included, get no warning. A smooth scan's
 rain attribute is baked per vertex, as its corners would be."""
 
 import math
@@ -14,39 +14,25 @@ import bpy
 import numpy as np
 import pytest
 
-from generators import load_script
 from porous_weathering.blender import mesh_arrays, scratch_scene
 from porous_weathering.maps import bake, edges, lightmap, rain, scan_checks
 from porous_weathering.ui import bake_operator as ops_bake
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-SCAN = load_script("sample_blends/scan_generator.py")
 SAMPLES = sorted((ROOT / "sample_blends").glob("*.blend"))
 
 #: How a Z-up scan comes in when read as Y-up (OBJ and PLY importers' default), and the reverse.
 TURNED = {"Z-up read as Y-up": (math.pi / 2, 0, 0), "Y-up read as Z-up": (-math.pi / 2, 0, 0)}
 
 
-@pytest.fixture(scope="module")
-def bust_mm():
-    return SCAN.bust_mesh(20_000, seed=0)
-
-
-def bust(bust_mm, rotation=(0.0, 0.0, 0.0), name="Bust"):
-    obj = SCAN.add_to_scene(name, *bust_mm)
-    obj.rotation_euler = rotation
-    bpy.context.view_layer.update()
-    return obj
-
-
-def test_a_standing_scan_gets_no_warning(bust_mm):
-    assert scan_checks.problems(bust(bust_mm)) == []
-    assert scan_checks.problems(bust(bust_mm, (0, 0, 1.0), "Turned about Z")) == []
+def test_a_standing_scan_gets_no_warning(bust):
+    assert scan_checks.problems(bust()) == []
+    assert scan_checks.problems(bust(name="Turned about Z", rotation=(0, 0, 1.0))) == []
 
 
 @pytest.mark.parametrize("rotation", TURNED.values(), ids=TURNED.keys())
-def test_a_scan_on_its_side_is_named_in_one_warning(bust_mm, rotation):
-    [message] = scan_checks.problems(bust(bust_mm, rotation))
+def test_a_scan_on_its_side_is_named_in_one_warning(bust, rotation):
+    [message] = scan_checks.problems(bust(rotation=rotation))
     assert message.startswith("object 'Bust' looks as if it lies on its side") and "docs/scans.md" in message
     assert "\n" not in message
 
@@ -57,8 +43,8 @@ def test_a_surface_facing_the_ground_is_warned_about(fresh_scene):
     assert message.startswith("object 'Grid' faces the ground: 100% of its area")
 
 
-def test_the_up_axis_is_not_checked_when_no_rain_is_baked(bust_mm):
-    assert scan_checks.problems(bust(bust_mm, TURNED["Z-up read as Y-up"]), rain=False) == []
+def test_the_up_axis_is_not_checked_when_no_rain_is_baked(bust):
+    assert scan_checks.problems(bust(rotation=TURNED["Z-up read as Y-up"]), rain=False) == []
 
 
 @pytest.mark.parametrize("sample", SAMPLES, ids=[path.stem for path in SAMPLES])
@@ -71,16 +57,16 @@ def test_the_sample_scenes_get_no_warning(sample):
             assert scan_checks.problems(obj) == [], obj.name
 
 
-def test_a_flat_shaded_scan_without_normals_is_warned_about(bust_mm):
-    obj = bust(bust_mm)
+def test_a_flat_shaded_scan_without_normals_is_warned_about(bust):
+    obj = bust()
     assert not scan_checks.looks_faceted(obj.data)  # smooth, as the generator makes it
     obj.data.shade_flat()
     [message] = scan_checks.problems(obj)
     assert message.startswith("object 'Bust' is flat-shaded with no custom normals")
 
 
-def test_flat_shading_with_custom_normals_or_hard_edges_is_not_warned_about(bust_mm, fresh_scene):
-    obj = bust(bust_mm)
+def test_flat_shading_with_custom_normals_or_hard_edges_is_not_warned_about(bust, fresh_scene):
+    obj = bust()
     obj.data.shade_flat()
     normals = [vertex.normal.copy() for vertex in obj.data.vertices]
     obj.data.normals_split_custom_set_from_vertices(normals)  # a scan saved with its normals
@@ -94,8 +80,8 @@ def test_flat_shading_with_custom_normals_or_hard_edges_is_not_warned_about(bust
     assert not scan_checks.looks_faceted(bpy.context.active_object.data)
 
 
-def test_the_bake_warns_once_per_problem(bust_mm, tmp_path):
-    obj = bust(bust_mm, TURNED["Z-up read as Y-up"])
+def test_the_bake_warns_once_per_problem(bust, tmp_path):
+    obj = bust(rotation=TURNED["Z-up read as Y-up"])
     obj.data.shade_flat()
     options = bake.BakeOptions(target="attribute", maps=("rain",))
     with warnings.catch_warnings(record=True) as given:
@@ -105,8 +91,8 @@ def test_the_bake_warns_once_per_problem(bust_mm, tmp_path):
     assert len(messages) == 2 and all(m.startswith("object 'Bust'") for m in messages)
 
 
-def test_the_command_line_prints_each_warning_as_one_line(bust_mm, tmp_path):
-    bust(bust_mm, TURNED["Z-up read as Y-up"])
+def test_the_command_line_prints_each_warning_as_one_line(bust, tmp_path):
+    bust(rotation=TURNED["Z-up read as Y-up"])
     path = tmp_path / "lying.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
     run = subprocess.run(
@@ -123,8 +109,8 @@ def test_the_command_line_prints_each_warning_as_one_line(bust_mm, tmp_path):
     assert not any("scan_checks" in line or "warnings.warn" in line for line in lines)  # no source line
 
 
-def test_the_operator_reports_the_warnings(bust_mm, tmp_path, capfd):
-    obj = bust(bust_mm, TURNED["Z-up read as Y-up"])
+def test_the_operator_reports_the_warnings(bust, tmp_path, capfd):
+    obj = bust(rotation=TURNED["Z-up read as Y-up"])
     obj.select_set(True)
     bpy.context.view_layer.objects.active = obj
     ops_bake.register()
@@ -141,10 +127,10 @@ def test_the_operator_reports_the_warnings(bust_mm, tmp_path, capfd):
 # --- the rain of a smooth scan, per vertex ---------------------------------------------------------
 
 
-def test_a_smooth_scan_is_baked_per_vertex_as_its_corners_would_be(bust_mm, monkeypatch):
+def test_a_smooth_scan_is_baked_per_vertex_as_its_corners_would_be(bust, monkeypatch):
     """Corners at a vertex share its position and normal: baked once per vertex (six times fewer
     samples), E is the per-corner bake's, within its noise."""
-    obj = bust(bust_mm)
+    obj = bust()
     assert rain.smooth_at_vertices(obj)
     settings = rain.RainSettings(samples=16)
     per_vertex = rain.bake_rain_corners(obj, settings)
@@ -157,8 +143,8 @@ def test_a_smooth_scan_is_baked_per_vertex_as_its_corners_would_be(bust_mm, monk
     assert np.sqrt(np.mean((per_vertex - per_corner) ** 2)) < 0.02  # 16 samples' noise
 
 
-def test_corners_that_shade_apart_are_baked_per_corner(bust_mm):
-    obj = bust(bust_mm)
+def test_a_flat_shaded_or_displaced_scan_is_not_taken_as_smooth_at_its_vertices(bust):
+    obj = bust()
     obj.data.shade_flat()
     assert not rain.smooth_at_vertices(obj)
     obj.data.shade_smooth()
@@ -166,10 +152,10 @@ def test_corners_that_shade_apart_are_baked_per_corner(bust_mm):
     assert not rain.smooth_at_vertices(obj)
 
 
-def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_corner_bake_gives(bust_mm, monkeypatch):
+def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_corner_bake_gives(bust, monkeypatch):
     """Slanting rain (30° from +X): a vertex more than 90° + the cone from its axis gets no probe
     and E = 0, exactly what Cycles gives it baked per corner; the others agree within noise."""
-    obj = bust(bust_mm)
+    obj = bust()
     settings = rain.RainSettings(samples=16, cone=10.0, wind_tilt=30.0)
     probes = []
     original = rain._bake_probes
@@ -189,10 +175,10 @@ def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_co
     assert abs(through_vertices.mean() - per_corner.mean()) < 5e-3
 
 
-def test_an_image_hardly_finer_than_the_scan_is_drawn_through_its_vertices(bust_mm, monkeypatch):
+def test_an_image_hardly_finer_than_the_scan_is_drawn_through_its_vertices(bust, monkeypatch):
     """At 256² the 20k-triangle bust has 6.5 texels per vertex: E is baked at the vertices and
     drawn across the triangles, and comes out as a per-texel bake does, within its noise."""
-    obj = bust(bust_mm)
+    obj = bust()
     lightmap.add_uv_map(obj.data, lightmap.LIGHTMAP_UV, lightmap.lightmap_uvs(obj.data, 256))
     settings = rain.RainSettings(samples=16)
     through_vertices = []
@@ -209,11 +195,11 @@ def test_an_image_hardly_finer_than_the_scan_is_drawn_through_its_vertices(bust_
     assert np.sqrt(np.mean((drawn[covered] - per_texel[covered]) ** 2)) < 0.04  # 16 samples' noise, twice
 
 
-def test_a_scan_finer_than_the_edge_radius_gets_its_image_mask_drawn_through_its_vertices(bust_mm, monkeypatch):
+def test_a_scan_finer_than_the_edge_radius_gets_its_image_mask_drawn_through_its_vertices(bust, monkeypatch):
     """At 5% of its size the 20k-triangle bust's median edge is under a quarter of the radius:
     the image mask is the field read at the vertices drawn across the triangles, and comes out
     as the field read at every texel does, within the interpolation's error."""
-    obj = bust(bust_mm)
+    obj = bust()
     lightmap.add_uv_map(obj.data, lightmap.LIGHTMAP_UV, lightmap.lightmap_uvs(obj.data, 256))
     settings = edges.EdgeSettings(scale=0.05)
     assert edges._median_edge(obj) <= edges.VERTEX_SPACING * edges.effective_radius(obj, settings)

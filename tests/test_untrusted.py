@@ -156,8 +156,8 @@ RUN_CLI_TRUSTING_PREFERENCES = r"""
 import sys
 import bpy
 bpy.context.preferences.filepaths.use_scripts_auto_execute = True  # a user who trusts their own files
-from porous_weathering import cli
-cli.exit_with(["bake", sys.argv[1], "--out", sys.argv[2], "--resolution", "16", "--samples", "1"])
+from porous_weathering.cli import entry
+entry.exit_with(["bake", sys.argv[1], "--out", sys.argv[2], "--resolution", "16", "--samples", "1"])
 """
 
 

@@ -1,7 +1,8 @@
-"""The composite soiling scene of issue #4: a wall with a cornice, its rain map and edge mask
-baked by the map pipeline (bake.bake_maps, colour attributes), rendered with Cycles at late t.
+"""The composite soiling scene (docs/weathering.md, "The sample scenes and the composite scene"):
+a wall with a cornice, its rain map and edge mask baked by the map pipeline (bake.bake_maps,
+colour attributes), rendered with Cycles at late t.
 
-SPEC 4 says where each area goes: white (rain-washed) where the rain exposure E reaches the
+docs/model.md §4 says where each area goes: white (rain-washed) where the rain exposure E reaches the
 threshold, grey (surface deposit) where it does not, black (carbon in the pores) in sheltered
 places from the highest edge/cavity values C down. Wind drives the rain onto the wall, so its
 open face is washed, while the cornice shelters a band below it; the inner corner between
@@ -31,7 +32,7 @@ from porous_weathering.shading import weathering
 #: so carbon in them would hardly show (docs/weathering.md).
 STONE = dict(base_color=(0.62, 0.55, 0.45), ks=0.05, roughness=0.3, porosity=0.5, pore_depth_ratio=0.5)
 LATE = dict(time=1.0, rain_threshold=0.5)
-#: The paper's equations alone (SPEC 6): no black crust.
+#: The paper's equations alone (docs/model.md §6): no black crust.
 PAPER_EXACT = dict(crust=0.0)
 #: Rain driven from the front (-Y) at 40 degrees from the vertical: the open wall gets E = sin 40.
 WIND = rain.RainSettings(wind_azimuth=-90.0, wind_tilt=40.0, samples=16)

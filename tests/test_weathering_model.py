@@ -1,5 +1,5 @@
-"""The weathering section of model.py (SPEC 4): exactness at t = 0, bounds and monotone aging;
-the extensions beyond the paper (SPEC 6: black crust, wet darkening) and their paper-exact
+"""The weathering section of model.py (docs/model.md §4): exactness at t = 0, bounds and monotone aging;
+the extensions beyond the paper (docs/model.md §6: black crust, wet darkening) and their paper-exact
 settings; and the efflorescence location maps."""
 
 import os
@@ -73,7 +73,7 @@ def weathered(stone, modes, **state):
     )
 
 
-#: The settings under which the extensions beyond the paper (SPEC 6) vanish.
+#: The settings under which the extensions beyond the paper (docs/model.md §6) vanish.
 PAPER_EXACT = dict(crust=0.0, wet_darkening=0.0)
 
 
@@ -162,7 +162,7 @@ def test_white_area_stays_clean_and_grey_area_takes_the_deposit():
     assert np.isclose(grey[1], clean[1] * (1 - coverage))
 
 
-# --- beyond the paper (SPEC 6): black crust and wet darkening ------------------------------
+# --- beyond the paper (docs/model.md §6): black crust and wet darkening ------------------------------
 
 
 @SETTINGS

@@ -39,7 +39,7 @@ STATES = {
     "efflorescence": dict(time=0.5, efflorescence_map=0.62, salt_color=(0.85, 0.8, 0.75)),
     "soiling+wet+efflorescence": dict(time=0.9, rain_map=0.3, edge_map=0.9, efflorescence_map=0.8),
 }
-#: The settings under which the extensions beyond the paper (SPEC 6) vanish.
+#: The settings under which the extensions beyond the paper (docs/model.md §6) vanish.
 PAPER_EXACT = dict(crust=0.0, wet_darkening=0.0)
 
 
@@ -191,7 +191,7 @@ def test_materials_hold_only_their_modes_nodes():
     assert {"Edge Map", "Pollution Color"} <= inputs[("soiling",)] and "Salt Color" not in inputs[("soiling",)]
     assert "Rain Map" in inputs[("wet",)] and "Edge Map" not in inputs[("wet",)]
     assert "Rain Map" not in inputs[("efflorescence",)]
-    assert "Crust" in inputs[("soiling",)] and "Wet Darkening" in inputs[("wet",)]  # contract (issue 13)
+    assert "Crust" in inputs[("soiling",)] and "Wet Darkening" in inputs[("wet",)]  # users' files name them
     assert "Crust" not in inputs[("wet",)] and "Wet Darkening" not in inputs[("soiling",)]
     for modes, group in groups.items():
         glossy = [node for node in group.nodes if node.type == "BSDF_GLOSSY"]

@@ -6,24 +6,18 @@ import tempfile
 import bpy
 
 from ..common import imageio
-from . import compat
+from . import compat, scratch_scene
 
 
 def use_cycles(scene, *, size=48, samples=4, seed=0, bounces=0, pixel_filter=0.01):
-    """CPU Cycles with a fixed seed, no denoising, no adaptive sampling, linear output.
+    """CPU Cycles with a fixed seed, no denoising, no adaptive sampling (the bakes' set-up,
+    ``scratch_scene.use_cycles``), linear output.
 
     ``pixel_filter`` is the pixel filter width in pixels: the default 0.01 samples every
     pixel at its centre, so a pixel is the shading of one point and can be checked exactly.
     """
-    scene.render.engine = "CYCLES"
-    cycles = scene.cycles
-    cycles.device = "CPU"
-    cycles.samples = samples
-    cycles.seed = seed
-    cycles.use_denoising = False
-    cycles.use_adaptive_sampling = False
-    cycles.max_bounces = bounces
-    cycles.filter_width = pixel_filter
+    scratch_scene.use_cycles(scene, samples=samples, seed=seed, bounces=bounces)
+    scene.cycles.filter_width = pixel_filter
     _common(scene, size)
 
 

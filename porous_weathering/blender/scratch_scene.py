@@ -1,7 +1,14 @@
-"""Copies of the user's objects in temporary scenes, where the bakes work: the user's
-scene, meshes, materials and selection are never touched; the probe materials and light
-aiming those scenes use; and exact texel bakes (EMIT, one sample a texel) of what a probe
-emits on an object's UV map."""
+"""Temporary scenes, the one place the bakes work: a clean-up ledger (``Ledger``) that removes
+every datablock, file and folder made for a bake when it closes, success or error; a temporary
+scene with the deterministic Cycles set-up every bake (and render) uses; copies of the user's
+objects in it, so that the user's scene, meshes, materials and selection are never touched; the
+probe materials and light aiming those scenes use; and exact texel bakes (EMIT, one sample a
+texel) of what a probe emits on an object's UV map."""
+
+import os
+import shutil
+import tempfile
+from typing import TypeVar
 
 import bpy
 
@@ -14,17 +21,118 @@ from . import compat, mesh_arrays
 #: Object types that have surfaces, materials and therefore something to bake or shade.
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 
+Block = TypeVar("Block", bound=bpy.types.ID)
 
-def placed_copy(obj, scene, material, *, own_mesh=False):
+
+class Ledger:
+    """What a temporary piece of work made (datablocks, files, folders), all removed when the
+    ledger closes, on success or error: objects first, then the other datablocks (latest first),
+    the scenes, and last the files and folders. A datablock removed meanwhile is skipped; what
+    cannot be removed does not stop the rest (the first such error is raised afterwards, unless
+    the ledger closes on an error of its own, which then goes on)."""
+
+    def __init__(self) -> None:
+        self._blocks: list[bpy.types.ID] = []
+        self._paths: list[str] = []
+
+    def add(self, block: Block) -> Block:
+        """Record ``block`` (a datablock, returned) for removal."""
+        self._blocks.append(block)
+        return block
+
+    def add_path(self, path: str | os.PathLike) -> str | os.PathLike:
+        """Record the file or folder ``path`` (returned) for removal."""
+        self._paths.append(os.fspath(path))
+        return path
+
+    def folder(self, prefix: str | None = None, dir: str | None = None) -> str:
+        """A new temporary folder (``tempfile.mkdtemp``), recorded for removal."""
+        return self.add_path(tempfile.mkdtemp(prefix=prefix, dir=dir))
+
+    def __enter__(self) -> "Ledger":
+        return self
+
+    def __exit__(self, kind, error, trace) -> bool:
+        try:
+            self.close()
+        except Exception:
+            if error is None:
+                raise
+        return False
+
+    def close(self) -> None:
+        """Remove everything recorded (see the class docstring); the ledger is empty afterwards."""
+        live = []
+        for block in reversed(self._blocks):
+            try:
+                kind = block.id_type
+            except ReferenceError:  # removed already
+                continue
+            live.append((0 if kind == "OBJECT" else 2 if kind == "SCENE" else 1, block))
+        self._blocks.clear()
+        errors = []
+        for _, block in sorted(live, key=lambda item: item[0]):
+            try:
+                _collection(block).remove(block)
+            except Exception as error:  # remove the others all the same
+                errors.append(error)
+        for path in reversed(self._paths):
+            try:
+                if os.path.isdir(path):
+                    shutil.rmtree(path, ignore_errors=True)
+                elif os.path.lexists(path):
+                    os.remove(path)
+            except OSError as error:
+                errors.append(error)
+        self._paths.clear()
+        if errors:
+            raise errors[0]
+
+
+def _collection(block):
+    """The ``bpy.data`` collection that holds ``block``: bpy.data.objects for an Object, ..."""
+    return getattr(bpy.data, _COLLECTIONS.get(block.id_type, block.id_type.lower() + "s"))
+
+
+_COLLECTIONS = {"MESH": "meshes", "NODETREE": "node_groups"}
+
+
+def use_cycles(scene: bpy.types.Scene, *, samples: int = 1, seed: int = 0, bounces: int = 0) -> None:
+    """The deterministic Cycles set-up of every bake and render: CPU, a fixed seed, no
+    denoising, no adaptive sampling, ``samples`` samples (a pixel's or texel's) and at most
+    ``bounces`` bounces (0: direct light only)."""
+    scene.render.engine = "CYCLES"
+    cycles = scene.cycles
+    cycles.device = "CPU"
+    cycles.samples = samples
+    cycles.seed = seed
+    cycles.use_denoising = False
+    cycles.use_adaptive_sampling = False
+    cycles.max_bounces = bounces
+
+
+def temporary_scene(ledger: Ledger, name: str, *, samples: int = 1, seed: int = 0) -> bpy.types.Scene:
+    """A new scene ``name`` recorded in ``ledger``, set up for Cycles bakes (``use_cycles``)."""
+    scene = ledger.add(bpy.data.scenes.new(name))
+    use_cycles(scene, samples=samples, seed=seed)
+    return scene
+
+
+def placed_copy(obj, scene, material, *, own_mesh=False, ledger=None):
     """A copy of ``obj`` linked into ``scene``, standing where ``obj`` stands (unparented, no
     animation or constraints, renderable), every slot showing ``material``.
 
     With ``own_mesh`` the copy gets its own copy of the mesh (to write bake results into);
     otherwise it shares ``obj``'s, whose materials stay untouched (object-linked slots).
+    A ``ledger`` records the copy (and its own mesh) for removal.
     """
     copy = obj.copy()
+    if ledger is not None:
+        ledger.add(copy)
     if own_mesh:
         copy.data = obj.data.copy()
+        if ledger is not None:
+            ledger.add(copy.data)
         copy.data.materials.clear()
         copy.data.materials.append(material)
     copy.animation_data_clear()
@@ -116,44 +224,45 @@ def emit_bakes(obj, uv_map_name, resolution, emitted, prepare=None, margin=0):
     of the object (its mesh first given to ``prepare``) in a temporary scene: the user's
     scene, mesh, materials and selection are untouched. Texels off every UV island and its
     ``margin`` (filled by EXTEND) have alpha 0."""
-    image = bpy.data.images.new("PW Texel Bake", resolution, resolution, alpha=True, float_buffer=True)
-    probes = [emission_probe(f"PW Texel Probe {index}", build) for index, build in enumerate(emitted)]
-    scene = bpy.data.scenes.new("PW Texel Bake")
-    copy = None
-    try:
-        copy = placed_copy(obj, scene, probes[0], own_mesh=True)
+    with Ledger() as made:
+        image = made.add(bpy.data.images.new("PW Texel Bake", resolution, resolution, alpha=True, float_buffer=True))
+        probes = [made.add(emission_probe(f"PW Texel Probe {index}", build)) for index, build in enumerate(emitted)]
+        scene = temporary_scene(made, "PW Texel Bake")
+        copy = placed_copy(obj, scene, probes[0], own_mesh=True, ledger=made)
         if prepare is not None:
             prepare(copy.data)
-        scene.render.engine = "CYCLES"
-        scene.cycles.device = "CPU"
-        scene.cycles.samples = 1  # deterministic: the texel centre
-        context = only_selected(copy)
-        pixels = np.empty((len(probes), resolution, resolution, 4), dtype=np.float32)
-        for index, probe in enumerate(probes):
+        baked = []
+        for probe in probes:
             texture = probe.node_tree.nodes.new("ShaderNodeTexImage")
             texture.image = image
             probe.node_tree.nodes.active = texture
             for slot in copy.material_slots:
                 slot.material = probe
-            image.pixels.foreach_set(np.zeros(resolution * resolution * 4, dtype=np.float32))
-            with bpy.context.temp_override(**context):
-                bpy.ops.object.bake(
-                    type="EMIT",
-                    target="IMAGE_TEXTURES",
-                    uv_layer=uv_map_name,
-                    margin=margin,
-                    margin_type="EXTEND",
-                    use_clear=False,
-                    use_selected_to_active=False,
-                )
-            image.pixels.foreach_get(pixels[index].ravel())
-        return list(pixels[:, ::-1])  # Blender stores the bottom row first
-    finally:
-        if copy is not None:
-            mesh = copy.data
-            bpy.data.objects.remove(copy)
-            bpy.data.meshes.remove(mesh)
-        bpy.data.scenes.remove(scene)
-        for probe in probes:
-            bpy.data.materials.remove(probe)
-        bpy.data.images.remove(image)
+            baked.append(emit_bake(copy, image, margin=margin, uv_map=uv_map_name))
+        return baked
+
+
+def emit_bake(
+    obj: bpy.types.Object, image: bpy.types.Image, *, fill: float = 0.0, margin: int = 0, uv_map: str | None = None
+) -> np.ndarray:
+    """The exact Cycles EMIT bake of ``obj`` (alone in its temporary scene) into ``image``, the
+    active Image Texture of its materials, on ``uv_map`` (default: the active UV map): float32
+    (H, W, 4), top row first. Every texel holds ``fill`` before the bake, so those off every UV
+    island and its ``margin`` (filled by EXTEND) still hold it."""
+    width, height = image.size
+    image.pixels.foreach_set(np.full(width * height * 4, fill, dtype=np.float32))
+    settings = dict(
+        type="EMIT",
+        target="IMAGE_TEXTURES",
+        margin=margin,
+        margin_type="EXTEND",
+        use_clear=False,
+        use_selected_to_active=False,
+    )
+    if uv_map is not None:
+        settings["uv_layer"] = uv_map
+    with bpy.context.temp_override(**only_selected(obj)):
+        bpy.ops.object.bake(**settings)
+    pixels = np.empty(width * height * 4, dtype=np.float32)
+    image.pixels.foreach_get(pixels)
+    return pixels.reshape(height, width, 4)[::-1]  # Blender stores the bottom row first

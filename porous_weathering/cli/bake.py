@@ -1,4 +1,4 @@
-"""The ``bake`` command (porous_weathering/cli.py): its options are generated from the bake's
+"""The ``bake`` command (``cli.entry``): its options are generated from the bake's
 option declarations (``bake.option_entries``), so the command line, the operator and the
 Dask workers offer the same options with the same defaults and checks.
 
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import bpy
 
-from ..common import interrupts, options
+from ..common import atomic, interrupts, options
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
 from ..maps import registry as maps
@@ -29,7 +29,8 @@ from ..maps.bake import (
     option_entries,
     options_from_values,
 )
-from . import distributed
+from . import distributed, selection
+from .selection import one_line
 
 FORCE_HINT = "bake into another --out, or add --force to replace it"
 
@@ -53,15 +54,10 @@ def configure_parser(parser):
         help=".blend files to bake; a word ending in .blend that names an existing file is a file, even "
         "after --objects",
     )
-    parser.add_argument(
-        "--objects",
-        nargs="+",
-        metavar="NAME",
-        default=(),
-        help="bake only these objects (default: every mesh object of the file)",
-    )
-    parser.add_argument(
-        "--collection", metavar="NAME", help="bake only the mesh objects of this collection (children included)"
+    selection.add_arguments(
+        parser,
+        objects_help="bake only these objects (default: every mesh object of the file)",
+        collection_help="bake only the mesh objects of this collection (children included)",
     )
     options.add_arguments(parser, option_entries())
     parser.add_argument(
@@ -150,26 +146,20 @@ def _bake_serially(args, bake_options):
             try:
                 _bake_file(path, args, bake_options, claimed, run)
             except OverwriteRefused as error:
-                run.fail(f"error: {path}: {_one_line(error)}; {FORCE_HINT}")
+                run.fail(f"error: {path}: {one_line(error)}; {FORCE_HINT}")
                 refused += 1
             except (ValueError, OSError, RuntimeError) as error:
-                run.fail(f"error: {path}: {_one_line(error)}")
+                run.fail(f"error: {path}: {one_line(error)}")
                 failed += 1
             run.bar.finish()
     return EXIT_FAILED if failed else EXIT_REFUSED if refused else EXIT_OK
-
-
-def _one_line(error):
-    """An exception's message on one line, without the "Error: " Blender puts before its own."""
-    text = " ".join(str(error).split())
-    return text.removeprefix("Error: ")
 
 
 def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
     """Bake one file; its outcome lines go to stdout as its maps finish (attribute maps once the
     .blend is saved, as they exist only in it)."""
     bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
-    objects = _chosen_objects(args)
+    objects = selection.chosen_objects(args)
     if bake_options.target == "image" and not args.force:
         _refuse_claimed(objects, bake_options, claimed)
     stored_in_blend = bake_options.target == "attribute" and run.save
@@ -206,7 +196,7 @@ def _save(path, objects, bake_options, unsaved, run):
     if bake_options.target == "image":
         link_images(objects, bake_options)
     try:
-        with interrupts.uncut():  # Blender writes FILE.blend@ and renames it: never cut in between
+        with atomic.uncut():  # Blender writes FILE.blend@ and renames it: never cut in between
             bpy.ops.wm.save_mainfile(filepath=path)
             run.saved = True
     except RuntimeError as error:
@@ -215,25 +205,7 @@ def _save(path, objects, bake_options, unsaved, run):
             if bake_options.target == "attribute"
             else "the image maps are written, but not linked into it"
         )
-        raise RuntimeError(f"cannot save it ({_one_line(error)}): {lost}") from error
+        raise RuntimeError(f"cannot save it ({one_line(error)}): {lost}") from error
     for line in unsaved:
         run.bar.print(line)
     run.bar.print(f"saved     {path}")
-
-
-def _chosen_objects(args):
-    if args.objects:
-        missing = [name for name in args.objects if name not in bpy.data.objects]
-        if missing:
-            raise ValueError(f"no object named {', '.join(missing)}")
-        return [bpy.data.objects[name] for name in args.objects]
-    if args.collection:
-        if args.collection not in bpy.data.collections:
-            raise ValueError(f"no collection named {args.collection}")
-        candidates = bpy.data.collections[args.collection].all_objects
-    else:
-        candidates = bpy.context.scene.objects
-    objects = sorted((o for o in candidates if o.type == "MESH"), key=lambda o: o.name)
-    if not objects:
-        raise ValueError("no mesh objects to bake")
-    return objects

@@ -1,4 +1,4 @@
-"""The ``export`` command (porous_weathering/cli.py): the weathered states of objects of a .blend
+"""The ``export`` command (``cli.entry``): the weathered states of objects of a .blend
 as one glTF 2.0 file with material variants and its paradata (``export.iter_export``). Its
 options are generated from the export's option declarations (``export.option_entries``), as the
 export operator's properties are.
@@ -15,10 +15,10 @@ import bpy
 
 from ..common import interrupts, options
 from ..common.progress import ProgressBar
-from ..contracts import EXIT_FAILED, EXIT_USAGE
+from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_USAGE
 from ..publish import export
-from . import bake as bake_command
-from .bake import _one_line
+from . import selection
+from .selection import one_line
 
 
 def configure_parser(parser):
@@ -29,14 +29,11 @@ def configure_parser(parser):
         "failed, 2 bad arguments or input (nothing written), 130/143 interrupted (nothing written)."
     )
     parser.add_argument("file", metavar="FILE.blend", help="the .blend file whose objects to export")
-    parser.add_argument(
-        "--objects",
-        nargs="+",
-        metavar="NAME",
-        default=(),
-        help="export these objects (default: every mesh object whose materials are all Porous Weathering ones)",
+    selection.add_arguments(
+        parser,
+        objects_help="export these objects (default: every mesh object whose materials are all Porous Weathering ones)",
+        collection_help="export the mesh objects of this collection",
     )
-    parser.add_argument("--collection", metavar="NAME", help="export the mesh objects of this collection")
     declared = {entry.dest: entry.option for entry in export.option_entries()}
     parser.add_argument(
         "--ages",
@@ -75,11 +72,11 @@ def run(args):
     try:
         bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
     except RuntimeError as error:
-        return _error(f"{path}: {_one_line(error)}", EXIT_FAILED)
+        return _error(f"{path}: {one_line(error)}", EXIT_FAILED)
     try:
         steps = export.iter_export(_chosen_objects(args), chosen)  # checks everything before it starts
     except (ValueError, OSError) as error:
-        return _error(f"{path}: {_one_line(error)}", EXIT_USAGE)
+        return _error(f"{path}: {one_line(error)}", EXIT_USAGE)
     bar = ProgressBar(os.path.basename(path))
     result = None
     last_words = lambda signal_name: f"interrupted by {signal_name}: nothing was written"
@@ -90,14 +87,14 @@ def run(args):
                 result = step.result or result
         except ValueError as error:  # bad input found on the way (a mesh that cannot get a lightmap)
             bar.finish()
-            return _error(f"{path}: {_one_line(error)}", EXIT_USAGE)
+            return _error(f"{path}: {one_line(error)}", EXIT_USAGE)
         except (OSError, RuntimeError) as error:
             bar.finish()
-            return _error(f"{path}: {_one_line(error)}", EXIT_FAILED)
+            return _error(f"{path}: {one_line(error)}", EXIT_FAILED)
     bar.finish()
     print(f"wrote     {result.path} (variants {', '.join(result.variants)})")
     print(f"wrote     {result.paradata}")
-    return 0
+    return EXIT_OK
 
 
 def _error(error, code):
@@ -118,8 +115,8 @@ def _notes(words):
 def _chosen_objects(args):
     """--objects or --collection as the bake command takes them, else every mesh object of the
     scene whose materials are all Porous Weathering ones."""
-    if args.objects or args.collection:
-        return bake_command._chosen_objects(args)
+    if selection.chosen(args):
+        return selection.chosen_objects(args)
     objects = sorted(
         (
             obj

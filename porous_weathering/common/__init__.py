@@ -1,6 +1,6 @@
 """Plumbing the layers share, without bpy: options declared once for every front end
-(``options``), files written whole or not at all and a command line that stops at once on
-SIGINT/SIGTERM (``interrupts``), map images on disk through OpenImageIO (``imageio``) and the
+(``options``), files written whole or not at all (``atomic``), a command line that stops at
+once on SIGINT/SIGTERM (``interrupts``), map images on disk through OpenImageIO (``imageio``) and the
 text progress bar (``progress``).
 
 May import: the standard library, numpy, OpenImageIO and ``core``; never bpy.

@@ -3,7 +3,7 @@
 Arrays are float32 (H, W) or (H, W, C), top row first, linear values. A write goes to a
 temporary file in the destination folder and is renamed over the target, so a failed or
 interrupted bake never leaves a truncated map, or the temporary file, behind
-(``interrupts.temporary_file``); the file gets the permissions of any new file (0666 less the
+(``atomic.temporary_file``); the file gets the permissions of any new file (0666 less the
 umask). String metadata (e.g. the input hash a bake stores) travels in the file's header.
 """
 
@@ -13,7 +13,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from ..contracts import map_file_name
-from . import interrupts
+from . import atomic
 
 #: Header fields of a baked map: the hash of its inputs, the map's name, the UV map it was baked
 #: on (weathered materials read the image through it, weathering.image_uv_map), and what it was
@@ -74,9 +74,9 @@ def write_image(
 
     folder = os.path.dirname(os.path.abspath(path))
     try:
-        with interrupts.temporary_file(folder, extension) as temporary:
+        with atomic.temporary_file(folder, extension) as temporary:
             _write_file(oiio, temporary, spec, pixels)
-            interrupts.move_into_place(temporary, path)
+            atomic.move_into_place(temporary, path)
     except OSError as error:
         raise OSError(f"cannot write image {path}: {error.strerror or error}") from error
 

@@ -1,13 +1,13 @@
-"""Files written whole or not at all, and a command line that stops at once on SIGINT/SIGTERM.
+"""A command line that stops at once on SIGINT/SIGTERM, leaving no half-written file (``atomic``).
 
 Blender does not let a KeyboardInterrupt through a bake: Cycles bakes in C, and the exception,
 raised in Cycles' Python callback once the bake returns, is printed and swallowed (seen with
 bpy 4.5 and 5.2; the bake then carries on). The bake releases the GIL, though, so
 ``exit_on_signals`` takes SIGINT and SIGTERM in a thread woken through
 ``signal.set_wakeup_fd``, which ends the process while the bake runs: it removes the temporary
-files of the writes in progress (``temporary_file``), prints one line and calls ``os._exit``,
+files of the writes in progress (``atomic.temporary_file``), prints one line and calls ``os._exit``,
 so nothing is written or saved after it. What must not be cut in two (renaming a finished file
-into place, saving a .blend) runs under ``uncut()``, which the thread waits for.
+into place, saving a .blend) runs under ``atomic.uncut()``, which the thread waits for.
 """
 
 import contextlib
@@ -15,63 +15,18 @@ import os
 import signal
 import socket
 import sys
-import tempfile
 import threading
 from collections.abc import Callable, Iterator
 
+from . import atomic
+
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-_uncut = threading.RLock()
-_temporary_files: set[str] = set()
-
-
-@contextlib.contextmanager
-def uncut() -> Iterator[None]:
-    """A block an interrupt waits for instead of cutting it."""
-    with _uncut:
-        yield
-
-
-@contextlib.contextmanager
-def temporary_file(folder: str, suffix: str) -> Iterator[str]:
-    """The path of a new empty file in ``folder`` for the block, created with the permissions
-    of any new file (0666 less the umask, not tempfile's 0600). It is removed when the block
-    ends, fails or is interrupted, unless ``move_into_place`` moved it."""
-    with _uncut:  # created and recorded together, so an interrupt cannot miss it
-        try:
-            handle, path = tempfile.mkstemp(prefix=".pw_", suffix=suffix, dir=folder)
-        except OSError as error:
-            raise OSError(f"cannot create a file in the folder {folder}: {error.strerror}") from error
-        _temporary_files.add(path)
-    try:
-        os.fchmod(handle, 0o666 & ~_umask())
-        os.close(handle)
-        yield path
-    finally:
-        with _uncut:
-            if path in _temporary_files:
-                _temporary_files.discard(path)
-                with contextlib.suppress(FileNotFoundError):
-                    os.remove(path)
-
-
-def move_into_place(temporary: str, path: str) -> None:
-    """Rename the ``temporary_file`` over ``path`` (atomic), uncut by an interrupt."""
-    with _uncut:
-        os.replace(temporary, path)
-        _temporary_files.discard(temporary)
-
-
-def _umask() -> int:
-    mask = os.umask(0o077)  # the only portable way to read it is to set it; set back at once
-    os.umask(mask)
-    return mask
 
 
 @contextlib.contextmanager
 def exit_on_signals(last_words: Callable[[str], str]) -> Iterator[None]:
     """For the block (called from the main thread): SIGINT or SIGTERM ends the process at once
-    with exit code 128 + the signal (130, 143), after any ``uncut`` block in progress, with the
+    with exit code 128 + the signal (130, 143), after any ``atomic.uncut`` block in progress, with the
     temporary files removed and ``last_words(signal name)`` as one line on stderr."""
     wake, woken = socket.socketpair()  # a socket: set_wakeup_fd takes no pipe on Windows
     wake.setblocking(False)
@@ -101,11 +56,8 @@ def _watch(woken, last_words):
 
 
 def _exit(number, last_words):
-    _uncut.acquire()  # never released: waits for a write or save in progress; nothing starts after
     try:
-        for path in list(_temporary_files):
-            with contextlib.suppress(OSError):
-                os.remove(path)
+        atomic.stop_writes()  # waits for a write or save in progress; nothing starts after
         with contextlib.suppress(Exception):
             sys.stdout.flush()
         sys.stderr.write(f"\n{last_words(number.name)}\n")

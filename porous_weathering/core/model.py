@@ -1,4 +1,4 @@
-"""The porous BRDF post-process of SPEC.md and its weathering, in plain vectorised numpy.
+"""The porous BRDF post-process of docs/model.md and its weathering, in plain vectorised numpy.
 
 This module is the project's one ground truth.  The maths itself is written once, in
 ``porous.py`` (eqs. 2-6) and ``modes/`` (the weathering modes), and evaluated here on numpy
@@ -52,7 +52,7 @@ def sanitize(name: str, value: ArrayLike, low: float = 0.0, high: float | None =
 
 
 def clamp_cosine(name: str, x: ArrayLike) -> np.ndarray:
-    """A cosine clamped to [0, 1] as SPEC 2 defines x: back-facing is 0, not an error; NaN warns."""
+    """A cosine clamped to [0, 1] as docs/model.md §2 defines x: back-facing is 0, not an error; NaN warns."""
     x = np.asarray(x, dtype=np.float64)
     if np.isnan(x).any():
         _warn(f"porous input '{name}' had NaN; taken as 0")
@@ -60,7 +60,7 @@ def clamp_cosine(name: str, x: ArrayLike) -> np.ndarray:
 
 
 def valid_albedo(kd: ArrayLike, ks: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """(k_d, k_s) with k_d clamped so that k_a = 1 - k_s - k_d >= 0 (SPEC 1)."""
+    """(k_d, k_s) with k_d clamped so that k_a = 1 - k_s - k_d >= 0 (docs/model.md §1)."""
     kd = sanitize("k_d", kd, 0.0, 1.0)
     ks = sanitize("k_s", ks, 0.0, 1.0)
     if np.any(kd > 1.0 - per_channel(ks, kd)):
@@ -84,7 +84,7 @@ def shadowing_g(x: ArrayLike, k: ArrayLike) -> np.ndarray:
 
 
 def ambient_g(k: ArrayLike) -> np.ndarray:
-    """Cosine-weighted hemisphere mean of g(N.S): 2 * integral_0^1 g(mu, k) mu dmu (SPEC 3)."""
+    """Cosine-weighted hemisphere mean of g(N.S): 2 * integral_0^1 g(mu, k) mu dmu (docs/model.md §3)."""
     return porous.ambient_g(_SCALAR, k)
 
 
@@ -112,7 +112,7 @@ def pore_geometry(
 ) -> tuple[np.ndarray, np.ndarray | float, np.ndarray]:
     """(G_p, theta_i, theta_r): eq. (4) and the angles of eq. (6); ``n_dot_l=None`` is ambient.
 
-    In the ambient mode (SPEC 3) g(N.S) and theta_i are replaced by their cosine-weighted
+    In the ambient mode (docs/model.md §3) g(N.S) and theta_i are replaced by their cosine-weighted
     hemisphere means.
     """
     n_dot_l = None if n_dot_l is None else clamp_cosine("n_dot_l", n_dot_l)
@@ -145,7 +145,7 @@ def porous_coefficients(
 
     ``kd`` is an RGB colour (last axis 3) or a scalar grey; the other arguments are
     scalars or arrays that broadcast against it.  ``n_dot_l=None`` gives the ambient
-    light mode.  Invalid input is handled as SPEC 1 says (clamped, with a
+    light mode.  Invalid input is handled as docs/model.md §1 says (clamped, with a
     PorousInputWarning); the result is always finite.
     """
     kd, ks = valid_albedo(kd, ks)
@@ -159,11 +159,11 @@ def porous_coefficients(
 def porous_coefficients_ambient(
     kd: ArrayLike, ks: ArrayLike, m: ArrayLike, alpha: ArrayLike, sp: ArrayLike, n_dot_v: ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The ambient light mode of SPEC 3 (no light direction)."""
+    """The ambient light mode of docs/model.md §3 (no light direction)."""
     return porous_coefficients(kd, ks, m, alpha, sp, None, n_dot_v)
 
 
-# === Weathering (SPEC 4) ================================================================
+# === Weathering (docs/model.md §4) ================================================================
 # The paper's three applications on top of the porous post-process, one module each in
 # modes/ (the registry).  docs/weathering.md explains each decision.
 
@@ -244,7 +244,7 @@ def weathered_coefficients(
     those left out).  At time 0 the result is porous_coefficients() exactly, with k_water = 0.
     Pore-filling modes apply first (carbon, salt, water), then the wet darkening, the grey
     deposit over them and the black crust over everything; ``crust=0, wet_darkening=0`` give
-    the paper's equations exactly (SPEC 6).
+    the paper's equations exactly (docs/model.md §6).
     """
     modes = weathering_modes(_modes.names() if modes is None else modes)
     state = weathering_state(modes, state)

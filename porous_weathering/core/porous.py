@@ -1,4 +1,4 @@
-"""The porous BRDF post-process of SPEC.md sections 2-3, eqs. (2)-(6), written once.
+"""The porous BRDF post-process of docs/model.md §2-3, eqs. (2)-(6), written once.
 
 Each function takes a backend ``xp`` (``backends.py``) first: ``model.py`` evaluates these
 lines on numpy arrays, ``nodes.py`` builds shader nodes from them.  Inputs are clamped here
@@ -11,7 +11,7 @@ import math
 EPSILON = 1e-6
 #: The least k in g(): its denominator x (1 - k) + k is then never 0, so no shader node guards
 #: it at every point (k folds into a constant), and g = 0 at grazing x = 0 even for m = 0
-#: (SPEC 2), while any x a float holds still gives g = 1 there (1e-30 is under half an ulp of it).
+#: (docs/model.md §2), while any x a float holds still gives g = 1 there (1e-30 is under half an ulp of it).
 K_FLOOR = 1e-30
 
 #: Three-point Gauss-Legendre rule on [0, 1], used for the ambient mean of g
@@ -24,7 +24,7 @@ AMBIENT_THETA_I = math.pi / 4
 
 
 def valid_albedo(xp, kd, ks):
-    """(k_d, k_s) clamped to [0, 1], k_d also to 1 - k_s so that k_a >= 0 (SPEC 1)."""
+    """(k_d, k_s) clamped to [0, 1], k_d also to 1 - k_s so that k_a >= 0 (docs/model.md §1)."""
     ks = xp.clip(ks, 0.0, 1.0)
     kd = xp.minimum(xp.clip(kd, 0.0, 1.0), 1.0 - xp.channel(ks))
     return kd, ks
@@ -43,14 +43,14 @@ def shadowing_g(xp, x, k):
 
 
 def ambient_g(xp, k):
-    """Cosine-weighted hemisphere mean of g(N.S): 2 * integral_0^1 g(mu, k) mu dmu (SPEC 3)."""
+    """Cosine-weighted hemisphere mean of g(N.S): 2 * integral_0^1 g(mu, k) mu dmu (docs/model.md §3)."""
     terms = [2.0 * w * mu * shadowing_g(xp, mu, k) for mu, w in zip(AMBIENT_NODES, AMBIENT_WEIGHTS)]
     return terms[0] + terms[1] + terms[2]
 
 
 def bounce_count(xp, sp, theta_i, theta_r, plus=0.0, fill=0.0):
     """n_b + ``plus``, eq. (6), of pores a fraction ``fill`` full, whose depth ratio is then
-    s = s_p (1 - fill) (SPEC 4): s (3.7 - theta_i - theta_r) + 4 pi s / (s + 6).  For angles in
+    s = s_p (1 - fill) (docs/model.md §4): s (3.7 - theta_i - theta_r) + 4 pi s / (s + 6).  For angles in
     [0, pi/2] it is never negative (3.7 + 4 pi / (s + 6) > pi >= theta_i + theta_r), so no node
     clamps it.  Written as a multiply-add of s by 3.7 - theta_i - theta_r (one node that every
     fill shares) and 4 pi s / (s + 6) = s / (s / 4 pi + 6 / 4 pi): where s is a constant (an
@@ -82,7 +82,7 @@ def porous_weights(xp, kd, ks, alpha, gp, returned):
 
 def pore_geometry(xp, m, n_dot_l, n_dot_v):
     """(G_p, theta_i, theta_r): eq. (4) and the angles of eq. (6); ``n_dot_l=None`` is ambient,
-    where g(N.S) and theta_i are replaced by their cosine-weighted hemisphere means (SPEC 3)."""
+    where g(N.S) and theta_i are replaced by their cosine-weighted hemisphere means (docs/model.md §3)."""
     m = xp.maximum(m, 0.0)
     n_dot_v = xp.clip(n_dot_v, 0.0, 1.0)
     k = shadowing_k(m)

@@ -1,4 +1,4 @@
-"""Baking the weathering maps (SPEC 5): the one pipeline behind the operator and the command line.
+"""Baking the weathering maps (docs/model.md §5): the one pipeline behind the operator and the command line.
 
 ``iter_bake`` does the work one (object, map) step at a time, so that a caller can show
 progress and stop between steps (the modal operator); ``bake_maps`` runs it to the end with
@@ -39,14 +39,16 @@ from ..common.options import Entry, check, check_value, declared, entries, optio
 from ..contracts import map_image_property
 from . import lightmap, scan_checks
 from . import registry as maps
+from .provenance import OverwriteRefused, Provenance, refuse_overwrite  # noqa: F401  (public: docs/api.md)
 
 TARGETS = ("image", "attribute")
 DEFAULT_RESOLUTION = 512
 #: Texels filled around every UV island (the bake's margin; the lightmap's islands lie
 #: ``uv.padding_for(resolution)`` texels apart).
 MARGIN = 4
-#: Bumped when a change of the bake itself makes old maps stale.
-BAKE_VERSION = 1
+#: Bumped when a change of the bake itself makes old maps stale (2: the input hash holds every
+#: field of a map's settings, ``MapKind.inputs``).
+BAKE_VERSION = 2
 
 
 def __getattr__(name):
@@ -60,12 +62,6 @@ def __getattr__(name):
 
 class BakeCancelled(Exception):
     """The caller asked to stop; the maps finished before that are complete and kept."""
-
-
-class OverwriteRefused(ValueError):
-    """An image map would replace a file made from another .blend or object (or a file that
-    is not a map): nothing of this bake was written, unless the check failed only as the map
-    was about to be written (a file that appeared meanwhile), when the maps before it are kept."""
 
 
 def _map_list(text):
@@ -233,59 +229,6 @@ class Step:
         """The progress line: "<object>: <map>", with its stage, and its status once it ended."""
         stage = f": {self.stage}" if self.stage else ""
         return f"{self.object}: {self.map}{stage}" + (f" {self.outcome.status}" if self.outcome else "")
-
-
-@dataclass(frozen=True)
-class Provenance:
-    """What a map was made from: the .blend file (absolute path; "" when unsaved or not
-    recorded), the object's exact name and the map ("" when not recorded)."""
-
-    source: str = ""
-    object: str = ""
-    map: str = ""
-
-    @classmethod
-    def of(cls, obj: "bpy.types.Object", map_name: str) -> "Provenance":
-        """The provenance a map of ``obj`` baked now gets."""
-        return cls(os.path.abspath(bpy.data.filepath) if bpy.data.filepath else "", obj.name, map_name)
-
-    @classmethod
-    def from_header(cls, header: Mapping[str, str]) -> "Provenance":
-        return cls(header.get(SOURCE_KEY, ""), header.get(OBJECT_KEY, ""), header.get(MAP_KEY, ""))
-
-    def header(self) -> dict[str, str]:
-        return {SOURCE_KEY: self.source, OBJECT_KEY: self.object, MAP_KEY: self.map}
-
-    def yields_to(self, other: "Provenance") -> bool:
-        """Whether a map made from this may be replaced by one made from ``other``: each field
-        it records (an unsaved .blend or an older map records none) must be the same."""
-        same_source = not self.source or self.source == other.source or _same_file(self.source, other.source)
-        return same_source and self.object in ("", other.object) and self.map in ("", other.map)
-
-    def __str__(self):
-        return f"{self.source or 'an unsaved .blend'} (object '{self.object or '?'}')"
-
-
-def _same_file(first, second):
-    try:
-        return bool(second) and os.path.samefile(first, second)
-    except OSError:
-        return False
-
-
-def refuse_overwrite(path: str, wanted: Provenance) -> None:
-    """Raise OverwriteRefused when the file at ``path`` may not be replaced by a map made from
-    ``wanted``: it is a map made from another .blend, object or map, or an image that this
-    extension did not write (a map painted by hand, say). A file that is no readable image (a
-    broken map) holds nothing to keep, and is replaced."""
-    header = imageio.image_header(path)
-    if header is None:
-        return
-    if MAP_KEY not in header:
-        raise OverwriteRefused(f"{path} is an image that Porous Weathering did not write")
-    made = Provenance.from_header(header)
-    if not made.yields_to(wanted):
-        raise OverwriteRefused(f"{path} was made from {made}, not from {wanted}")
 
 
 def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | None = None) -> None:
@@ -522,7 +465,7 @@ def _inputs_hash(obj, map_name, options, uvs, digests):
             margin=MARGIN,
             uvs=hashlib.sha256(np.ascontiguousarray(uvs, dtype=np.float32).tobytes()).hexdigest(),
         )
-    inputs.update(maps.get(map_name).hash_inputs(obj, options, digests))
+    inputs.update(maps.get(map_name).inputs(obj, options, digests))
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
 
 

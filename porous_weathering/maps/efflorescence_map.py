@@ -1,16 +1,26 @@
-"""Efflorescence location maps (SPEC 4, paper section 4.3): a height field in [0, 1] that says
+"""Efflorescence location maps (docs/model.md §4, paper section 4.3): a height field in [0, 1] that says
 where salt fills the pores first (highest first).  Either generated, concentrated along the
 mortar joints of a running-bond brick pattern (where brick/mortar migration brings the salt),
 or made from a user's photograph of efflorescence: luminance, denoised and normalised with
 OpenImageIO.  Maps are float32 (H, W) arrays, top row first, written atomically as EXR
-beside the .blend by ``save_map``.  Nothing here needs bpy except finding the .blend's folder.
+beside the .blend by ``save_map``; ``make_map`` makes an object's map and links it, the map
+registry's ``make`` of the efflorescence record (``registry.EFFLORESCENCE``: a map that is made,
+not baked).  Nothing here needs bpy at import time: only ``default_path`` and ``make_map`` use it.
 """
 
 import os
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..common import imageio
+from ..core.modes.efflorescence import EFFLORESCENCE_MAP
+
+if TYPE_CHECKING:
+    import bpy
+
+#: The map's name (``Input.map`` of the efflorescence location input, ``pw_<map>_image``).
+MAP_NAME = EFFLORESCENCE_MAP.map
 
 #: Rec. 709 luma weights: a photograph's brightness, as the eye sees it.
 LUMA = (0.2126, 0.7152, 0.0722)
@@ -104,6 +114,33 @@ def default_path(name: str) -> str:
     if not bpy.data.filepath:
         raise ValueError("save the .blend first: the efflorescence map is saved beside it")
     return imageio.image_path(os.path.dirname(bpy.data.filepath), name, "efflorescence")
+
+
+def make_map(
+    obj: "bpy.types.Object",
+    *,
+    photo: str | os.PathLike | None = None,
+    size: int = 512,
+    rows: int = 8,
+    bricks_per_row: int = 4,
+) -> "bpy.types.Image":
+    """Make the mesh ``obj``'s efflorescence map beside the .blend (``default_path``) and point
+    ``obj`` at it (``bake.link_image``): from the photograph ``photo`` if given (an empty path
+    is refused), else along brick joints (``brick_joint_map`` of ``rows`` courses of
+    ``bricks_per_row``), ``size``² pixels.  ValueError or OSError, the file unchanged, if ``obj``
+    has no UV map, the .blend is unsaved or the photograph cannot be read."""
+    from .bake import link_image
+
+    if not obj.data.uv_layers:
+        raise ValueError("has no UV map to read an efflorescence map through: unwrap it first")
+    path = default_path(obj.name)
+    if photo is not None:
+        if not os.fspath(photo):
+            raise ValueError("choose the photograph to make the efflorescence map from")
+        height = photo_map(photo, size=size)
+    else:
+        height = brick_joint_map(size, rows=rows, bricks_per_row=bricks_per_row)
+    return link_image(obj, MAP_NAME, save_map(height, path))
 
 
 def save_map(height: np.ndarray, path: str | os.PathLike) -> str:

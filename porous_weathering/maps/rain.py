@@ -1,4 +1,4 @@
-"""Rain exposure E (SPEC 5), baked with Cycles.
+"""Rain exposure E (docs/model.md §5), baked with Cycles.
 
 E(p) = ∫_cone V(p, ω) max(0, N·ω) dω / ∫_cone (D·ω) dω : the cosine-weighted fraction of the
 rain cone (half-angle ``cone`` around the mean direction D towards the rain) that reaches p
@@ -149,8 +149,8 @@ def bake_rain_image(
 
 def _bake_image(copy, uv_map, size, margin):
     """E baked at every texel of ``copy``'s UV map ``uv_map`` (size, size), top row first."""
-    image = bpy.data.images.new("PW Rain Bake", size, size, alpha=False, float_buffer=True)
-    try:
+    with scratch_scene.Ledger() as made:
+        image = made.add(bpy.data.images.new("PW Rain Bake", size, size, alpha=False, float_buffer=True))
         copy.data.uv_layers.active = copy.data.uv_layers[uv_map]
         texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
         texture.image = image
@@ -159,8 +159,6 @@ def _bake_image(copy, uv_map, size, margin):
         pixels = np.empty(size * size * 4, dtype=np.float32)
         image.pixels.foreach_get(pixels)
         return pixels.reshape(size, size, 4)[::-1, :, 0].copy()  # Blender stores the bottom row first
-    finally:
-        bpy.data.images.remove(image)
 
 
 def bake_rain_corners(
@@ -234,19 +232,19 @@ def _bake_probes(copy, points, normals, step):
     texel = (np.stack([np.arange(count) % side, np.arange(count) // side], axis=1) + 0.5) / side
     uvs = texel[:, None, :] + np.array([(0.4, 0.0), (-0.2, 0.35), (-0.2, -0.35)]) / side
 
-    probe_mesh = bpy.data.meshes.new("PW Rain Probes")
-    probe_mesh.vertices.add(3 * count)
-    probe_mesh.vertices.foreach_set("co", corners.astype(np.float32).ravel())
-    probe_mesh.loops.add(3 * count)
-    probe_mesh.loops.foreach_set("vertex_index", np.arange(3 * count, dtype=np.int32))
-    probe_mesh.polygons.add(count)
-    probe_mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * count, 3, dtype=np.int32))
-    probe_mesh.update(calc_edges=True)
-    probe_mesh.uv_layers.new(name="Probes").data.foreach_set("uv", uvs.astype(np.float32).ravel())
-    probe_mesh.materials.append(copy.active_material)
-    probe = bpy.data.objects.new("PW Rain Probes", probe_mesh)
-    image = bpy.data.images.new("PW Rain Probes", side, side, alpha=False, float_buffer=True)
-    try:
+    with scratch_scene.Ledger() as made:
+        probe_mesh = made.add(bpy.data.meshes.new("PW Rain Probes"))
+        probe_mesh.vertices.add(3 * count)
+        probe_mesh.vertices.foreach_set("co", corners.astype(np.float32).ravel())
+        probe_mesh.loops.add(3 * count)
+        probe_mesh.loops.foreach_set("vertex_index", np.arange(3 * count, dtype=np.int32))
+        probe_mesh.polygons.add(count)
+        probe_mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * count, 3, dtype=np.int32))
+        probe_mesh.update(calc_edges=True)
+        probe_mesh.uv_layers.new(name="Probes").data.foreach_set("uv", uvs.astype(np.float32).ravel())
+        probe_mesh.materials.append(copy.active_material)
+        probe = made.add(bpy.data.objects.new("PW Rain Probes", probe_mesh))
+        image = made.add(bpy.data.images.new("PW Rain Probes", side, side, alpha=False, float_buffer=True))
         copy.users_scene[0].collection.objects.link(probe)
         texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
         texture.image = image
@@ -256,10 +254,6 @@ def _bake_probes(copy, points, normals, step):
         pixels = np.empty(side * side * 4, dtype=np.float32)
         image.pixels.foreach_get(pixels)
         return pixels[0::4][:count].copy()  # texel (column i % side, row i // side from the bottom)
-    finally:
-        bpy.data.objects.remove(probe)
-        bpy.data.meshes.remove(probe_mesh)
-        bpy.data.images.remove(image)
 
 
 def _bake(copy, target, margin):
@@ -289,28 +283,21 @@ def _bake_scene(target, occluders, settings):
     returned) and copies of ``occluders`` (opaque), under the rain sky; all removed afterwards."""
     if target.type != "MESH":
         raise ValueError(f"{target.name}: a rain bake needs a mesh object, not {target.type.lower()}")
-    scene = bpy.data.scenes.new("PW Rain Bake")
-    made = {"objects": [], "meshes": [], "materials": [], "lights": [], "worlds": []}
-    try:
-        _configure_cycles(scene, settings)
-        surface = compat.new_material("PW Rain Surface")
-        made["materials"].append(surface)
+    with scratch_scene.Ledger() as made:
+        scene = scratch_scene.temporary_scene(made, "PW Rain Bake", samples=settings.samples, seed=settings.seed)
+        # direct light only (no bounce, transparent or not): the rain reaches a point straight from the sky
+        scene.cycles.transparent_max_bounces = 0
+        scene.world = None
+        surface = made.add(compat.new_material("PW Rain Surface"))
 
-        copy = scratch_scene.placed_copy(target, scene, surface, own_mesh=True)
-        made["objects"].append(copy)
-        made["meshes"].append(copy.data)
+        copy = scratch_scene.placed_copy(target, scene, surface, own_mesh=True, ledger=made)
+        copies = [copy]
         for occluder in occluders:
             if occluder != target:
-                made["objects"].append(scratch_scene.placed_copy(occluder, scene, surface))
-        _to_unit_size(made["objects"], target)
+                copies.append(scratch_scene.placed_copy(occluder, scene, surface, ledger=made))
+        _to_unit_size(copies, target)
         _add_sky(scene, settings, made)
         yield copy
-    finally:
-        for kind in ("objects", "meshes", "lights", "materials", "worlds"):
-            collection = getattr(bpy.data, kind)
-            for block in made[kind]:
-                collection.remove(block)
-        bpy.data.scenes.remove(scene)
 
 
 def unit_placing(target: bpy.types.Object) -> np.ndarray:
@@ -336,34 +323,18 @@ def _to_unit_size(copies, target):
         copy.matrix_world = Matrix((placing @ np.array(copy.matrix_world, dtype=np.float64)).tolist())
 
 
-def _configure_cycles(scene, settings):
-    scene.render.engine = "CYCLES"
-    cycles = scene.cycles
-    cycles.device = "CPU"
-    cycles.samples = settings.samples
-    cycles.seed = settings.seed
-    cycles.use_denoising = False
-    cycles.use_adaptive_sampling = False
-    cycles.max_bounces = 0  # direct light only: the rain reaches a point straight from the sky
-    cycles.transparent_max_bounces = 0
-    scene.world = None
-
-
 def _add_sky(scene, settings, made):
     cone = math.radians(settings.cone)
     towards = settings.towards_rain()
     if settings.sky == "sun":
-        light = bpy.data.lights.new("PW Rain", "SUN")
-        made["lights"].append(light)
+        light = made.add(bpy.data.lights.new("PW Rain", "SUN"))
         light.energy = math.pi
         light.angle = 2.0 * cone
-        sun = bpy.data.objects.new("PW Rain", light)
-        made["objects"].append(sun)
+        sun = made.add(bpy.data.objects.new("PW Rain", light))
         scene.collection.objects.link(sun)
         aim_sun(sun, towards)
         return
-    world = bpy.data.worlds.new("PW Rain")
-    made["worlds"].append(world)
+    world = made.add(bpy.data.worlds.new("PW Rain"))
     compat.use_world_nodes(world)
     tree = world.node_tree
     tree.nodes.clear()

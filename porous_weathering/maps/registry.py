@@ -12,7 +12,7 @@ from typing import Any
 
 from ..blender import mesh_arrays
 from ..core import modes as weathering_modes
-from . import edges, rain
+from . import edges, efflorescence_map, rain
 
 
 @dataclass(frozen=True)
@@ -27,10 +27,18 @@ class MapKind:
     bake_image: Callable[..., Any]
     #: bake_attribute(obj, options) writes the map into ``attribute`` of obj's mesh
     bake_attribute: Callable[..., None]
-    #: hash_inputs(obj, options, digests) -> dict of what, besides the geometry, the map depends on
+    #: hash_inputs(obj, options, digests) -> dict merged over the fields of the map's settings in
+    #: its input hash (``inputs``): what else it depends on (rain's occluders), or a field's value
+    #: as the bake uses it (edges' radius)
     hash_inputs: Callable[..., dict] = lambda obj, options, digests: {}
     #: BakeOptions keywords that set one field of the settings: {"edge_radius": "radius"}
     aliases: dict = field(default_factory=dict)
+
+    def inputs(self, obj: Any, options: Any, digests: Callable[[Any], str]) -> dict:
+        """What the map's input hash holds besides the geometry and the bake's own options, under
+        the map's name: every field of its settings (``options.settings[name]``), so that a change
+        of any of them bakes it again, with what ``hash_inputs`` adds or replaces."""
+        return {self.name: {**asdict(options.settings[self.name]), **self.hash_inputs(obj, options, digests)}}
 
     @property
     def image_suffix(self) -> str:
@@ -73,23 +81,25 @@ def feeding(input_name: str) -> MapKind | None:
     return _REGISTRY.get(item.map) if item is not None and item.map else None
 
 
-# --- rain exposure E (SPEC 5) --------------------------------------------------------------------
+# --- rain exposure E (docs/model.md §5) --------------------------------------------------------------------
+
+
+def _occluders(obj, options):
+    return rain.default_occluders(obj, options.occluder_collection())
 
 
 def _rain_image(obj, uv_map, options, margin):
-    occluders = rain.default_occluders(obj, options.occluder_collection())
-    return rain.bake_rain_image(obj, uv_map, options.resolution, options.rain_settings, occluders, margin=margin)
+    settings = options.rain_settings
+    return rain.bake_rain_image(obj, uv_map, options.resolution, settings, _occluders(obj, options), margin=margin)
 
 
 def _rain_attribute(obj, options):
-    occluders = rain.default_occluders(obj, options.occluder_collection())
-    values = rain.bake_rain_corners(obj, options.rain_settings, occluders)
+    values = rain.bake_rain_corners(obj, options.rain_settings, _occluders(obj, options))
     mesh_arrays.write_corner_attribute(obj.data, rain.RAIN_ATTRIBUTE, values)
 
 
 def _rain_hash(obj, options, digests):
-    occluders = rain.default_occluders(obj, options.occluder_collection())
-    return dict(rain=asdict(options.rain_settings), occluders=sorted((o.name, digests(o)) for o in occluders))
+    return dict(occluders=sorted((o.name, digests(o)) for o in _occluders(obj, options)))
 
 
 RAIN = MapKind(
@@ -105,7 +115,7 @@ RAIN = MapKind(
 )
 
 
-# --- edge/cavity mask C (SPEC 5) -------------------------------------------------------------------
+# --- edge/cavity mask C (docs/model.md §5) -------------------------------------------------------------------
 
 
 def _edges_image(obj, uv_map, options, margin):
@@ -117,9 +127,9 @@ def _edges_attribute(obj, options):
 
 
 def _edges_hash(obj, options, digests):
-    settings = options.edge_settings
-    radius = edges.effective_radius(obj, settings)
-    return dict(edge_radius=radius, cavity_weight=settings.cavity_weight, edge_weight=settings.edge_weight)
+    # the radius the mask is smoothed over, given or scale times the object's size: the same
+    # radius given either way is the same map
+    return dict(radius=edges.effective_radius(obj, options.edge_settings), scale=None)
 
 
 EDGES = MapKind(
@@ -143,3 +153,48 @@ EDGES = MapKind(
 
 register(RAIN)
 register(EDGES)
+
+
+# --- maps made, not baked: the efflorescence location map (docs/model.md §4) ------------------------------
+
+
+@dataclass(frozen=True)
+class MadeMap:
+    """A map the artist makes with an operator of its own rather than bakes: the ``bake``
+    command, ``BakeOptions``, Dask and the Bake operator never see it (they list ``all_kinds``);
+    the panel offers its Make-map operator, and Make connects it as it connects a baked map."""
+
+    name: str  #: as mode inputs name it (Input.map); the <map> of pw_<map>_image
+    label: str
+    description: str  #: the Make-map operator's tooltip
+    #: make(obj, **params) -> bpy.types.Image: makes obj's map and points obj at it (pw_<map>_image)
+    make: Callable[..., Any]
+
+    @property
+    def feeds(self) -> list[str]:
+        """The weathering inputs (masks) this map feeds, from the mode registry."""
+        return [item.name for item in weathering_modes.inputs().values() if item.map == self.name]
+
+
+_MADE: dict[str, MadeMap] = {}
+
+
+def register_made(kind: MadeMap) -> None:
+    if kind.name in _MADE or kind.name in _REGISTRY:
+        raise ValueError(f"a map named {kind.name!r} is registered already")
+    _MADE[kind.name] = kind
+
+
+def made_kinds() -> tuple[MadeMap, ...]:
+    """The maps that are made, not baked, in the order registered."""
+    return tuple(_MADE.values())
+
+
+EFFLORESCENCE = MadeMap(
+    name=efflorescence_map.MAP_NAME,
+    label="Efflorescence",
+    description="Efflorescence location map: where salt fills the pores first, from brick joints or a photograph",
+    make=efflorescence_map.make_map,
+)
+
+register_made(EFFLORESCENCE)

@@ -1,4 +1,4 @@
-"""Materials built on the porous node groups, and the key-light wiring (SPEC 3)."""
+"""Materials built on the porous node groups, and the key-light wiring (docs/model.md §3)."""
 
 import os
 from collections.abc import Sequence
@@ -30,7 +30,7 @@ def make_porous_material(
     pore_depth_ratio: float = 2.0,
     key_light: "bpy.types.Object | str | None" = None,
 ) -> "bpy.types.Material":
-    """A new material that renders the porous BRDF post-process (SPEC 2) in EEVEE and Cycles.
+    """A new material that renders the porous BRDF post-process (docs/model.md §2) in EEVEE and Cycles.
 
     ``base_color`` is k_d: an RGB(A) colour, a ``bpy.types.Image`` or an image file path.
     ``ks`` is k_s, ``roughness`` m, ``porosity`` alpha, ``pore_depth_ratio`` s_p.

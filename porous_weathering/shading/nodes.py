@@ -19,7 +19,7 @@ from ..core.shader_math import Graph, dot, normalize
 #: Bumped whenever the maths or the interface of a group changes, so old files rebuild.
 BUILD_VERSION = 6
 
-#: Light modes (SPEC 3): a sun's direction, a point-like light's position, or none.
+#: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
 LIGHT_MODES = (SUN, POINT, AMBIENT)
 
@@ -169,9 +169,9 @@ def porous_bsdf(graph, inputs, light_mode):
     return {"BSDF": bsdf, "Diffuse Weight": kd_poro, "Specular Weight": ks_poro}
 
 
-# --- weathering (SPEC 4): the modes of the registry ------------------------------------------
+# --- weathering (docs/model.md §4): the modes of the registry ------------------------------------------
 
-#: Near-mirror roughness of the water lobe (a GGX of its own, SPEC 4 "wet surfaces").
+#: Near-mirror roughness of the water lobe (a GGX of its own, docs/model.md §4.2).
 WATER_ROUGHNESS = weathering_modes.base.WATER_ROUGHNESS.default
 WATER_OUTPUT = {"Water Weight": ("NodeSocketColor", "Weight of the near-mirror water lobe (eq. 8)")}
 

@@ -1,4 +1,4 @@
-"""Weathered materials (SPEC 4): the porous material plus soiling, wet surfaces and
+"""Weathered materials (docs/model.md §4): the porous material plus soiling, wet surfaces and
 efflorescence, composed from only the modes a material uses, aged by one time input."""
 
 import os

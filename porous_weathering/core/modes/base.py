@@ -1,4 +1,4 @@
-"""The records a weathering mode is made of, and the maths the modes share (SPEC 4).
+"""The records a weathering mode is made of, and the maths the modes share (docs/model.md §4).
 
 A mode is one ``Mode`` record: its inputs, its asset metadata, and its maths as ``Layer``
 functions written once against a backend ``xp`` (``backends.py``) that either evaluates
@@ -16,7 +16,7 @@ from ...contracts import socket_name
 from .. import porous
 
 #: Stages: where a layer runs among those of the other modes.  The extensions beyond the paper
-#: (SPEC 6) are layers of their own: the wet darkening right after the water fill, the crust last.
+#: (docs/model.md §6) are layers of their own: the wet darkening right after the water fill, the crust last.
 FILL_CARBON, FILL_SALT, FILL_WATER, DARKEN_WET, COVER_DEPOSIT, COVER_CRUST = 10, 20, 30, 35, 40, 50
 
 
@@ -132,7 +132,7 @@ def blend(xp, clean, weathered, fill):
 
 
 def filled_absorption(xp, ka, sp, fill, theta_i, theta_r):
-    """A_p of pores a fraction ``fill`` full: s_p,eff = s_p (1 - fill) (SPEC 4)."""
+    """A_p of pores a fraction ``fill`` full: s_p,eff = s_p (1 - fill) (docs/model.md §4)."""
     nb = porous.bounce_count(xp, sp, theta_i, theta_r, fill=fill)
     return porous.pore_absorption(xp, ka, xp.channel(nb))
 

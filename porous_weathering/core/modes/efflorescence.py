@@ -1,4 +1,4 @@
-"""Efflorescence (SPEC 4, section 4.3 of the paper): salt fills the pores where a location
+"""Efflorescence (docs/model.md §4, section 4.3 of the paper): salt fills the pores where a location
 map (a height field from a photograph, or generated) is highest first."""
 
 from .base import FILL_SALT, FRONT_WIDTH, TIME, Input, Layer, Mode, blend, filled_absorption, pore_fill

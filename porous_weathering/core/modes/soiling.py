@@ -1,6 +1,6 @@
-"""Soiling by atmospheric pollution (SPEC 4, section 4.1 of the paper): rain-washed white
+"""Soiling by atmospheric pollution (docs/model.md §4, section 4.1 of the paper): rain-washed white
 areas, sheltered grey areas under a deposit, and black areas whose pores fill with carbon and,
-once full, are covered by a black crust (SPEC 6, beyond the paper; ``crust = 0`` is the paper)."""
+once full, are covered by a black crust (docs/model.md §6, beyond the paper; ``crust = 0`` is the paper)."""
 
 from .base import (
     COVER_CRUST,
@@ -91,7 +91,7 @@ def fill_with_carbon(xp, point):
 
 
 def crust_coverage(xp, sheltered, edge_map, time, level, width, crust):
-    """c (SPEC 6): ``crust`` times how far the black area's carbon fill has progressed past
+    """c (docs/model.md §6): ``crust`` times how far the black area's carbon fill has progressed past
     saturation; ``crust`` itself at a fully black point (sheltered, mask 1) at t = 1, level 1."""
     return crust * sheltered * past_saturation(xp, edge_map, time, level, width)
 

@@ -1,6 +1,6 @@
-"""Wet surfaces (SPEC 4, section 4.2 of the paper): water fills the pores where the rain map
+"""Wet surfaces (docs/model.md §4, section 4.2 of the paper): water fills the pores where the rain map
 is highest first, and a near-mirror water lobe of its own reflects the sky.  Beyond the paper
-(SPEC 6; ``wet_darkening = 0`` is the paper): the stone under the water darkens as Ångström and
+(docs/model.md §6; ``wet_darkening = 0`` is the paper): the stone under the water darkens as Ångström and
 Lekner & Dorf explain, by light the water's surface sends back down to be absorbed again, and
 the water's surface reflects as water does, by Fresnel (this project's decision: docs/model.md)."""
 
@@ -18,7 +18,7 @@ from .base import (
     pore_fill,
 )
 
-#: Refractive index of water in the visible (SPEC 6).
+#: Refractive index of water in the visible (docs/model.md §6).
 WATER_INDEX = 1.333
 
 #: r̄: the cosine-weighted hemispherical Fresnel reflectance of water seen from air,
@@ -56,7 +56,7 @@ def wet_weights(xp, kd, water_specular, pore, ap):
 
 
 def wet_darkening_factor(xp, kd, strength, water):
-    """What the diffuse weight is multiplied by, per channel (SPEC 6): 1 on dry stone, and
+    """What the diffuse weight is multiplied by, per channel (docs/model.md §6): 1 on dry stone, and
     (1 - p) / (1 - p k_d) under water, where light bounces between stone and water surface,
     for the share w = ``strength`` x ``water`` the water covers.  A Mix by w of 1 and that is a
     Mix by ``water`` of 1 and the Mix by ``strength`` (both 1 + w ((1 - p) / (1 - p k_d) - 1)),

@@ -1,4 +1,5 @@
-"""The repo's generator scripts (they are not in a package), loaded as modules for the tests."""
+"""The repo's scripts that are not in a package (sample_blends/, node_groups/, ...), loaded as
+modules for the tests with ``load_script``."""
 
 import importlib.util
 import pathlib
@@ -10,6 +11,7 @@ OLDEST_LINE = (4, 5)
 
 
 def load_script(relative_path):
+    """The script at ``relative_path`` (from the repository root), executed as a new module."""
     path = ROOT / relative_path
     spec = importlib.util.spec_from_file_location(path.stem, path)
     module = importlib.util.module_from_spec(spec)

@@ -1,0 +1,46 @@
+"""What the ``bake`` and ``export`` commands share: the ``--objects`` / ``--collection``
+arguments (declared once, each command saying what its default is), the objects they choose in
+the open .blend, and an error's message on one line."""
+
+import argparse
+
+import bpy
+
+
+def add_arguments(parser: argparse.ArgumentParser, *, objects_help: str, collection_help: str) -> None:
+    """``--objects NAME [NAME ...]`` (default: none, ``()``) and ``--collection NAME``, with the
+    command's help texts (what it does with them, and without them)."""
+    parser.add_argument("--objects", nargs="+", metavar="NAME", default=(), help=objects_help)
+    parser.add_argument("--collection", metavar="NAME", help=collection_help)
+
+
+def chosen(args: argparse.Namespace) -> bool:
+    """Whether ``args`` choose objects (``--objects`` or ``--collection``)."""
+    return bool(args.objects or args.collection)
+
+
+def chosen_objects(args: argparse.Namespace) -> list["bpy.types.Object"]:
+    """The objects ``--objects`` names, in its order; else the mesh objects of ``--collection``
+    (children included), else of the scene, sorted by name. ValueError naming what is missing,
+    or when there is no mesh object."""
+    if args.objects:
+        missing = [name for name in args.objects if name not in bpy.data.objects]
+        if missing:
+            raise ValueError(f"no object named {', '.join(missing)}")
+        return [bpy.data.objects[name] for name in args.objects]
+    if args.collection:
+        if args.collection not in bpy.data.collections:
+            raise ValueError(f"no collection named {args.collection}")
+        candidates = bpy.data.collections[args.collection].all_objects
+    else:
+        candidates = bpy.context.scene.objects
+    objects = sorted((o for o in candidates if o.type == "MESH"), key=lambda o: o.name)
+    if not objects:
+        raise ValueError("no mesh objects to bake")
+    return objects
+
+
+def one_line(error: BaseException | str) -> str:
+    """An exception's message on one line, without the "Error: " Blender puts before its own."""
+    text = " ".join(str(error).split())
+    return text.removeprefix("Error: ")

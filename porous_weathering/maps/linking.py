@@ -1,0 +1,91 @@
+"""An object's maps and the material wired to them: finding the maps made for an object (an
+Image named in its ``pw_<map>_image`` property, ``contracts.map_image_property``, or a baked
+colour attribute), the maps some weathering modes still lack, and the weathered material whose
+mask inputs read them (each map connected to the inputs it feeds, ``Input.map``). The panel's
+Make button is a thin wrapper over ``weathered_material_for``.
+
+May import: bpy, ``core``, ``common``, ``blender``, ``shading`` and ``maps.registry``.
+"""
+
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import bpy
+
+from ..contracts import map_image_property
+from ..core import modes as weathering_modes
+from ..shading import material, presets, weathering
+from . import registry
+
+#: The base colour of a material made from the object's own material when it has no image.
+DEFAULT_BASE_COLOR = (0.8, 0.8, 0.8)
+
+
+def known_maps() -> tuple[registry.MapKind | registry.MadeMap, ...]:
+    """Every map an object may have: the baked ones (``registry.all_kinds``), then the ones
+    made, not baked (``registry.made_kinds``)."""
+    return (*registry.all_kinds(), *registry.made_kinds())
+
+
+def discover_maps(obj: "bpy.types.Object") -> dict[str, "bpy.types.Image | str"]:
+    """{map name: source} of the maps made for ``obj``: an Image (named in its ``pw_<map>_image``
+    property) or, for a baked map, the name of the colour attribute it was baked into."""
+    found = {}
+    for kind in known_maps():
+        image = bpy.data.images.get(obj.get(map_image_property(kind.name), ""))
+        attribute = getattr(kind, "attribute", None)
+        if image is not None:
+            found[kind.name] = image
+        elif obj.type == "MESH" and attribute and attribute in obj.data.attributes:
+            found[kind.name] = attribute
+    return found
+
+
+def missing_maps(obj: "bpy.types.Object", modes: Iterable[str]) -> list[str]:
+    """The maps that ``modes`` read and ``obj`` lacks, sorted."""
+    wanted = {item.map for item in weathering_modes.inputs_of(modes) if item.map}
+    return sorted(wanted - set(discover_maps(obj)))
+
+
+def map_inputs(obj: "bpy.types.Object", modes: Iterable[str]) -> dict[str, "bpy.types.Image | str"]:
+    """{weathering input: source} of ``obj``'s maps, for each mask input ``modes`` read."""
+    have = discover_maps(obj)
+    return {item.name: have[item.map] for item in weathering_modes.inputs_of(modes) if item.map in have}
+
+
+def weathered_material_for(
+    obj: "bpy.types.Object",
+    modes: tuple[str, ...],
+    *,
+    preset: str | None,
+    key_light: "bpy.types.Object | None" = None,
+    values: Mapping[str, Any] | None = None,
+) -> "bpy.types.Material":
+    """A new material for ``obj``: porous, weathered by ``modes`` (none: porous only) with the
+    weathering input ``values``, every mask input read from the map of ``obj`` that feeds it
+    (``map_inputs``), lit by ``key_light``. From the stone ``preset`` (a key of
+    ``presets.PRESETS``), or, with None, from ``obj``'s own material: its base colour and
+    roughness images are kept. ValueError on a bad input (see ``make_weathered_material``)."""
+    if preset is None:
+        textures = material.principled_textures(obj.active_material)
+        params = {"base_color": textures.get("Base Color", DEFAULT_BASE_COLOR)}
+        name = f"{obj.active_material.name if obj.active_material else obj.name} Porous"
+    else:
+        stone = presets.PRESETS[preset]
+        textures = {}
+        params = stone.material_params()
+        name = f"{obj.name} {stone.label}"
+    if modes:
+        new = weathering.make_weathered_material(
+            name,
+            modes=modes,
+            key_light=key_light,
+            **params,
+            **dict(values or {}),
+            **map_inputs(obj, modes),
+        )
+    else:
+        new = material.make_porous_material(name, key_light=key_light, **params)
+    if "Roughness" in textures:
+        material.connect_roughness_image(new, textures["Roughness"])
+    return new

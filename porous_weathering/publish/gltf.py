@@ -1,0 +1,127 @@
+"""Writing the glTF: the copies made what the .glb holds (``finish_copy``), the material
+variants declared to Blender's glTF add-on (``variants_declared``), the user's names lent to the
+copies (``borrowed_names``), and the add-on's exporter itself (``export_gltf``)."""
+
+import os
+from contextlib import contextmanager
+
+import bpy
+
+import numpy as np
+
+GLTF_ADDON = "io_scene_gltf2"
+#: WebP quality (Blender's exporter re-encodes every texture; 100 would be lossless and large).
+WEBP_QUALITY = 90
+
+
+def finish_copy(copy: "bpy.types.Object", uv_map: str, variant_materials: list) -> None:
+    """Make a copy what the .glb holds: only the UV map the textures are on, no custom
+    properties, one material slot showing the clean state, and the other variants declared
+    for that slot (the glTF add-on's ``gltf2_variant_mesh_data``)."""
+    mesh = copy.data
+    # by name, looked up again each time: removing one invalidates the others' references
+    for name in [layer.name for layer in mesh.uv_layers if layer.name != uv_map]:
+        mesh.uv_layers.remove(mesh.uv_layers[name])
+    for name in [attribute.name for attribute in mesh.color_attributes]:  # the masks, in the textures now
+        mesh.color_attributes.remove(mesh.color_attributes[name])
+    for block in (copy, mesh):
+        for key in list(block.keys()):
+            del block[key]
+    mesh.materials.clear()
+    mesh.materials.append(variant_materials[0])
+    mesh.polygons.foreach_set("material_index", np.zeros(len(mesh.polygons), dtype=np.int32))
+    copy.material_slots[0].link = "DATA"
+    for index, material in enumerate(variant_materials):
+        declared = mesh.gltf2_variant_mesh_data.add()
+        declared.material_slot_index = 0
+        declared.material = material
+        declared.variants.add().variant.variant_idx = index
+
+
+@contextmanager
+def variants_declared(names):
+    """The glTF add-on's variants, for the export only: its preference that enables them on,
+    and the variant list (which the add-on reads from the first scene, ``bpy.data.scenes[0]``:
+    no scene may be renamed meanwhile) holding ``names``; both are given back afterwards."""
+    preferences = bpy.context.preferences.addons[GLTF_ADDON].preferences
+    enabled = preferences.KHR_materials_variants_ui
+    if not enabled:  # set only when off: setting it registers the add-on's classes again
+        preferences.KHR_materials_variants_ui = True
+    first = bpy.data.scenes[0]
+    declared = first.gltf2_KHR_materials_variants_variants
+    kept = [(item.name, item.variant_idx) for item in declared]
+    active = first.gltf2_active_variant
+    try:
+        declared.clear()
+        for index, name in enumerate(names):
+            item = declared.add()
+            item.variant_idx = index
+            item.name = name
+        yield
+    finally:
+        declared.clear()
+        for name, index in kept:
+            item = declared.add()
+            item.variant_idx = index
+            item.name = name
+        first.gltf2_active_variant = active
+        if not enabled:
+            preferences.KHR_materials_variants_ui = False
+
+
+@contextmanager
+def borrowed_names(copies):
+    """Give each copy (and its mesh) the name of the object (and mesh) it copies (``copies``:
+    {copy: (original, ...)}), for the export only: the .glb's nodes and meshes carry the user's
+    names. A local original steps aside under a temporary name meanwhile (a linked one keeps its
+    name: a local copy may share it)."""
+    originals, stand_ins, seen = [], [], set()  # (block, its own name)
+    try:
+        for copy, (obj, *_rest) in copies.items():
+            for original, stand_in in ((obj, copy), (obj.data, copy.data)):
+                if original.as_pointer() in seen:  # a mesh that two objects share: its first copy has the name
+                    continue
+                seen.add(original.as_pointer())
+                name = original.name
+                if original.library is None:
+                    originals.append((original, name))
+                    original.name = f"{name} (PW exporting)"
+                stand_ins.append((stand_in, stand_in.name))
+                stand_in.name = name
+        yield
+    finally:
+        for block, name in stand_ins:
+            block.name = name
+        for block, name in originals:
+            block.name = name
+
+
+def export_gltf(scene: "bpy.types.Scene", path: str, image_format: str) -> None:
+    """Blender's glTF exporter on ``scene`` alone, to ``path`` (.glb)."""
+    window = bpy.context.window
+    shown = window.scene if window is not None else None
+    settings = dict(
+        filepath=path,
+        export_format="GLB",
+        use_active_scene=True,
+        use_selection=False,
+        export_apply=True,
+        export_extras=True,
+        export_materials="EXPORT",
+        export_image_format="WEBP" if image_format == "webp" else "AUTO",
+        export_cameras=False,
+        export_lights=False,
+        export_animations=False,
+        export_skins=False,
+        export_morph=False,
+    )
+    if image_format == "webp":
+        settings["export_image_quality"] = WEBP_QUALITY
+    try:
+        with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
+            result = bpy.ops.export_scene.gltf(**settings)
+    finally:
+        if window is not None:  # the exporter leaves the window showing the scene it exported
+            window.scene = shown
+    if result != {"FINISHED"} or not os.path.getsize(path):
+        raise RuntimeError(f"Blender's glTF exporter did not write {path}")

@@ -1,0 +1,225 @@
+"""The panel's operators: Add Porous Material, Make Porous Material (the stone, light and modes
+of the scene's settings, wired to the object's maps: ``linking.weathered_material_for``), Make
+Efflorescence Map (the Make-map operator of the map registry's efflorescence record, a map that
+is made, not baked) and Keyframe Aging. Thin: each calls the public functions of the layers below."""
+
+import inspect
+import warnings
+
+import bpy
+
+from ..blender import scratch_scene
+from ..contracts import GROUP_NODE
+from ..core import model
+from ..maps import efflorescence_map, linking
+from ..maps import registry as maps
+from ..shading import material, weathering
+from . import bake_operator as ops_bake
+from .settings import key_light
+
+
+class NeedsMaterialObject:
+    """Operators that give the active object a material: poll for one that can have them."""
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.type not in scratch_scene.GEOMETRY_TYPES:
+            cls.poll_message_set("Select an object that can have materials")
+            return False
+        return True
+
+
+class PW_OT_add_porous_material(NeedsMaterialObject, bpy.types.Operator):
+    """Give the active object a new porous material (docs/model.md §2), lit by the scene's key light or ambient"""
+
+    bl_idname = "porous_weathering.add_porous_material"
+    bl_label = "Add Porous Material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    key_light: bpy.props.StringProperty(
+        name="Key Light",
+        description="Light whose direction the pore shadowing follows; empty for ambient (environment) lighting",
+    )
+
+    def execute(self, context):
+        obj = context.active_object
+        linked = next((block for block in (obj, obj.data) if block.library is not None), None)
+        if linked is not None:  # a material slot added to linked data is gone once the file is saved
+            what = f"object '{obj.name}'" + ("" if linked is obj else f": its data '{linked.name}'")
+            self.report(
+                {"ERROR"},
+                f"{what} is linked from the library {linked.library.filepath}, where a new "
+                "material would not be saved; make it local first",
+            )
+            return {"CANCELLED"}
+        try:
+            mat = material.make_porous_material(f"{obj.name} Porous", key_light=self.key_light or None)
+        except ValueError as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        try:
+            obj.data.materials.append(mat)
+        except RuntimeError as error:  # data that cannot take a material: leave no orphan behind
+            bpy.data.materials.remove(mat)
+            self.report({"ERROR"}, f"object '{obj.name}': {error}")
+            return {"CANCELLED"}
+        obj.active_material_index = len(obj.material_slots) - 1
+        return {"FINISHED"}
+
+
+def _keyword_default(function, name):
+    return inspect.signature(function).parameters[name].default
+
+
+class PW_OT_make_efflorescence_map(bpy.types.Operator):
+    """Make the active mesh's efflorescence map (brick joints or a photograph) beside the .blend; Make connects it"""
+
+    bl_idname = "porous_weathering.make_efflorescence_map"
+    bl_label = "Make Efflorescence Map"
+    bl_options = {"REGISTER", "UNDO"}
+
+    source: bpy.props.EnumProperty(
+        name="From",
+        description="Where the salt goes first",
+        items=[
+            ("BRICK_JOINTS", "Brick Joints", "Generated: along the mortar joints of a running bond on the UV map"),
+            ("PHOTO", "Photograph", "A photograph of efflorescence: its brightness, denoised and normalised"),
+        ],
+    )
+    photo: bpy.props.StringProperty(
+        name="Photograph", subtype="FILE_PATH", description="Image file of the efflorescence (From: Photograph)"
+    )
+    resolution: bpy.props.IntProperty(
+        name="Resolution", default=512, min=16, max=8192, description="Width and height of the map, in pixels"
+    )
+    rows: bpy.props.IntProperty(
+        name="Courses",
+        default=_keyword_default(efflorescence_map.brick_joint_map, "rows"),
+        min=1,
+        max=4096,
+        description="Brick courses over the UV map's height (From: Brick Joints)",
+    )
+    bricks_per_row: bpy.props.IntProperty(
+        name="Bricks per Course",
+        default=_keyword_default(efflorescence_map.brick_joint_map, "bricks_per_row"),
+        min=1,
+        max=4096,
+        description="Bricks over the UV map's width (From: Brick Joints)",
+    )
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.active_object
+        if obj is None or obj.type != "MESH":
+            cls.poll_message_set("Select the mesh whose efflorescence map to make")
+            return False
+        return True
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        obj = context.active_object
+        photo = (bpy.path.abspath(self.photo) if self.photo else "") if self.source == "PHOTO" else None
+        try:
+            image = maps.EFFLORESCENCE.make(
+                obj, photo=photo, size=self.resolution, rows=self.rows, bricks_per_row=self.bricks_per_row
+            )
+        except (ValueError, OSError) as error:
+            self.report({"ERROR"}, f"object '{obj.name}': {error}")
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"{obj.name}: efflorescence map written to {image.filepath}")
+        return {"FINISHED"}
+
+
+#: The Make-map operator of each map that is made, not baked (``registry.made_kinds``).
+MAKE_MAP_OPERATORS = {maps.EFFLORESCENCE.name: PW_OT_make_efflorescence_map}
+
+
+def make_map_operators() -> list[type]:
+    """The Make-map operators of the made maps, in the registry's order; KeyError naming a made
+    map that has none."""
+    missing = [kind.name for kind in maps.made_kinds() if kind.name not in MAKE_MAP_OPERATORS]
+    if missing:
+        raise KeyError(f"no Make-map operator for the made map(s) {', '.join(missing)}")
+    return [MAKE_MAP_OPERATORS[kind.name] for kind in maps.made_kinds()]
+
+
+def map_button(map_name: str) -> str:
+    """The label of the button that makes the map ``map_name``: its Make-map operator's, else
+    (a baked map) Bake Weathering Maps."""
+    made = MAKE_MAP_OPERATORS.get(map_name)
+    return made.bl_label if made is not None else ops_bake.BakeMapsOperator.bl_label
+
+
+class PW_OT_make_material(NeedsMaterialObject, bpy.types.Operator):
+    """Give the active object a porous material from the chosen stone, light and weathering modes, wired to its maps"""
+
+    bl_idname = "porous_weathering.make_material"
+    bl_label = "Make Porous Material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        settings = context.scene.porous_weathering
+        obj = context.active_object
+        modes = settings.modes()
+        try:
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always", model.PorousInputWarning)
+                new = linking.weathered_material_for(
+                    obj,
+                    modes,
+                    preset=settings.preset(),
+                    key_light=key_light(context.scene, settings),
+                    values=settings.weathering_values(modes),
+                )
+        except ValueError as error:
+            self.report({"ERROR"}, f"object '{obj.name}': {error}")
+            return {"CANCELLED"}
+        for warning in caught:
+            self.report({"WARNING"}, str(warning.message))
+        labels = {kind.name: kind.label for kind in linking.known_maps()}
+        for map_name in linking.missing_maps(obj, modes):
+            self.report(
+                {"WARNING"},
+                f"object '{obj.name}' has no {labels[map_name]} map: its input stays "
+                f"constant until you make it ({map_button(map_name)}) and Make again",
+            )
+        if obj.material_slots:
+            obj.material_slots[obj.active_material_index].material = new
+        else:
+            obj.data.materials.append(new)
+        return {"FINISHED"}
+
+
+def active_material(context: "bpy.types.Context") -> "bpy.types.Material | None":
+    """The material the panel shows: the Properties editor's, else the active object's."""
+    obj = context.active_object
+    return getattr(context, "material", None) or (obj.active_material if obj is not None else None)
+
+
+def time_socket(mat: "bpy.types.Material | None") -> "bpy.types.NodeSocket | None":
+    """The Time input of ``mat``'s Porous group node; None for a material that does not age."""
+    group = mat.node_tree.nodes.get(GROUP_NODE) if mat and mat.node_tree else None
+    return group.inputs.get("Time") if group is not None else None
+
+
+class PW_OT_keyframe_aging(bpy.types.Operator):
+    """Animate the active material from new (time 0, first frame) to fully weathered (time 1, last frame)"""
+
+    bl_idname = "porous_weathering.keyframe_aging"
+    bl_label = "Keyframe Aging"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        if time_socket(active_material(context)) is None:
+            cls.poll_message_set("Make a weathered material first: a porous-only material does not age")
+            return False
+        return True
+
+    def execute(self, context):
+        scene = context.scene
+        weathering.animate_weathering(active_material(context), scene.frame_start, scene.frame_end)
+        return {"FINISHED"}
