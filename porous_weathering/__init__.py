@@ -29,6 +29,8 @@ PUBLIC_MODULES = (
     "options",
     "presets",
     "rain",
+    "runoff",
+    "runoff_flow",
     "scan_checks",
     "uv",
     "weathering",

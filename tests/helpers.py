@@ -10,6 +10,8 @@
   and the image model.weathered_coefficients predicts for it, k_d D + k_s G + k_water W (W: a
   white GGX of the water's roughness).
 - ``paper_modes``: the modes as the paper writes them, without the layers beyond it (docs/model.md §6).
+- ``rain_only_modes``: the modes as they were before run-off (docs/model.md §7): the rain map's E
+  where they now read the water W, and no dirty streaks.
 - ``run_cli``: ``python -m porous_weathering COMMAND ...`` in a subprocess, as users run it.
 - ``bust_mesh``, ``add_bust``: the scan-like bust of sample_blends/scan_generator.py, in
   millimetres, and the same bust added to the scene (the ``bust`` fixture of conftest.py).
@@ -33,6 +35,7 @@ from porous_weathering.common.options import option
 from porous_weathering.contracts import map_attribute
 from porous_weathering.core import model
 from porous_weathering.core import modes as weathering_modes
+from porous_weathering.core.modes import base as mode_base
 from porous_weathering.core.modes import soiling, wet
 from porous_weathering.core.modes.base import TIME, Input, Layer, Mode
 from porous_weathering.maps import registry as maps
@@ -161,6 +164,68 @@ def paper_modes(names):
             weathering_modes.get(name),
             name=f"paper_{name}",
             layers=tuple(layer for layer in weathering_modes.get(name).layers if layer.apply not in BEYOND_PAPER),
+        )
+        for name in names
+    ]
+    for record in records:
+        weathering_modes.register(record)
+    try:
+        yield tuple(record.name for record in records)
+    finally:
+        for record in records:
+            weathering_modes.unregister(record.name)
+
+
+def _carbon_from_rain(xp, point):
+    """Soiling's black area as docs/model.md §4.1 wrote it before run-off: sheltered from E."""
+    s = point.state
+    sheltered = soiling.sheltered_fraction(xp, s["rain_map"], s["rain_threshold"], s["front_width"])
+    carbon = sheltered * mode_base.pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
+    ap = mode_base.filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
+    polluted = soiling.polluted_diffuse(xp, point.kd, s["pollution_color"], point.pore, ap)
+    point.kd_w = mode_base.blend(xp, point.kd_w, polluted, xp.channel(carbon))
+    point.notes["sheltered"] = sheltered
+
+
+def _deposit_without_streaks(xp, point):
+    """The grey deposit alone (docs/model.md §4.1): one cover of coverage c."""
+    s = point.state
+    coverage = soiling.deposit_coverage(point.notes["sheltered"], point.m, s["time"], s["soiling_level"])
+    mode_base.cover(xp, point, s["deposit_color"], coverage)
+
+
+def _water_from_rain(xp, point):
+    """The wet front as docs/model.md §4.2 wrote it before run-off: it sweeps E."""
+    s = point.state
+    water = mode_base.pore_fill(xp, s["rain_map"], s["time"], s["wet_level"], s["front_width"])
+    ap = mode_base.filled_absorption(xp, point.ka, point.sp, water, point.theta_i, point.theta_r)
+    kd_wet, water_lobe = wet.wet_weights(xp, point.kd, xp.channel(s["water_specular"]), point.pore, ap)
+    point.kd_w = mode_base.blend(xp, point.kd_w, kd_wet, xp.channel(water))
+    point.water_w = xp.channel(water) * water_lobe
+    point.notes["water"] = water
+
+
+#: The layers that read the water W or lay the streaks, and what they were before run-off.
+BEFORE_RUNOFF = {
+    soiling.fill_with_carbon: _carbon_from_rain,
+    soiling.lay_deposit: _deposit_without_streaks,
+    wet.fill_with_water: _water_from_rain,
+}
+
+
+@contextlib.contextmanager
+def rain_only_modes(names):
+    """Registers, for the block, each mode of ``names`` as it was before run-off (docs/model.md §7):
+    its record with the layers of BEFORE_RUNOFF in place of today's, named "rain_only_<mode>"
+    (its inputs unchanged, so the run-off ones are accepted and unused). Yields those names."""
+    records = [
+        dataclasses.replace(
+            weathering_modes.get(name),
+            name=f"rain_only_{name}",
+            layers=tuple(
+                dataclasses.replace(layer, apply=BEFORE_RUNOFF.get(layer.apply, layer.apply))
+                for layer in weathering_modes.get(name).layers
+            ),
         )
         for name in names
     ]

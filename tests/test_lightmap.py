@@ -21,6 +21,7 @@ import pytest
 
 from porous_weathering.common import imageio
 from porous_weathering.maps import bake, lightmap, lightmap_child, rain
+from porous_weathering.maps import registry as maps
 from scripts import load_script
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -154,7 +155,9 @@ def test_attribute_maps_are_the_same_at_every_unit(bust, per):
         if per == "corner":
             obj.data.attributes.new("sharp_edge", "BOOLEAN", "EDGE").data[0].value = True
         assert rain.smooth_at_vertices(obj) == (per == "vertex")
-        options = bake.BakeOptions(target="attribute", rain_settings=rain.RainSettings(samples=16))
+        options = bake.BakeOptions(
+            maps=("rain", "edges"), target="attribute", rain_settings=rain.RainSettings(samples=16)
+        )
         assert [o.status for o in bake.bake_maps([obj], options)] == ["written", "written"]
         values[unit] = [colour_attribute(obj.data, name) for name in ("pw_rain", "pw_edges")]
     for unit in ("m", "normalised"):
@@ -197,7 +200,7 @@ def test_the_command_line_rebakes_a_saved_scan_as_unchanged(bust, tmp_path):
         run = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=300)
         assert run.returncode == 0, run.stderr
         lines = [line.split()[0] for line in run.stdout.splitlines() if line.startswith(("written", "unchanged"))]
-        assert lines == [expected, expected], run.stdout
+        assert lines == [expected] * len(maps.names()), run.stdout
 
 
 def test_the_own_lightmap_that_no_longer_fits_is_refused_with_why(bust, tmp_path):
@@ -228,12 +231,12 @@ def test_the_unwrap_is_a_step_of_its_own_with_progress(bust, tmp_path):
     steps = list(bake.iter_bake([obj], options))
     unwrap = [step for step in steps if step.map == bake.LIGHTMAP_STEP]
     assert steps[: len(unwrap)] == unwrap and {step.index for step in unwrap} == {0}
-    assert {step.total for step in steps} == {3}  # the unwrap, then rain and edges
+    assert {step.total for step in steps} == {1 + len(maps.names())}  # the unwrap, then every map
     fractions = [step.fraction for step in steps]
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     stages = [step.stage.split(" (")[0] for step in unwrap]
     assert {"packing", "checking"} <= set(stages) and f"'{lightmap.LIGHTMAP_UV}'" in stages[-1]
-    assert [(s.map, s.outcome.status) for s in steps if s.outcome] == [("rain", "written"), ("edges", "written")]
+    assert [(s.map, s.outcome.status) for s in steps if s.outcome] == [(name, "written") for name in maps.names()]
 
 
 def test_closing_the_bake_during_the_unwrap_stops_it_at_once(bust, tmp_path, monkeypatch):

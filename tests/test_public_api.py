@@ -130,6 +130,8 @@ ALIASES = {
     "options": "common.options",
     "presets": "shading.presets",
     "rain": "maps.rain",
+    "runoff": "maps.runoff",
+    "runoff_flow": "maps.runoff_flow",
     "scan_checks": "maps.scan_checks",
     "uv": "maps.lightmap",
     "weathering": "shading.weathering",

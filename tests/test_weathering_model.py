@@ -1,6 +1,7 @@
 """The weathering section of model.py (docs/model.md §4): exactness at t = 0, bounds and monotone aging;
 the extensions beyond the paper (docs/model.md §6: black crust, wet darkening) and their paper-exact
-settings; and the efflorescence location maps."""
+settings; where water goes (docs/model.md §7: run-off in the soiling and wet modes); and the
+efflorescence location maps."""
 
 import os
 import warnings
@@ -12,11 +13,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from helpers import paper_modes
+from helpers import paper_modes, rain_only_modes
 from porous_weathering.common import imageio
 from porous_weathering.core import model
 from porous_weathering.core.backends import NumpyOps
-from porous_weathering.core.modes import wet
+from porous_weathering.core.modes import soiling, wet
 from porous_weathering.maps import efflorescence_map
 
 SETTINGS = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -55,6 +56,9 @@ def masks(draw):
         rain_threshold=draw(unit),
         crust=draw(unit),
         wet_darkening=draw(unit),
+        runoff_map=draw(unit),
+        runoff=draw(unit),
+        streaks=draw(unit),
     )
 
 
@@ -175,6 +179,99 @@ def test_paper_exact_settings_are_the_paper_bit_for_bit(stone, state, time, mode
         as_paper = weathered(stone, paper, time=time, **state)
     for got, want in zip(extended, as_paper):
         assert np.array_equal(got, want)
+
+
+# --- where water goes (docs/model.md §7): run-off in the modes ----------------------------------------
+
+#: The settings under which run-off changes nothing (docs/model.md §7.2).
+WITHOUT_RUNOFF = dict(runoff=0.0, streaks=0.0)
+
+
+@SETTINGS
+@given(stone=stones(), state=masks(), time=unit, modes=st.sampled_from(MODE_SETS))
+def test_no_runoff_is_the_model_before_runoff_bit_for_bit(stone, state, time, modes):
+    """runoff = 0 and streaks = 0 give, bit for bit, the modes as they were before run-off (E
+    where they read W, no streaks: helpers.rain_only_modes), whatever the run-off map; and so
+    does a run-off map of 0 at any runoff and streaks."""
+    with rain_only_modes(modes) as before:
+        as_before = weathered(stone, before, time=time, **state)
+    without = weathered(stone, modes, time=time, **{**state, **WITHOUT_RUNOFF})
+    no_map = weathered(stone, modes, time=time, **{**state, "runoff_map": 0.0})
+    for got, map_zero, want in zip(without, no_map, as_before):
+        assert np.array_equal(got, want) and np.array_equal(map_zero, want)
+
+
+STONE = dict(kd=np.array([0.7, 0.6, 0.5]), ks=0.1, m=0.8, alpha=0.3, sp=2.0, n_dot_l=0.7, n_dot_v=0.9)
+
+
+def clean_stone():
+    return model.porous_coefficients(*(STONE[k] for k in ("kd", "ks", "m", "alpha", "sp", "n_dot_l", "n_dot_v")))
+
+
+def test_water_is_rain_or_runoff():
+    """W = 1 - (1 - E)(1 - runoff R) is what the wet front sweeps: E = 0.3, R = 0.5 and
+    runoff = 0.6 wet a point as E = 0.51 does without run-off."""
+    state = dict(time=0.7, front_width=0.3)
+    with_runoff = weathered(STONE, model.WET, rain_map=0.3, runoff_map=0.5, runoff=0.6, **state)
+    rain_alone = weathered(STONE, model.WET, rain_map=1 - 0.7 * 0.7, runoff_map=0.0, **state)
+    for got, want in zip(with_runoff, rain_alone):
+        assert np.allclose(got, want, rtol=1e-14, atol=0) and want.any()
+
+
+def test_runoff_washes_and_wets_where_no_rain_falls():
+    """E = 0, R = 1, runoff = 1: W = 1, in the white area (the clean porous material at every t,
+    crust and streaks included), and soaked at t = 1 as a point in the rain is."""
+    clean = clean_stone()
+    runoff = dict(rain_map=0.0, runoff_map=1.0, runoff=1.0, edge_map=1.0, crust=1.0, streaks=1.0)
+    kd_w, ks_w, water_w = weathered(STONE, model.SOILING, time=TIMES, **runoff)
+    assert np.array_equal(kd_w, np.broadcast_to(clean[0], kd_w.shape)) and np.array_equal(
+        np.broadcast_to(ks_w, TIMES.shape), np.full(TIMES.shape, clean[1])
+    )
+    sheltered = weathered(STONE, model.SOILING, time=1.0, **{**runoff, "runoff": 0.0})
+    assert np.abs(sheltered[0] - clean[0]).min() > 0.05  # without the run-off, the same point is black
+    wet_runoff = weathered(STONE, model.WET, time=1.0, rain_map=0.0, runoff_map=1.0, runoff=1.0)
+    in_rain = weathered(STONE, model.WET, time=1.0, rain_map=1.0, runoff_map=0.0)
+    dry = weathered(STONE, model.WET, time=1.0, rain_map=0.0, runoff_map=1.0, runoff=0.0)
+    for got, want in zip(wet_runoff, in_rain):
+        assert np.array_equal(got, want)
+    assert in_rain[2].min() > 0.0 and not dry[2].any()
+
+
+def test_dirty_streaks_darken_where_runoff_is_half_the_washing_water():
+    """u = runoff R / rain_threshold = 0.5 (R = 0.25, threshold 0.5): tail 4 u (1 - u) = 1, so at
+    t = 1, streaks = 1, a sheltered point (E = 0) is all deposit: darker than with R = 0, where
+    there is no tail; the streaks alone make the difference (streaks = 0 gives R = 0's weights)."""
+    deposit = np.array([0.1, 0.09, 0.08])
+    state = dict(time=1.0, rain_map=0.0, streaks=1.0, deposit_color=deposit)
+    streaked = weathered(STONE, model.SOILING, runoff_map=0.25, **state)
+    plain = weathered(STONE, model.SOILING, runoff_map=0.0, **state)
+    assert (streaked[0] < plain[0]).all() and streaked[1] < plain[1]
+    assert np.allclose(streaked[0], deposit, rtol=1e-14) and streaked[1] == 0.0
+    no_streaks = weathered(STONE, model.SOILING, runoff_map=0.25, **{**state, "streaks": 0.0})
+    assert np.array_equal(no_streaks[0], plain[0]) and no_streaks[1] == plain[1]
+    tail = soiling.streak_tail(NumpyOps(colour=False), np.array([0.0, 0.125, 0.25, 0.375, 0.5, 0.9]), 1.0, 0.5)
+    assert np.allclose(tail, [0.0, 0.75, 1.0, 0.75, 0.0, 0.0], rtol=0, atol=1e-15)
+
+
+def test_streaks_compose_with_the_deposit_as_two_covers():
+    """One cover of c + d (1 - c) is the deposit's cover c followed by the streaks' cover d:
+    k_d -> (k_d (1 - c) + col c)(1 - d) + col d, k_s -> k_s (1 - c)(1 - d) (docs/model.md §7.2),
+    over the clean stone here (the edge mask 0 is not reached by t = 0.7: no carbon, no crust)."""
+    deposit = np.array([0.3, 0.29, 0.27])
+    state = dict(time=0.7, rain_map=0.1, rain_threshold=0.6, front_width=0.8, deposit_color=deposit)
+    streaked = weathered(STONE, model.SOILING, runoff_map=0.2, runoff=0.9, streaks=0.6, **state)
+    plain = weathered(STONE, model.SOILING, runoff_map=0.2, runoff=0.9, streaks=0.0, **state)
+    rain_alone = weathered(STONE, model.SOILING, runoff_map=0.0, **state)
+    water = 1 - (1 - 0.1) * (1 - 0.9 * 0.2)
+    sheltered = (0.6 - water) / 0.8
+    c = STONE["m"] / (STONE["m"] + model.DEPOSIT_HALF_ROUGHNESS) * 0.7 * sheltered
+    u = 0.9 * 0.2 / 0.6
+    d = 0.6 * 4 * u * (1 - u) * 0.7 * sheltered
+    clean = clean_stone()
+    assert np.allclose(plain[0], clean[0] * (1 - c) + deposit * c, rtol=1e-13)
+    assert np.allclose(streaked[0], (clean[0] * (1 - c) + deposit * c) * (1 - d) + deposit * d, rtol=1e-13)
+    assert streaked[1] == pytest.approx(clean[1] * (1 - c) * (1 - d), rel=1e-13) and 0.05 < d < c
+    assert np.abs(plain[0] - rain_alone[0]).min() > 1e-3  # the run-off moved the sheltered fraction
 
 
 def fresnel(cos_i, n):

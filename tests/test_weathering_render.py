@@ -6,6 +6,8 @@ roughness, and the weights come from model.weathered_coefficients at that pixel'
 and mask values (read from probe renders).  Each state renders with the API's defaults (the
 extensions beyond the paper on: black crust, wet darkening) and with the paper-exact settings
 (crust = 0, wet_darkening = 0), which must also render bit for bit as the paper's modes do.
+A run-off map (docs/model.md §7) renders as the model says, and runoff = 0, streaks = 0 renders
+bit for bit as no run-off map.
 """
 
 import bpy
@@ -151,6 +153,54 @@ def test_image_and_attribute_masks_match_model(fresh_scene):
     assert_matches(image, expected, covered)
 
 
+def runoff_plane(scene):
+    """A MaskedPlane whose rain map rises across it and whose run-off map rises down it: every
+    part of the soiling and wet modes that run-off moves shows (washed, sheltered, streaked, wet)."""
+    plane = MaskedPlane(scene)
+    ramp = np.linspace(0.0, 1.0, 16)
+    rain = gradient_image("Rain", np.tile(ramp * 0.5, (16, 1)))
+    runoff = gradient_image("Runoff", np.tile(ramp[:, None], (1, 16)))
+    return plane, rain, runoff
+
+
+#: Soiling and wet where run-off reaches: streaks on, the carbon front part way down the edge mask.
+RUNOFF_STATE = dict(time=0.8, front_width=0.3, edge_map=0.6, streaks=1.0, pollution_color=(0.05, 0.04, 0.03))
+
+
+def test_runoff_map_matches_model(fresh_scene):
+    """A run-off map from an image, with the rain map, on soiling and wet: the model's pixels."""
+    plane, rain, runoff = runoff_plane(fresh_scene)
+    modes = (model.SOILING, model.WET)
+    image = plane.render(
+        weathered("Runoff", modes, key_light=plane.sun, rain_map=rain, runoff_map=runoff, **RUNOFF_STATE)
+    )
+    masks = dict(rain_map=plane.probe(rain), runoff_map=plane.probe(runoff))
+    covered = image[..., 3] > 0.999
+    n_dot_l = np.dot(np.array(plane.sun.matrix_world.to_3x3().col[2]), (0.0, 0.0, 1.0))
+    weights = model_weights(modes, n_dot_l, 1.0, **RUNOFF_STATE, **masks)
+    assert np.ptp(masks["runoff_map"][covered]) > 0.8 and np.ptp(masks["rain_map"][covered]) > 0.4
+    no_runoff = model_weights(modes, n_dot_l, 1.0, **RUNOFF_STATE, rain_map=masks["rain_map"])
+    assert np.abs(weights[0] - no_runoff[0])[covered].max() > 0.05  # the run-off shows
+    assert_matches(image, expected_image(weights, lobes(plane.render, STONE["roughness"])), covered)
+
+
+def test_no_runoff_renders_as_no_runoff_map_bit_for_bit(fresh_scene):
+    """runoff = 0 and streaks = 0 with a run-off map connected render exactly what the same
+    material renders without it."""
+    plane, rain, runoff = runoff_plane(fresh_scene)
+    modes = (model.SOILING, model.WET)
+    state = dict(RUNOFF_STATE, runoff=0.0, streaks=0.0)
+    connected = plane.render(
+        weathered("Connected", modes, key_light=plane.sun, rain_map=rain, runoff_map=runoff, **state)
+    )
+    without = plane.render(weathered("Without", modes, key_light=plane.sun, rain_map=rain, **state))
+    assert np.array_equal(connected, without)
+    with_runoff = plane.render(
+        weathered("With", modes, key_light=plane.sun, rain_map=rain, runoff_map=runoff, **RUNOFF_STATE)
+    )
+    assert np.abs(with_runoff - without).max() > 0.01  # the comparison can tell them apart
+
+
 def test_missing_image_renders_as_the_default_constant(fresh_scene, tmp_path):
     sphere = LitSphere(fresh_scene, size=32)
     with pytest.warns(model.PorousInputWarning, match="not found"):
@@ -193,6 +243,8 @@ def test_materials_hold_only_their_modes_nodes():
     assert "Rain Map" not in inputs[("efflorescence",)]
     assert "Crust" in inputs[("soiling",)] and "Wet Darkening" in inputs[("wet",)]  # users' files name them
     assert "Crust" not in inputs[("wet",)] and "Wet Darkening" not in inputs[("soiling",)]
+    assert {"Runoff Map", "Runoff"} <= inputs[("soiling",)] & inputs[("wet",)] and "Streaks" in inputs[("soiling",)]
+    assert "Streaks" not in inputs[("wet",)] and "Runoff" not in inputs[("efflorescence",)]
     for modes, group in groups.items():
         glossy = [node for node in group.nodes if node.type == "BSDF_GLOSSY"]
         assert len(glossy) == (2 if "wet" in modes else 1)

@@ -73,6 +73,16 @@ def _map_list(text):
     return chosen
 
 
+def _in_reading_order(chosen):
+    """``chosen`` in its order, but for a map that reads another one chosen too (the run-off,
+    the rain): that one comes first."""
+    ordered = []
+    for name in chosen:
+        ordered += [read for read in maps.get(name).reads if read in chosen and read not in ordered]
+        ordered += [name] if name not in ordered else []
+    return tuple(ordered)
+
+
 @dataclass(frozen=True, init=False)
 class BakeOptions:
     """What to bake: the general options below, and each map's settings (``settings``, by map
@@ -84,7 +94,7 @@ class BakeOptions:
         label="Maps",
         flag="--maps",
         parse=_map_list,
-        metavar="rain,edges",
+        metavar="MAP,...",
         ui=False,
         tooltip="Comma-separated maps to bake (default: every map)",
     )
@@ -141,6 +151,7 @@ class BakeOptions:
         unknown = set(general["maps"]) - set(maps.names())
         if unknown:
             raise ValueError(f"maps must be some of {', '.join(maps.names())}, not {', '.join(general['maps'])}")
+        general["maps"] = _in_reading_order(general["maps"])
         for name, opt, _ in declared(BakeOptions):
             if name != "maps":
                 check_value(opt.label.lower(), opt, general[name])
@@ -252,6 +263,13 @@ def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | 
             owners.setdefault(obj.data.name, []).append(obj.name)
             if maps.EDGES.name in options.maps:
                 _check_vertices_kept(obj)
+        for name in options.maps:
+            for read in maps.get(name).reads:
+                if read not in options.maps and _stored_hash(obj, read, options) is None:
+                    raise ValueError(
+                        f"object '{obj.name}': the {name} map reads the {read} map, which is neither baked "
+                        f"for it nor asked for: bake both (--maps {read},{name})"
+                    )
     shared = next((names for names in owners.values() if len(names) > 1), None)
     if shared:  # one mesh holds one attribute: each object would overwrite the others' map
         raise ValueError(
@@ -465,8 +483,18 @@ def _inputs_hash(obj, map_name, options, uvs, digests):
             margin=MARGIN,
             uvs=hashlib.sha256(np.ascontiguousarray(uvs, dtype=np.float32).tobytes()).hexdigest(),
         )
-    inputs.update(maps.get(map_name).inputs(obj, options, digests))
+    kind = maps.get(map_name)
+    inputs.update(kind.inputs(obj, options, digests))
+    inputs.update(reads={read: _stored_hash(obj, read, options) for read in kind.reads})
     return hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
+
+
+def _stored_hash(obj, map_name, options):
+    """The input hash stored with ``obj``'s baked ``map_name`` of the bake's target, or None."""
+    if options.target == "image":
+        return imageio.read_metadata(image_path(options.out_dir, obj.name, map_name)).get(HASH_KEY)
+    attribute = maps.get(map_name).attribute
+    return obj.data.get(f"{attribute}_inputs") if attribute in obj.data.color_attributes else None
 
 
 # --- linking the maps into the .blend ----------------------------------------------------------

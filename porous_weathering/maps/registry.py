@@ -12,7 +12,7 @@ from typing import Any
 
 from ..blender import mesh_arrays
 from ..core import modes as weathering_modes
-from . import edges, efflorescence_map, rain
+from . import edges, efflorescence_map, rain, runoff
 
 
 @dataclass(frozen=True)
@@ -33,6 +33,9 @@ class MapKind:
     hash_inputs: Callable[..., dict] = lambda obj, options, digests: {}
     #: BakeOptions keywords that set one field of the settings: {"edge_radius": "radius"}
     aliases: dict = field(default_factory=dict)
+    #: The maps whose baked result this map's bake reads (the run-off reads the rain): baked
+    #: before it in the same bake, or already for the object; their input hashes are in its own.
+    reads: tuple[str, ...] = ()
 
     def inputs(self, obj: Any, options: Any, digests: Callable[[Any], str]) -> dict:
         """What the map's input hash holds besides the geometry and the bake's own options, under
@@ -151,8 +154,40 @@ EDGES = MapKind(
 )
 
 
+# --- run-off R (docs/model.md §7) ------------------------------------------------------------------
+
+
+def _runoff_image(obj, uv_map, options, margin):
+    return runoff.bake_runoff_image(obj, uv_map, options, margin)
+
+
+def _runoff_attribute(obj, options):
+    mesh_arrays.write_corner_attribute(obj.data, runoff.RUNOFF_ATTRIBUTE, runoff.bake_runoff_corners(obj, options))
+
+
+def _runoff_hash(obj, options, digests):
+    # the drops fall along the rain's mean direction; unset lengths are fractions of the object's size
+    size = edges.object_size(obj)
+    return dict(lengths=options.runoff_settings.lengths(size), fall=options.rain_settings.towards_rain())
+
+
+RUNOFF = MapKind(
+    name="runoff",
+    label="Run-off",
+    description="Where the rain that lands runs: R = 1 - exp(-Q / L), Q the water collected along its path",
+    attribute=runoff.RUNOFF_ATTRIBUTE,
+    settings=runoff.RunoffSettings,
+    options_field="runoff_settings",
+    bake_image=_runoff_image,
+    bake_attribute=_runoff_attribute,
+    hash_inputs=_runoff_hash,
+    reads=("rain",),
+)
+
+
 register(RAIN)
 register(EDGES)
+register(RUNOFF)
 
 
 # --- maps made, not baked: the efflorescence location map (docs/model.md §4) ------------------------------

@@ -221,15 +221,18 @@ def _slot(obj, index, material, wet):
     if wet and not weathering_modes.has_water_lobe(modes):  # the wet state adds the modes with the water lobe
         water = textures.water_modes()
         group = porous_node(material)
-        for mask in weathering_modes.inputs_of(water):
-            if not mask.mask:
-                continue
-            source = group.inputs.get(mask.socket)
-            if source is None or not (source.is_linked or source.default_value > 0.0):
-                raise ValueError(
-                    f"{where}: material '{material.name}' has no {mask.socket.lower()}, which the wet variant needs "
-                    f"(bake the {mask.map} map and Make the material again)"
-                )
+        masks = [item for item in weathering_modes.inputs_of(water) if item.mask]
+
+        def fed(item):
+            source = group.inputs.get(item.socket)
+            return source is not None and (source.is_linked or source.default_value > 0.0)
+
+        if masks and not any(fed(item) for item in masks):  # the water needs a map of where it is
+            first = masks[0]
+            raise ValueError(
+                f"{where}: material '{material.name}' has no {first.socket.lower()}, which the wet variant needs "
+                f"(bake the {first.map} map and Make the material again)"
+            )
         modes = tuple(mode for mode in weathering_modes.names() if mode in {*modes, *water})
     return Slot(index, material, modes)
 

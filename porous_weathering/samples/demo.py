@@ -106,7 +106,7 @@ class View:
 class Recipe:
     """How a sample scene weathers: the objects (None: every mesh but the ground), their stone
     (``stone``: make_weathered_material's material keywords, the water roughness among them),
-    for each mode the map each mask reads: "rain" or "edges" (baked as colour attributes) or
+    for each mode the map each mask reads: "rain", "runoff" or "edges" (baked as colour attributes) or
     "joints" (JOINT_MAP, an image on the bricks' UV map), the rain of the bake (``rain``:
     rain.RainSettings fields), the edge mask's settings that differ from their defaults
     (``edges``: edges.EdgeSettings fields), the weathering inputs (model.WEATHERING_INPUTS) that
@@ -131,7 +131,9 @@ class Recipe:
     cell: float | None = None
 
 
-RAIN_AND_EDGES = dict(rain_map="rain", edge_map="edges")
+#: Where water goes (docs/model.md §7): the run-off map feeds soiling and the wet mode beside the rain.
+WATER = dict(rain_map="rain", runoff_map="runoff")
+RAIN_AND_EDGES = dict(WATER, edge_map="edges")
 #: The façade's edge mask (edges.EdgeSettings): a radius of 1.5% of its size (16 cm), the concave
 #: part weighted 2.5. Black crusts fill a building's sheltered recesses (the window heads, the
 #: corner under a sill), wider than the band where a right-angled inner corner reaches C = 1 at
@@ -159,7 +161,7 @@ RECIPES = {
         FACADE_STONE,
         {
             model.SOILING: RAIN_AND_EDGES,
-            model.WET: dict(rain_map="rain"),
+            model.WET: WATER,
             model.EFFLORESCENCE: dict(efflorescence_map="rain"),
         },
         inputs=FACADE_SOILING,
@@ -174,7 +176,7 @@ RECIPES = {
         presets.PRESETS["BRICK"].material_params(),
         {
             model.SOILING: RAIN_AND_EDGES,
-            model.WET: dict(rain_map="rain"),
+            model.WET: WATER,
             model.EFFLORESCENCE: dict(efflorescence_map="joints"),
         },
         inputs=BRICK_SOILING,
@@ -189,7 +191,7 @@ RECIPES = {
     "bust": Recipe(
         ("Bust",),
         presets.PRESETS["LIMESTONE"].material_params(),
-        {model.SOILING: RAIN_AND_EDGES, model.WET: dict(rain_map="rain")},
+        {model.SOILING: RAIN_AND_EDGES, model.WET: WATER},
         inputs=BUST_SOILING,
         edges=BUST_EDGES,
         view=View(location=(-520.0, -900.0, 200.0), target=(0.0, 0.0, 300.0), lens=55.0, aspect=1.0, sun_strength=2.5),

@@ -17,7 +17,7 @@ from ..core.backends import NODE_OPS
 from ..core.shader_math import Graph, dot, normalize
 
 #: Bumped whenever the maths or the interface of a group changes, so old files rebuild.
-BUILD_VERSION = 6
+BUILD_VERSION = 7
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"

@@ -96,12 +96,41 @@ FRONT_WIDTH = Input(
 RAIN_MAP = Input(
     "rain_map", 0.0, 0.0, 1.0, "Rain exposure E: 1 where rain falls freely, 0 where sheltered", mask=True, map="rain"
 )
+RUNOFF_MAP = Input(
+    "runoff_map",
+    0.0,
+    0.0,
+    1.0,
+    "Run-off R: how much water runs over the point from above (docs/model.md §7)",
+    mask=True,
+    map="runoff",
+)
+RUNOFF = Input(
+    "runoff",
+    1.0,
+    0.0,
+    1.0,
+    "How much of the run-off map counts as water reaching the surface: 0 is the rain map alone",
+    panel=True,
+)
 
 #: The water lobe's roughness: a group input of the modes with a water lobe, not a model input.
 WATER_ROUGHNESS = Input("water_roughness", 0.05, 0.0, 1.0, "Roughness of the water lobe: near 0 is a mirror")
 
 
 # --- maths the modes share ---------------------------------------------------------------------
+
+
+def water_reaching(xp, rain_map, runoff_map, runoff):
+    """W, the water reaching a point (docs/model.md §7.2): rain falling on it (E) or water running
+    over it from above (``runoff`` x R), W = 1 - (1 - E)(1 - runoff R), written as
+    E + (runoff R)(1 - E): one multiply-add of E, and E bit for bit at ``runoff`` = 0."""
+    return xp.multiply_add(runoff * runoff_map, 1.0 - rain_map, rain_map)
+
+
+def water_of(xp, state):
+    """W (water_reaching) from a point's state: what the modes read where they read the rain."""
+    return water_reaching(xp, state["rain_map"], state["runoff_map"], state["runoff"])
 
 
 def fill_curve(xp, progress):

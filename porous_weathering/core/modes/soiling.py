@@ -1,13 +1,19 @@
 """Soiling by atmospheric pollution (docs/model.md §4, section 4.1 of the paper): rain-washed white
 areas, sheltered grey areas under a deposit, and black areas whose pores fill with carbon and,
-once full, are covered by a black crust (docs/model.md §6, beyond the paper; ``crust = 0`` is the paper)."""
+once full, are covered by a black crust (docs/model.md §6, beyond the paper; ``crust = 0`` is the paper).
+Where water goes (docs/model.md §7): the rain map's E is replaced by the water reaching a point, W, rain
+or run-off, and run-off too weak to wash leaves dirty streaks (``runoff = 0``, ``streaks = 0`` is the
+model without run-off)."""
 
+from .. import porous
 from .base import (
     COVER_CRUST,
     COVER_DEPOSIT,
     FILL_CARBON,
     FRONT_WIDTH,
     RAIN_MAP,
+    RUNOFF,
+    RUNOFF_MAP,
     TIME,
     Input,
     Layer,
@@ -17,6 +23,7 @@ from .base import (
     filled_absorption,
     past_saturation,
     pore_fill,
+    water_of,
 )
 
 #: Roughness m at which the grey deposit covers half of what it can (grooves trap particles).
@@ -28,7 +35,12 @@ DEPOSIT_HALF_ROUGHNESS = 0.5
 CRUST_REFLECTANCE_RATIO = 0.2
 CRUST_DEFAULT = 0.8
 
-RAIN_THRESHOLD = Input("rain_threshold", 0.5, 0.0, 1.0, "E at and above which rain washes the surface (white area)")
+#: The streaks' default: chosen so that the façade's dirty tails read (to be checked on pictures).
+STREAKS_DEFAULT = 0.5
+
+RAIN_THRESHOLD = Input(
+    "rain_threshold", 0.5, 0.0, 1.0, "Water W (rain or run-off) at and above which it washes the surface (white area)"
+)
 EDGE_MAP = Input(
     "edge_map",
     0.0,
@@ -58,12 +70,21 @@ CRUST = Input(
     "pollution colour covers at t = 1. Grows once the pores are full",
     panel=True,
 )
+STREAKS = Input(
+    "streaks",
+    STREAKS_DEFAULT,
+    0.0,
+    1.0,
+    "Dirty streaks: how much of the deposit run-off too weak to wash leaves where it soaks in, "
+    "most at half the washing water (0: no streaks)",
+    panel=True,
+)
 
 
-def sheltered_fraction(xp, rain_map, rain_threshold, width):
-    """0 in the white (rain-washed) area E >= threshold, rising to 1 over ``width`` below it:
-    (threshold - E) / width as one multiply-add of E (its constants fold in a shader)."""
-    return xp.clip(xp.multiply_add(rain_map, -1.0 / width, rain_threshold / width), 0.0, 1.0)
+def sheltered_fraction(xp, water, rain_threshold, width):
+    """0 in the white (washed) area W >= threshold, rising to 1 over ``width`` below it:
+    (threshold - W) / width as one multiply-add of W (its constants fold in a shader)."""
+    return xp.clip(xp.multiply_add(water, -1.0 / width, rain_threshold / width), 0.0, 1.0)
 
 
 def polluted_diffuse(xp, kd, pollution_color, pore, ap):
@@ -78,10 +99,23 @@ def deposit_coverage(sheltered, m, time, level):
     return m / (m + DEPOSIT_HALF_ROUGHNESS) * (level * time) * sheltered
 
 
+def streak_tail(xp, runoff_map, runoff, rain_threshold):
+    """4 u (1 - u) for u = clamp(runoff R / threshold, 0, 1) (docs/model.md §7.2): 0 without run-off,
+    1 at half the washing water, 0 again where run-off alone washes."""
+    u = xp.clip(runoff * runoff_map * (1.0 / xp.maximum(rain_threshold, porous.EPSILON)), 0.0, 1.0)
+    return 4.0 * u * (1.0 - u)
+
+
+def streak_coverage(xp, tail, sheltered, time, level, streaks):
+    """d = streaks x tail x (level t) x sheltered: the dirt run-off leaves, growing with time as
+    the deposit does (the sheltered fraction last, one factor per point in a shader)."""
+    return streaks * tail * (level * time) * sheltered
+
+
 def fill_with_carbon(xp, point):
     """The black area: carbon fills the sheltered pores from the highest edge mask down."""
     s = point.state
-    sheltered = sheltered_fraction(xp, s["rain_map"], s["rain_threshold"], s["front_width"])
+    sheltered = sheltered_fraction(xp, water_of(xp, s), s["rain_threshold"], s["front_width"])
     carbon = sheltered * pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
     ap = filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
     point.kd_w = blend(
@@ -97,10 +131,16 @@ def crust_coverage(xp, sheltered, edge_map, time, level, width, crust):
 
 
 def lay_deposit(xp, point):
-    """The grey area: a deposit over whatever fills the pores, where rain does not wash."""
+    """The grey area: a deposit over whatever fills the pores, where water does not wash; then
+    the dirty streaks, a second cover of the deposit colour (docs/model.md §7.2).  The two covers
+    of one colour are laid as one, of coverage 1 - (1 - c)(1 - d) = c + d (1 - c) (one
+    multiply-add; c itself, bit for bit, at d = 0)."""
     s = point.state
-    coverage = deposit_coverage(point.notes["sheltered"], point.m, s["time"], s["soiling_level"])
-    cover(xp, point, s["deposit_color"], coverage)
+    sheltered = point.notes["sheltered"]
+    coverage = deposit_coverage(sheltered, point.m, s["time"], s["soiling_level"])
+    tail = streak_tail(xp, s["runoff_map"], s["runoff"], s["rain_threshold"])
+    streak = streak_coverage(xp, tail, sheltered, s["time"], s["soiling_level"], s["streaks"])
+    cover(xp, point, s["deposit_color"], xp.multiply_add(streak, 1.0 - coverage, coverage))
 
 
 def lay_crust(xp, point):
@@ -121,11 +161,14 @@ MODE = Mode(
         TIME,
         FRONT_WIDTH,
         RAIN_MAP,
+        RUNOFF_MAP,
+        RUNOFF,
         RAIN_THRESHOLD,
         EDGE_MAP,
         SOILING_LEVEL,
         POLLUTION_COLOR,
         DEPOSIT_COLOR,
+        STREAKS,
         CRUST,
     ),
     layers=(

@@ -2,13 +2,17 @@
 is highest first, and a near-mirror water lobe of its own reflects the sky.  Beyond the paper
 (docs/model.md §6; ``wet_darkening = 0`` is the paper): the stone under the water darkens as Ångström and
 Lekner & Dorf explain, by light the water's surface sends back down to be absorbed again, and
-the water's surface reflects as water does, by Fresnel (this project's decision: docs/model.md)."""
+the water's surface reflects as water does, by Fresnel (this project's decision: docs/model.md).
+The front sweeps the water reaching a point, rain or run-off (docs/model.md §7; ``runoff = 0`` is the
+rain map alone)."""
 
 from .base import (
     DARKEN_WET,
     FILL_WATER,
     FRONT_WIDTH,
     RAIN_MAP,
+    RUNOFF,
+    RUNOFF_MAP,
     TIME,
     Input,
     Layer,
@@ -16,6 +20,7 @@ from .base import (
     blend,
     filled_absorption,
     pore_fill,
+    water_of,
 )
 
 #: Refractive index of water in the visible (docs/model.md §6).
@@ -84,7 +89,7 @@ def water_transmittance(xp, n_dot_v):
 
 def fill_with_water(xp, point):
     s = point.state
-    water = pore_fill(xp, s["rain_map"], s["time"], s["wet_level"], s["front_width"])
+    water = pore_fill(xp, water_of(xp, s), s["time"], s["wet_level"], s["front_width"])
     ap = filled_absorption(xp, point.ka, point.sp, water, point.theta_i, point.theta_r)
     kd_wet, water_lobe = wet_weights(xp, point.kd, xp.channel(s["water_specular"]), point.pore, ap)
     point.kd_w = blend(xp, point.kd_w, kd_wet, xp.channel(water))
@@ -106,7 +111,7 @@ MODE = Mode(
     name="wet",
     label="Wet",
     description="Rain fills the pores with water where the rain map is highest first",
-    inputs=(TIME, FRONT_WIDTH, RAIN_MAP, WET_LEVEL, WATER_SPECULAR, WET_DARKENING),
+    inputs=(TIME, FRONT_WIDTH, RAIN_MAP, RUNOFF_MAP, RUNOFF, WET_LEVEL, WATER_SPECULAR, WET_DARKENING),
     layers=(Layer(FILL_WATER, fill_with_water), Layer(DARKEN_WET, darken_under_water)),
     catalog="Wet Surfaces",
     asset_summary="Wet surface: water fills the pores where the rain map is highest first",
