@@ -33,7 +33,7 @@ RUNOFF_LENGTH_FRACTION = 0.05
 ABSORPTION_LENGTH_FRACTION = 0.25
 DEFAULT_DRIP_ANGLE = 30.0
 #: The sampling of an image map: a node per this many texels along the surface.
-TEXELS_PER_NODE = 1.5
+TEXELS_PER_NODE = 2.0
 #: The sampling of an attribute map: the median edge, kept between size / FINEST and size / COARSEST.
 ATTRIBUTE_FINEST, ATTRIBUTE_COARSEST = 512, 256
 
