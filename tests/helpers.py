@@ -156,14 +156,12 @@ BEYOND_PAPER = (soiling.lay_crust, wet.darken_under_water)
 
 
 @contextlib.contextmanager
-def paper_modes(names):
-    """Registers, for the block, each mode of ``names`` as the paper writes it: its own record
-    without the layers beyond the paper, named "paper_<mode>". Yields those names."""
+def mode_variants(names, prefix, layers_of):
+    """Registers, for the block, a copy of each mode of ``names`` named "<prefix>_<mode>" whose
+    layers are ``layers_of(record)`` (its inputs unchanged). Yields those names."""
     records = [
         dataclasses.replace(
-            weathering_modes.get(name),
-            name=f"paper_{name}",
-            layers=tuple(layer for layer in weathering_modes.get(name).layers if layer.apply not in BEYOND_PAPER),
+            weathering_modes.get(name), name=f"{prefix}_{name}", layers=layers_of(weathering_modes.get(name))
         )
         for name in names
     ]
@@ -174,6 +172,14 @@ def paper_modes(names):
     finally:
         for record in records:
             weathering_modes.unregister(record.name)
+
+
+def paper_modes(names):
+    """Each mode of ``names`` as the paper writes it: its own record without the layers beyond
+    the paper, named "paper_<mode>" (a context manager yielding those names)."""
+    return mode_variants(
+        names, "paper", lambda mode: tuple(layer for layer in mode.layers if layer.apply not in BEYOND_PAPER)
+    )
 
 
 def _carbon_from_rain(xp, point):
@@ -213,29 +219,17 @@ BEFORE_RUNOFF = {
 }
 
 
-@contextlib.contextmanager
 def rain_only_modes(names):
-    """Registers, for the block, each mode of ``names`` as it was before run-off (docs/model.md §7):
-    its record with the layers of BEFORE_RUNOFF in place of today's, named "rain_only_<mode>"
-    (its inputs unchanged, so the run-off ones are accepted and unused). Yields those names."""
-    records = [
-        dataclasses.replace(
-            weathering_modes.get(name),
-            name=f"rain_only_{name}",
-            layers=tuple(
-                dataclasses.replace(layer, apply=BEFORE_RUNOFF.get(layer.apply, layer.apply))
-                for layer in weathering_modes.get(name).layers
-            ),
-        )
-        for name in names
-    ]
-    for record in records:
-        weathering_modes.register(record)
-    try:
-        yield tuple(record.name for record in records)
-    finally:
-        for record in records:
-            weathering_modes.unregister(record.name)
+    """Each mode of ``names`` as it was before run-off (docs/model.md §7): its record with the
+    layers of BEFORE_RUNOFF in place of today's, named "rain_only_<mode>" (its inputs unchanged,
+    so the run-off ones are accepted and unused; a context manager yielding those names)."""
+    return mode_variants(
+        names,
+        "rain_only",
+        lambda mode: tuple(
+            dataclasses.replace(layer, apply=BEFORE_RUNOFF.get(layer.apply, layer.apply)) for layer in mode.layers
+        ),
+    )
 
 
 # --- the command line -------------------------------------------------------------------------

@@ -110,6 +110,11 @@ INSTALL = textwrap.dedent("""
     assert os.path.isfile(os.path.join(installed, "porous_weathering_assets.blend"))
     api = importlib.import_module(module + ".porous_weathering")  # the documented installed import
     assert api.make_preset_material("BRICK")["pw_preset"] == "BRICK"
+    # the demo runs from the installed extension: its samples ship beside the package
+    demo = importlib.import_module(module + ".porous_weathering.samples.demo")
+    samples = os.path.join(os.path.dirname(package.__file__), "sample_blends")
+    assert os.path.samefile(demo.SAMPLES_DIR, samples), (demo.SAMPLES_DIR, samples)
+    assert os.path.isfile(os.path.join(samples, demo.FACADE + ".blend"))
     # Blender unpacks the wheels of enabled extensions into a site-packages of the user config.
     sites = [path for path in sys.path if path.startswith(os.environ["BLENDER_USER_EXTENSIONS"])]
     unpacked = sorted(name for site in sites if os.path.isdir(site) for name in os.listdir(site))
