@@ -16,7 +16,7 @@ from ..contracts import EXIT_OK, EXIT_SIGINT, EXIT_USAGE
 
 #: command -> (module, relative to this package, so it works installed as bl_ext.*; help)
 COMMANDS = {
-    "bake": (".bake", "bake rain-exposure and edge/cavity maps of .blend files"),
+    "bake": (".bake", "bake the weathering maps of .blend files (bake --help lists them)"),
     "demo": ("..samples.demo", "render the bundled sample scene and write pictures"),
     "export": (".export", "publish weathered states as glTF 2.0 with material variants and paradata"),
 }
