@@ -155,6 +155,13 @@ class Weathered:
             selected &= (low <= self.maps[mask]) & (self.maps[mask] <= high)
         return selected
 
+    def water_area(self, low, high):
+        """Lit pixels where the water reaching them, W = 1 - (1 - E)(1 - runoff R) (docs/model.md
+        §7.2; E alone where the mode reads no run-off map), lies within [low, high]."""
+        runoff = self.inputs.get("runoff", 0.0) * self.maps.get("runoff_map", 0.0)
+        water = 1.0 - (1.0 - self.maps["rain_map"]) * (1.0 - runoff)
+        return self.lit & (low <= water) & (water <= high)
+
     def change(self, area):
         """(rendered, model.py's) mean late-over-clean luminance in ``area``, which must hold
         enough pixels to judge."""
@@ -230,13 +237,14 @@ def test_brick_wall_effloresces_along_its_joints(tmp_path):
 
 
 def test_brick_wall_wets_where_rain_reaches(tmp_path):
-    """Driven rain reaches the brick faces (E = sin 25 degrees there): dry while the wet front
-    is above that, then darker (the wet darkening), with the water lobe's faint reflection of
-    the sky on top, which the diffuse model lacks (water reflects 2% face on: docs/weathering.md)."""
+    """Driven rain reaches the brick faces (E = sin 25 degrees there) and runs down them: dry
+    while the wet front is above the water W there, then darker (the wet darkening), with the
+    water lobe's faint reflection of the sky on top, which the diffuse model lacks (water
+    reflects 2% face on: docs/weathering.md)."""
     early = Weathered("brick_wall", model.WET, 0.3, tmp_path)
-    assert early.change(early.area(rain_map=(0.3, 0.5)))[0] == pytest.approx(1.0, abs=0.03)
+    assert early.change(early.water_area(0.3, 0.5))[0] == pytest.approx(1.0, abs=0.03)
     late = Weathered("brick_wall", model.WET, 1.0, tmp_path)
-    rendered, diffuse_only = late.change(late.area(rain_map=(0.3, 1.0)))
+    rendered, diffuse_only = late.change(late.water_area(0.3, 1.0))
     assert rendered < 0.8, "wet brick is darker than dry"
     assert rendered > diffuse_only + 0.02, "and its water reflects the sky a little"
 
