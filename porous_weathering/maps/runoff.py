@@ -119,11 +119,9 @@ def _triangles_of(mesh, matrix):
     vertices = points @ matrix[:3, :3].T + matrix[:3, 3]
     # an edge of one face only is on the border: the triangles' edges that are polygon edges
     # (a triangle's inner edges are not) by the polygon edge of each triangle corner
-    loop_edges = np.empty(len(mesh.loops), np.int32)
-    mesh.loops.foreach_get("edge_index", loop_edges)
+    loop_edges = mesh_arrays.attribute(mesh, ".corner_edge", np.int32)
     uses = np.bincount(loop_edges, minlength=len(mesh.edges))
-    loop_vertices = np.empty(len(mesh.loops), np.int32)
-    mesh.loops.foreach_get("vertex_index", loop_vertices)
+    loop_vertices = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
     ends = mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2)
     corners = corners.reshape(-1, 3)
     triangles = triangles.reshape(-1, 3)
@@ -218,7 +216,7 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
     )
     # read at the vertices, and apart at the corners whose normals differ from their vertex's
     # (sharp edges, flat shading): a smooth scan's corners share their vertex's value
-    vertex_of = _corner_vertices(mesh)
+    vertex_of = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
     corner_normals = _corner_normals(mesh, obj)
     vertex_normals = np.zeros_like(world.vertices)
     np.add.at(vertex_normals, vertex_of, corner_normals)
@@ -227,12 +225,6 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
     apart = np.einsum("ij,ij->i", corner_normals, vertex_normals[vertex_of]) < 0.999
     flux[apart] = runoff_flow.interpolate(surface, result.flux, world.vertices[vertex_of[apart]], corner_normals[apart])
     return runoff_flow.runoff_map(flux, runoff_length)
-
-
-def _corner_vertices(mesh):
-    corners = np.empty(len(mesh.loops), np.int32)
-    mesh.loops.foreach_get("vertex_index", corners)
-    return corners
 
 
 def _corner_normals(mesh, obj):
