@@ -4,8 +4,9 @@ options are generated from the export's option declarations (``export.option_ent
 export operator's properties are.
 
 Exit codes (docs/export.md): 0 written; 1 the export failed (the file could not be opened, a
-bake or the write failed); 2 bad arguments or input (nothing written); 130 / 143 interrupted by
-SIGINT / SIGTERM (nothing written).
+bake or the write failed); 2 bad arguments or input (nothing written); 3 refused: ``--out``
+holds a pair of that name made from another .blend or other objects, or not by the extension
+(``--force`` replaces it); 130 / 143 interrupted by SIGINT / SIGTERM (nothing written).
 """
 
 import os
@@ -15,7 +16,7 @@ import bpy
 
 from ..common import interrupts, options
 from ..common.progress import ProgressBar
-from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_USAGE
+from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
 from ..publish import export
 from . import selection
 from .selection import one_line
@@ -26,7 +27,8 @@ def configure_parser(parser):
         "Bake the clean state and each age of the weathered materials of objects of a .blend to PBR textures, "
         "and write them as one glTF 2.0 file (OUT/<name>.glb) whose material variants (KHR_materials_variants) "
         "are the states, with its paradata (OUT/<name>.paradata.json). Exit codes: 0 written, 1 the export "
-        "failed, 2 bad arguments or input (nothing written), 130/143 interrupted (nothing written)."
+        "failed, 2 bad arguments or input (nothing written), 3 refused (OUT holds a pair made from another "
+        ".blend or other objects: --force replaces it), 130/143 interrupted (nothing written)."
     )
     parser.add_argument("file", metavar="FILE.blend", help="the .blend file whose objects to export")
     selection.add_arguments(
@@ -41,6 +43,7 @@ def configure_parser(parser):
         help=f"{declared['ages'].tooltip} (default: {export.format_ages(export.DEFAULT_AGES)})",
     )
     parser.add_argument("--wet", action="store_true", help=declared["wet"].tooltip)
+    parser.add_argument("--force", action="store_true", help=f"{declared['force'].tooltip} (default: refuse, exit 3)")
     options.add_arguments(parser, [entry for entry in export.option_entries() if entry.option.flag])
     parser.add_argument(
         "--note",
@@ -64,6 +67,7 @@ def run(args):
             out_dir=os.path.abspath(args.out_dir),
             name=args.name,
             notes=_notes(args.note),
+            force=args.force,
         )
         if not os.path.isfile(path):
             raise FileNotFoundError(f"no such .blend file: {args.file}")
@@ -75,6 +79,8 @@ def run(args):
         return _error(f"{path}: {one_line(error)}", EXIT_FAILED)
     try:
         steps = export.iter_export(_chosen_objects(args), chosen)  # checks everything before it starts
+    except export.OverwriteRefused as error:
+        return _error(f"{path}: {one_line(error)}; {FORCE_HINT}", EXIT_REFUSED)
     except (ValueError, OSError) as error:
         return _error(f"{path}: {one_line(error)}", EXIT_USAGE)
     bar = ProgressBar(os.path.basename(path))
@@ -85,6 +91,9 @@ def run(args):
             for step in steps:
                 bar(step.fraction, step.message)
                 result = step.result or result
+        except export.OverwriteRefused as error:  # a pair that appeared meanwhile
+            bar.finish()
+            return _error(f"{path}: {one_line(error)}; {FORCE_HINT}", EXIT_REFUSED)
         except ValueError as error:  # bad input found on the way (a mesh that cannot get a lightmap)
             bar.finish()
             return _error(f"{path}: {one_line(error)}", EXIT_USAGE)
@@ -95,6 +104,9 @@ def run(args):
     print(f"wrote     {result.path} (variants {', '.join(result.variants)})")
     print(f"wrote     {result.paradata}")
     return EXIT_OK
+
+
+FORCE_HINT = "export into another --out or --name, or add --force to replace it"
 
 
 def _error(error, code):
@@ -114,10 +126,11 @@ def _notes(words):
 
 def _chosen_objects(args):
     """--objects or --collection as the bake command takes them, else every mesh object of the
-    scene whose materials are all Porous Weathering ones."""
+    scene whose materials are all Porous Weathering ones, but for those without faces (after
+    their modifiers), skipped with a warning."""
     if selection.chosen(args):
         return selection.chosen_objects(args)
-    objects = sorted(
+    eligible = sorted(
         (
             obj
             for obj in bpy.context.scene.objects
@@ -127,6 +140,12 @@ def _chosen_objects(args):
         ),
         key=lambda obj: obj.name,
     )
+    objects = []
+    for obj, surface in export.surfaces_after_modifiers(eligible).items():
+        if surface.faces:
+            objects.append(obj)
+        else:
+            print(f"warning: object '{obj.name}' has no faces (after its modifiers): skipped", file=sys.stderr)
     if not objects:
         raise ValueError("no mesh objects with Porous Weathering materials to export (give --objects)")
     return objects

@@ -2,14 +2,19 @@
 renamed over it when whole (``move_into_place``), and blocks that an interrupt must not cut in
 two (``uncut``: renaming a finished file into place, saving a .blend). ``interrupts`` waits
 for an uncut block and removes the temporary files of the writes in progress
-(``remove_temporary_files``) before it ends the process.
+(``remove_temporary_files``) before it ends the process. Files replaced together
+(``move_into_place_together``) are all replaced or none, and temporary folders
+(``temporary_folder``) are removed as the temporary files are; one left by a killed process is
+removed by the next (``remove_stale_folders``).
 """
 
 import contextlib
 import os
+import shutil
 import tempfile
 import threading
-from collections.abc import Iterator
+import time
+from collections.abc import Iterator, Sequence
 
 from ..contracts import TEMPORARY_PREFIX
 
@@ -54,6 +59,74 @@ def move_into_place(temporary: str, path: str) -> None:
         _temporary_files.discard(temporary)
 
 
+def move_into_place_together(moves: Sequence[tuple[str, str]]) -> None:
+    """Rename each ``temporary_file`` over its path ((temporary, path) pairs), uncut: all are
+    replaced, or, when one rename fails, the paths are given back what they held before (the
+    error is raised). The old files are set aside under temporary names meanwhile."""
+    with _uncut, contextlib.ExitStack() as stack:
+        done = []  # (path, where its old file is set aside, or None)
+        try:
+            for temporary, path in moves:
+                aside = None
+                if os.path.lexists(path):
+                    aside = stack.enter_context(temporary_file(os.path.dirname(path), ".old"))
+                    os.replace(path, aside)
+                done.append((path, aside))
+                os.replace(temporary, path)
+                _temporary_files.discard(temporary)
+        except OSError:
+            for path, aside in reversed(done):
+                if aside is None:
+                    with contextlib.suppress(FileNotFoundError):
+                        os.remove(path)
+                else:
+                    move_into_place(aside, path)
+            raise
+
+
+@contextlib.contextmanager
+def temporary_folder(prefix: str) -> Iterator[str]:
+    """A new folder in the system's temporary folder for the block, named ``<prefix><pid>_...``
+    (its owner, for ``remove_stale_folders``), removed with everything in it when the block
+    ends, fails or is interrupted."""
+    with _uncut:
+        path = tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}_")
+        _temporary_files.add(path)
+    try:
+        yield path
+    finally:
+        with _uncut:
+            _temporary_files.discard(path)
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def remove_stale_folders(prefix: str) -> list[str]:
+    """Remove the ``temporary_folder``s of ``prefix`` that a killed process left: older than
+    now and owned by a process that no longer runs. Returns the folders removed."""
+    started, removed = time.time(), []
+    root = tempfile.gettempdir()
+    with contextlib.suppress(OSError):
+        for entry in os.scandir(root):
+            owner, _, rest = entry.name.removeprefix(prefix).partition("_")
+            if not (entry.name.startswith(prefix) and owner.isdigit() and rest and entry.is_dir(follow_symlinks=False)):
+                continue
+            with contextlib.suppress(OSError):
+                if entry.stat(follow_symlinks=False).st_mtime < started and not _runs(int(owner)):
+                    shutil.rmtree(entry.path)
+                    removed.append(entry.path)
+    return removed
+
+
+def _runs(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    return True
+
+
 def _umask() -> int:
     mask = os.umask(0o077)  # the only portable way to read it is to set it; set back at once
     os.umask(mask)
@@ -62,8 +135,11 @@ def _umask() -> int:
 
 def stop_writes() -> None:
     """Wait for an uncut block in progress, then let none start again (the process is ending),
-    and remove the temporary files of the writes in progress."""
+    and remove the temporary files and folders of the writes in progress."""
     _uncut.acquire()  # never released
     for path in list(_temporary_files):
         with contextlib.suppress(OSError):
-            os.remove(path)
+            if os.path.isdir(path) and not os.path.islink(path):
+                shutil.rmtree(path)
+            else:
+                os.remove(path)

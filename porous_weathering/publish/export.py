@@ -11,8 +11,12 @@ the roughness m, and "Water Weight" for a wet state. The weights are then mapped
 metallic-roughness model with ``KHR_materials_specular`` (``pbr_from_weights``; the mapping and
 its measured error are in docs/export.md) and written by Blender's own glTF exporter. The user's
 objects, meshes, materials and scenes are left as they were; the .glb and its paradata are
-written to temporary files in the output folder and renamed into place at the end, so a failed
-or cancelled export leaves no partial file.
+written to temporary files in the output folder and renamed into place together at the end
+(``atomic.move_into_place_together``), so a failed or cancelled export leaves no partial file
+and never one of the pair without the other. The texture files live in a temporary folder
+(``atomic.temporary_folder``) removed on success, error and interrupt. An existing pair made
+from another .blend or object set, or not by this extension, is refused (``OverwriteRefused``)
+unless ``force``.
 
 This module holds the options, the states, the checks and the steps of the export; the mapping
 is ``mapping``, the bakes ``textures``, the .glb ``gltf`` and its sidecar ``paradata``.
@@ -21,6 +25,7 @@ is ``mapping``, the bakes ``textures``, the .glb ``gltf`` and its sidecar ``para
 import json
 import numbers
 import os
+import tempfile
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass, field
@@ -33,9 +38,10 @@ import numpy as np
 from ..blender import scratch_scene
 from ..common import atomic
 from ..common.options import check, entries, option
-from ..contracts import MODES_PROPERTY, TEMPORARY_PREFIX
+from ..contracts import MODES_PROPERTY, TEMPORARY_PREFIX, safe_file_name
 from ..core import modes as weathering_modes
 from ..maps import bake, lightmap
+from ..maps.provenance import OverwriteRefused  # noqa: F401  (raised here: docs/api.md)
 from . import gltf, paradata, textures
 from .gltf import GLTF_ADDON
 from .mapping import pbr_from_weights
@@ -48,6 +54,10 @@ MIN_SIZE, MAX_SIZE = 16, 8192
 #: Image formats Blender's glTF exporter writes itself (KTX2 needs an external gltfpack: docs/export.md).
 IMAGE_FORMATS = ("png", "webp")
 CLEAN, WET = "clean", "wet"
+#: The prefix of the temporary folder of an export's texture files (``<prefix><pid>_...``).
+FOLDER_PREFIX = TEMPORARY_PREFIX + "export_"
+#: The longest label of a texture (``Textures``): "<object> <variant> base colour".
+LONGEST_LABEL = "base colour"
 
 
 def parse_ages(text: str) -> tuple[float, ...]:
@@ -63,8 +73,15 @@ def parse_ages(text: str) -> tuple[float, ...]:
     return tuple(ages)
 
 
+def format_age(age: float) -> str:
+    """The shortest text that reads back as ``age`` exactly: 0.5, 1, 0.1234561 (so that two
+    ages give two names)."""
+    text = repr(float(age))
+    return text.removesuffix(".0")
+
+
 def format_ages(ages: Sequence[float]) -> str:
-    return ",".join(f"{age:g}" for age in ages)
+    return ",".join(map(format_age, ages))
 
 
 @dataclass(frozen=True)
@@ -118,22 +135,47 @@ class ExportOptions:
         metavar="NAME",
         tooltip="Name of the .glb and of its paradata sidecar (default: the .blend's name)",
     )
-    notes: Mapping[str, Any] = field(default_factory=dict)  #: recorded as they are in the paradata
+    force: bool = option(
+        False,
+        label="Replace",
+        tooltip="Replace a .glb and paradata made from another .blend or other objects, or not by Porous Weathering",
+    )
+    #: recorded in the paradata: JSON values (NaN and infinities are written as null)
+    notes: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self):
+        if isinstance(self.ages, (str, bytes, Mapping)) or not isinstance(self.ages, (Sequence, np.ndarray)):
+            raise ValueError(f"ages must be a sequence of numbers in [0, 1], not {self.ages!r}")
         ages = tuple(self.ages)
         for age in ages:
             if not isinstance(age, numbers.Real) or isinstance(age, bool) or not 0.0 <= age <= 1.0:  # NaN fails
                 raise ValueError(f"ages must be numbers in [0, 1], not {age!r}")
         object.__setattr__(self, "ages", tuple(sorted(set(map(float, ages)))))
+        if not isinstance(self.size, numbers.Integral) or isinstance(self.size, bool):  # numpy integers are
+            raise ValueError(f"size must be a whole number of texels (an int), not {self.size!r}")
+        object.__setattr__(self, "size", int(self.size))
+        if not isinstance(self.out_dir, (str, os.PathLike)) or not isinstance(os.fspath(self.out_dir), str):
+            raise ValueError(f"out_dir must be a folder's path (a str or os.PathLike), not {self.out_dir!r}")
+        object.__setattr__(self, "out_dir", os.fspath(self.out_dir))
+        if self.name is not None:
+            check_file_name(self.name)
         check(self)
         if self.size & (self.size - 1):
             raise ValueError(f"texture size must be a power of two (1024, 2048, 4096, ...), not {self.size}")
-        if self.name and (os.sep in self.name or "/" in self.name):
-            raise ValueError(f"the file name {self.name!r} must not contain a folder")
         if self.wet and not any(self.ages):
             raise ValueError("the wet variant shows the oldest age in the rain: give an age above 0")
-        object.__setattr__(self, "notes", dict(self.notes))
+        object.__setattr__(self, "notes", paradata.json_notes(self.notes))
+
+
+def check_file_name(name: Any) -> None:
+    """ValueError unless ``name`` can name the .glb and its paradata: a non-empty text without
+    a folder, not hidden (a leading '.': '..' would give '...glb')."""
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"name (--name) must be a file name, not {name!r}")
+    if os.sep in name or "/" in name or "\0" in name:
+        raise ValueError(f"name (--name) {name!r} must not contain a folder")
+    if name.startswith("."):
+        raise ValueError(f"name (--name) {name!r} must not start with '.': the files would be hidden")
 
 
 def option_entries() -> list:
@@ -152,7 +194,7 @@ class State:
 
 def states(ages: Sequence[float], wet: bool) -> list[State]:
     """The variants: the clean state, each age above 0 (``t=0.5``), and ``wet`` (the oldest age)."""
-    found = [State(CLEAN, 0.0)] + [State(f"t={age:g}", age) for age in sorted(set(ages)) if age > 0.0]
+    found = [State(CLEAN, 0.0)] + [State(f"t={format_age(age)}", age) for age in sorted(set(ages)) if age > 0.0]
     if wet:
         found.append(State(WET, max(ages), wet=True))
     return found
@@ -199,17 +241,102 @@ def _check_objects(objects: Sequence["bpy.types.Object"], options: ExportOptions
         raise ValueError(f"Blender's glTF 2.0 add-on ({GLTF_ADDON}) is not enabled: enable it in the Preferences")
     if not objects:
         raise ValueError("no objects to export")
-    found = {}
     for obj in objects:
         if obj.type != "MESH":
             raise ValueError(f"object '{obj.name}' has no mesh (its type is {obj.type}): only meshes can be exported")
-        if not obj.data.polygons:
-            raise ValueError(f"object '{obj.name}' has a mesh without faces: nothing to export")
+    found = {}
+    for obj, surface in surfaces_after_modifiers(objects).items():
+        modifiers = ", ".join(modifier.name for modifier in obj.modifiers)
+        if not surface.faces:
+            what = f"its modifiers ({modifiers}) leave no faces" if modifiers else "its mesh has no faces"
+            raise ValueError(f"object '{obj.name}': {what}: nothing to export")
+        if not surface.keeps_uvs:  # the textures are baked on a UV map of the mesh, which they drop
+            raise ValueError(
+                f"object '{obj.name}': its modifiers ({modifiers}) leave no UV map, which the textures need: "
+                "apply them, or turn off the ones that drop the UVs (Remesh)"
+            )
         slots = [_slot(obj, index, slot.material, options.wet) for index, slot in enumerate(obj.material_slots)]
         if not slots:
             raise ValueError(f"object '{obj.name}' has no material: give it a Porous Weathering material (Make)")
         found[obj] = slots
     return found
+
+
+@dataclass(frozen=True)
+class Surface:
+    """What an object's modifiers leave of its mesh: its face count, and whether a UV map of
+    the mesh reaches the evaluated surface (Remesh, for one, drops every UV map)."""
+
+    faces: int
+    keeps_uvs: bool
+
+
+def surfaces_after_modifiers(objects: Sequence["bpy.types.Object"]) -> dict:
+    """{mesh object: Surface}, read before anything else is done: a mesh without modifiers is
+    its own surface; one with modifiers is evaluated as a copy that has a UV map of its own,
+    in a scratch scene (nothing of the user's is evaluated or changed)."""
+    found = {obj: Surface(len(obj.data.polygons), True) for obj in objects if not obj.modifiers}
+    modified = [obj for obj in objects if obj.modifiers]
+    if modified:
+        with scratch_scene.Ledger() as made:
+            scene = scratch_scene.temporary_scene(made, "PW Export Check")
+            copies = {}
+            for obj in modified:
+                copy = made.add(obj.copy())
+                copy.data = made.add(obj.data.copy())
+                copy.data.uv_layers.new(name="PW Check")
+                copy.parent = None
+                scene.collection.objects.link(copy)
+                copies[obj] = copy
+            with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
+                depsgraph = bpy.context.evaluated_depsgraph_get()
+            for obj, copy in copies.items():
+                evaluated = copy.evaluated_get(depsgraph).data
+                found[obj] = Surface(len(evaluated.polygons), len(evaluated.uv_layers) > 0)
+    return {obj: found[obj] for obj in objects}
+
+
+def _check_names(slots, variants, name, out_dir):
+    """ValueError before any work when a name the export makes does not fit: the .glb's and
+    its paradata's file names in ``out_dir``, each object's texture files (in the system's
+    temporary folder) and its material and image names (Blender's name length)."""
+    check_file_name(name)
+    longest = len(os.fsencode(name + paradata.PARADATA_SUFFIX))
+    if longest > _name_max(out_dir):
+        raise ValueError(
+            f"name (--name) {name!r} is too long: '{name}{paradata.PARADATA_SUFFIX}' is {longest} bytes, "
+            f"at most {_name_max(out_dir)} fit a file name in {out_dir}"
+        )
+    id_max = bpy.types.ID.bl_rna.properties["name"].length_max - 1  # bytes, without the closing NUL
+    file_max = _name_max(tempfile.gettempdir())
+    for obj in slots:
+        longest_name = max((f"{obj.name} {state.name} {LONGEST_LABEL}" for state in variants), key=len)
+        sizes = (len(longest_name.encode()), len(os.fsencode(safe_file_name(longest_name) + ".png")))
+        if sizes[0] > id_max or sizes[1] > file_max:
+            raise ValueError(
+                f"object '{obj.name}': its name is too long for the export's textures and materials "
+                f"('{longest_name}': {max(sizes)} bytes, at most {min(id_max, file_max)}): rename the object"
+            )
+
+
+def _name_max(folder):
+    """The longest file name (bytes) ``folder``'s file system takes."""
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
+def _check_folder(out_dir):
+    """Create ``out_dir`` if needed and write a file in it (a file system such as /proc or a
+    full disk refuses what ``os.access`` allows): OSError saying why it cannot take the files."""
+    bake.check_writable_folder(out_dir)
+    try:
+        with atomic.temporary_file(out_dir, ".glb") as probe, open(probe, "wb") as stream:
+            stream.write(b"glTF")
+    except OSError as error:
+        reason = getattr(error.__cause__, "strerror", None) or error.strerror or str(error)
+        raise OSError(f"the output folder {out_dir} (--out) cannot take the files: {reason}") from None
 
 
 def _slot(obj, index, material, wet):
@@ -260,17 +387,21 @@ def export_variants(
     image_format: str = "png",
     name: str | None = None,
     notes: Mapping[str, Any] | None = None,
+    force: bool = False,
     progress: Callable[[float, str], None] | None = None,
 ) -> ExportResult:
     """Bake the clean state, each age of ``ages`` (and a wet state) of ``objects`` to PBR
     textures of ``size``² and write ``OUT/<name>.glb`` (glTF 2.0, one material variant per
     state) and its paradata ``OUT/<name>.paradata.json`` (see the module docstring).
 
-    ``name`` defaults to the .blend's name; ``notes`` (JSON values) go into the paradata as
-    they are, e.g. who made it and from which survey; ``progress(fraction, message)`` is called
-    as each step starts. Raises ValueError before anything is written when an object cannot be
-    exported (not a mesh, no Porous Weathering material, ...), the .blend is not saved or an
-    option is out of range; nothing is left in ``out_dir`` when the export fails."""
+    ``name`` defaults to the .blend's name; ``notes`` (JSON values; NaN and infinities become
+    null) go into the paradata, e.g. who made it and from which survey; ``progress(fraction,
+    message)`` is called as each step starts. Raises ValueError before anything is written when
+    an object cannot be exported (not a mesh, no faces or no UV map after its modifiers, no
+    Porous Weathering material, ...), the .blend is not saved or an option is out of range or
+    of the wrong type, and OverwriteRefused (a ValueError) when ``out_dir`` holds a pair of that
+    name made from another .blend or other objects, or not by this extension, unless ``force``;
+    nothing is left in ``out_dir`` when the export fails."""
     options = ExportOptions(
         ages=tuple(ages),
         wet=wet,
@@ -278,7 +409,8 @@ def export_variants(
         image_format=image_format,
         out_dir=out_dir,
         name=name,
-        notes=notes or {},
+        notes={} if notes is None else notes,
+        force=force,
     )
     result = None
     for step in iter_export(objects, options):
@@ -291,11 +423,18 @@ def export_variants(
 def iter_export(objects: Sequence["bpy.types.Object"], options: ExportOptions) -> Iterator[Step]:
     """The Steps of the export, as a generator (the operator's loop); the objects, the .blend
     and the output folder are checked at once, before anything starts. Closing the generator
-    early (cancel) removes everything it made; the output files are written by the last step."""
+    early (cancel) removes everything it made; the output files are written by the last step.
+    A texture folder that a killed export left in the temporary folder is removed here."""
     slots = _check_objects(objects, options)
     out_dir = os.path.abspath(bpy.path.abspath(options.out_dir))
-    bake.check_writable_folder(out_dir)
-    return _steps(slots, options, output_path(out_dir, options.name or default_name()))
+    name = options.name or default_name()
+    _check_names(slots, states(options.ages, options.wet), name, out_dir)
+    _check_folder(out_dir)
+    path = output_path(out_dir, name)
+    if not options.force:
+        paradata.refuse_overwrite(path, [obj.name for obj in slots])
+    atomic.remove_stale_folders(FOLDER_PREFIX)
+    return _steps(slots, options, path)
 
 
 def _steps(slots, options, path):
@@ -324,7 +463,7 @@ def _steps(slots, options, path):
                 done += 1
         yield step("write", f"writing {os.path.basename(path)}")
         record = paradata.paradata(slots, options, variants, scratch.uv_maps, os.path.basename(path))
-        scratch.write(path, variants, record)
+        scratch.write(path, variants, record, options.force)
     result = ExportResult(path, paradata_path(path), tuple(v.name for v in variants), tuple(o.name for o in slots))
     yield Step(1.0, "write", f"wrote {path}", result)
 
@@ -347,17 +486,17 @@ class _Scratch:
 
     def __enter__(self):
         with ExitStack() as stack:  # a failure here removes what was made already
-            stack.push(self.made)
+            self.folder = stack.enter_context(atomic.temporary_folder(FOLDER_PREFIX))
+            stack.push(self.made)  # closed first: its images read the folder's files
             # the glTF scene's name
             self.scene = scratch_scene.temporary_scene(
                 self.made, f"{self.name} (Porous Weathering)", samples=BAKE_SAMPLES
             )
-            self.folder = self.made.folder(prefix=TEMPORARY_PREFIX + "export_")
-            stack.pop_all()
+            self.closing = stack.pop_all()
         return self
 
     def __exit__(self, *exc):
-        return self.made.__exit__(*exc)
+        return self.closing.__exit__(*exc)
 
     # the copy and its UV map
 
@@ -429,9 +568,10 @@ class _Scratch:
 
     # writing
 
-    def write(self, path, variants, record):
+    def write(self, path, variants, record, force):
         """The copies, each with its variant materials, as one .glb at ``path`` and the
-        paradata ``record`` beside it, both renamed into place together."""
+        paradata ``record`` beside it, both renamed into place together (unless ``force``,
+        after the pair there is checked again: it may have appeared meanwhile)."""
         folder = os.path.dirname(path)
         for copy in self.copies:
             if copy.name not in self.scene.collection.objects:
@@ -440,7 +580,7 @@ class _Scratch:
             stack.enter_context(gltf.variants_declared([state.name for state in variants]))
             for copy, (obj, _, _, materials) in self.copies.items():
                 gltf.finish_copy(copy, self.uv_maps[obj.name][0], [materials[state.name] for state in variants])
-            stack.enter_context(gltf.borrowed_names(self.copies))
+            stack.enter_context(gltf.borrowed_names(self._names(variants)))
             glb = stack.enter_context(atomic.temporary_file(folder, ".glb"))
             sidecar = stack.enter_context(atomic.temporary_file(folder, ".json"))
             self.scene["porous_weathering"] = {
@@ -451,8 +591,18 @@ class _Scratch:
             gltf.export_gltf(self.scene, glb, record["export"]["image_format"])
             record["export"]["sha256"] = paradata.sha256(glb)
             with open(sidecar, "w", encoding="utf-8") as stream:
-                json.dump(record, stream, indent=2, ensure_ascii=False)
+                written = paradata.json_value(record, "the paradata")  # a NaN input of a material: null
+                json.dump(written, stream, indent=2, ensure_ascii=False, allow_nan=False)
                 stream.write("\n")
-            with atomic.uncut():
-                atomic.move_into_place(glb, path)
-                atomic.move_into_place(sidecar, paradata_path(path))
+            if not force:
+                paradata.refuse_overwrite(path, [obj.name for obj, *_ in self.copies.values()])
+            atomic.move_into_place_together([(glb, path), (sidecar, paradata_path(path))])
+
+    def _names(self, variants):
+        """(datablock, name) of what the .glb names: each copy and its mesh take the user's
+        object's and mesh's names, each PBR material ``<object> <variant>``."""
+        names = []
+        for copy, (obj, _, _, materials) in self.copies.items():
+            names += [(copy, obj.name), (copy.data, obj.data.name)]
+            names += [(materials[state.name], f"{obj.name} {state.name}") for state in variants]
+        return names

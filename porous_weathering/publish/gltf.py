@@ -2,12 +2,17 @@
 variants declared to Blender's glTF add-on (``variants_declared``), the user's names lent to the
 copies (``borrowed_names``), and the add-on's exporter itself (``export_gltf``)."""
 
+import contextlib
 import os
+import sys
+import tempfile
 from contextlib import contextmanager
 
 import bpy
 
 import numpy as np
+
+from ..common import atomic
 
 GLTF_ADDON = "io_scene_gltf2"
 #: WebP quality (Blender's exporter re-encodes every texture; 100 would be lossless and large).
@@ -69,30 +74,36 @@ def variants_declared(names):
             preferences.KHR_materials_variants_ui = False
 
 
+#: The ``bpy.data`` collection of each kind of datablock ``borrowed_names`` names.
+_COLLECTIONS = {"OBJECT": "objects", "MESH": "meshes", "MATERIAL": "materials"}
+
+
 @contextmanager
-def borrowed_names(copies):
-    """Give each copy (and its mesh) the name of the object (and mesh) it copies (``copies``:
-    {copy: (original, ...)}), for the export only: the .glb's nodes and meshes carry the user's
-    names. A local original steps aside under a temporary name meanwhile (a linked one keeps its
-    name: a local copy may share it)."""
-    originals, stand_ins, seen = [], [], set()  # (block, its own name)
+def borrowed_names(wanted):
+    """Give each datablock of ``wanted`` ((block, name) pairs: the copies, their meshes, the
+    PBR materials) its name for the export only, so the .glb carries the user's names and never
+    Blender's ".001" of a clash. A local datablock of that kind holding the name (the user's
+    object, or a material "Cube clean" of an earlier export re-imported) steps aside under a
+    temporary name meanwhile, and has its name back afterwards (a linked one keeps its name: a
+    local block may share it). A name wanted twice (a mesh two objects share) goes to the first."""
+    holders, stand_ins, given = [], [], set()  # (block, its own name)
     try:
-        for copy, (obj, *_rest) in copies.items():
-            for original, stand_in in ((obj, copy), (obj.data, copy.data)):
-                if original.as_pointer() in seen:  # a mesh that two objects share: its first copy has the name
-                    continue
-                seen.add(original.as_pointer())
-                name = original.name
-                if original.library is None:
-                    originals.append((original, name))
-                    original.name = f"{name} (PW exporting)"
-                stand_ins.append((stand_in, stand_in.name))
-                stand_in.name = name
+        for block, name in wanted:
+            kind = _COLLECTIONS[block.id_type]
+            if (kind, name) in given:
+                continue
+            given.add((kind, name))
+            holder = getattr(bpy.data, kind).get((name, None))
+            if holder is not None and holder != block:
+                holders.append((holder, name))
+                holder.name = f"{name} (PW exporting)"
+            stand_ins.append((block, block.name))
+            block.name = name
         yield
     finally:
         for block, name in stand_ins:
             block.name = name
-        for block, name in originals:
+        for block, name in holders:
             block.name = name
 
 
@@ -117,11 +128,56 @@ def export_gltf(scene: "bpy.types.Scene", path: str, image_format: str) -> None:
     )
     if image_format == "webp":
         settings["export_image_quality"] = WEBP_QUALITY
-    try:
-        with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
-            result = bpy.ops.export_scene.gltf(**settings)
-    finally:
-        if window is not None:  # the exporter leaves the window showing the scene it exported
-            window.scene = shown
+    # uncut: an interrupt waits for the exporter (seconds), so that stderr is given back first
+    with atomic.uncut(), _stderr_held() as held:
+        try:
+            with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
+                result = bpy.ops.export_scene.gltf(**settings)
+        except RuntimeError as error:  # the add-on's traceback: its last line says what went wrong
+            raise RuntimeError(f"Blender's glTF exporter could not write {path}: {_reason(error)}") from None
+        finally:
+            if window is not None:  # the exporter leaves the window showing the scene it exported
+                window.scene = shown
+        held.keep()
     if result != {"FINISHED"} or not os.path.getsize(path):
         raise RuntimeError(f"Blender's glTF exporter did not write {path}")
+
+
+def _reason(error):
+    """The last line of an exception raised by a Python operator (Blender puts the whole
+    traceback in the message, then "Location: ..."), without the exception's type."""
+    lines = [line.strip() for line in str(error).splitlines() if line.strip() and not line.startswith("Location:")]
+    last = lines[-1] if lines else "no reason given"
+    kind, colon, text = last.partition(": ")
+    return text if colon and kind.replace(".", "").isidentifier() and kind[:1].isupper() else last
+
+
+class _Held:
+    def __init__(self):
+        self.kept = False
+
+    def keep(self):
+        self.kept = True
+
+
+@contextmanager
+def _stderr_held():
+    """The process's stderr (file descriptor 2: Blender prints an operator's traceback there
+    itself) held in a temporary file for the block, and written out after it unless the block
+    failed without ``keep()``: a failure is then one line, not the add-on's traceback."""
+    held = _Held()
+    with contextlib.suppress(Exception):
+        sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as store:
+        os.dup2(store.fileno(), 2)
+        try:
+            yield held
+        finally:
+            with contextlib.suppress(Exception):
+                sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+            if held.kept:
+                store.seek(0)
+                os.write(2, store.read())

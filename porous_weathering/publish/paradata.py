@@ -1,11 +1,17 @@
 """The paradata of an export (docs/export.md, "Paradata"): what the .glb is, what it was made
 from and how (the versions of the extension, Blender and its glTF add-on), the .glb's sha256,
-written as a JSON sidecar beside it."""
+written as a JSON sidecar beside it; and the refusal to replace a pair made from something else
+(``refuse_overwrite``)."""
 
 import datetime
 import hashlib
+import json
+import math
+import numbers
 import os
 import tomllib
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import bpy
 
@@ -13,6 +19,7 @@ from ..common import imageio
 from ..common.imageio import HASH_KEY, OBJECT_KEY, SOURCE_KEY
 from ..contracts import LIGHT_MODE_PROPERTY, MANIFEST
 from ..maps import bake
+from ..maps.provenance import OverwriteRefused, Provenance
 from .gltf import GLTF_ADDON
 from .textures import porous_node
 
@@ -72,6 +79,75 @@ def paradata(slots, options, variants, uv_maps, file_name) -> dict:
         ],
         "notes": options.notes,
     }
+
+
+def json_notes(notes: Any) -> dict:
+    """The ``notes`` of an export as the paradata records them (``json_value``); ValueError
+    naming ``notes`` when they are not a mapping of JSON values."""
+    if not isinstance(notes, Mapping):
+        raise ValueError(f"notes must be a mapping of names to JSON values, not {notes!r}")
+    return json_value(notes, "notes")
+
+
+def json_value(value: Any, where: str) -> Any:
+    """``value`` made of what JSON holds: text, booleans, None, finite numbers (NaN and the
+    infinities, which JSON has not, become None: null), lists and mappings with text keys;
+    ValueError naming ``where`` for anything else (a set, an object)."""
+    if value is None or isinstance(value, (str, bool)):
+        return value
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, Mapping):
+        for key in value:
+            if not isinstance(key, str):
+                raise ValueError(f"{where} must have text keys, not {key!r}")
+        return {key: json_value(item, f"{where}[{key!r}]") for key, item in value.items()}
+    if isinstance(value, Sequence) and not isinstance(value, (bytes, bytearray)):
+        return [json_value(item, f"{where}[{index}]") for index, item in enumerate(value)]
+    raise ValueError(f"{where} must hold JSON values (text, numbers, lists, mappings), not {value!r}")
+
+
+def refuse_overwrite(path: str, objects: Sequence[str]) -> None:
+    """Raise OverwriteRefused when the .glb ``path`` or its paradata may not be replaced by an
+    export of the objects named ``objects`` from the open .blend: a pair made from another
+    .blend or of other objects, a .glb changed since it was written (its sha256 is not its
+    paradata's), or files this extension did not write (no paradata of its own, or not files)."""
+    sidecar = paradata_path(path)
+    there = [where for where in (path, sidecar) if os.path.lexists(where)]
+    if not there:
+        return
+    for where in there:
+        if os.path.islink(where) or not os.path.isfile(where):
+            raise OverwriteRefused(f"{where} is not a file that Porous Weathering wrote")
+    record = _read_paradata(sidecar)
+    if record is None:
+        raise OverwriteRefused(f"{there[0]} was not written by Porous Weathering (no paradata of its own beside it)")
+    made, wanted = record["source"]["blend_file"], os.path.abspath(bpy.data.filepath)
+    if not Provenance(made).yields_to(Provenance(wanted)):
+        raise OverwriteRefused(f"{there[0]} was made from {made}, not from {wanted}")
+    made_objects = sorted(str(item.get("name")) for item in record["objects"])
+    if made_objects != sorted(objects):
+        raise OverwriteRefused(
+            f"{there[0]} holds the objects {', '.join(made_objects)}, not {', '.join(sorted(objects))}"
+        )
+    if os.path.exists(path) and record["export"].get("sha256") != sha256(path):
+        raise OverwriteRefused(f"{path} was changed since Porous Weathering wrote it (its sha256 is not as recorded)")
+
+
+def _read_paradata(path):
+    """The paradata at ``path`` when it is one this extension wrote, else None."""
+    try:
+        with open(path, encoding="utf-8") as stream:
+            record = json.load(stream)
+        generator = record["generator"]["extension"]
+        source, objects, export = record["source"]["blend_file"], record["objects"], record["export"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    mine = str(generator).startswith("Porous Weathering ")
+    shaped = isinstance(source, str) and isinstance(objects, list) and isinstance(export, dict)
+    return record if mine and shaped and all(isinstance(item, dict) for item in objects) else None
 
 
 def sha256(path: str) -> str:

@@ -37,6 +37,9 @@ class ExportVariantsOperator(SteppedOperator):
             chosen = export.ExportOptions(**values)
             objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
             self._steps = export.iter_export(objects, chosen)  # refuses bad objects or folders here
+        except export.OverwriteRefused as error:
+            self.report({"ERROR"}, f"{error}: choose another folder or file name, or tick Replace")
+            return {"CANCELLED"}
         except (ValueError, OSError) as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
