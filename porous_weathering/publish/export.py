@@ -403,7 +403,7 @@ def export_variants(
     name made from another .blend or other objects, or not by this extension, unless ``force``;
     nothing is left in ``out_dir`` when the export fails."""
     options = ExportOptions(
-        ages=tuple(ages),
+        ages=ages,
         wet=wet,
         size=size,
         image_format=image_format,
@@ -573,6 +573,7 @@ class _Scratch:
         paradata ``record`` beside it, both renamed into place together (unless ``force``,
         after the pair there is checked again: it may have appeared meanwhile)."""
         folder = os.path.dirname(path)
+        objects = [obj.name for obj, *_ in self.copies.values()]  # before the copies borrow the names
         for copy in self.copies:
             if copy.name not in self.scene.collection.objects:
                 self.scene.collection.objects.link(copy)
@@ -595,7 +596,7 @@ class _Scratch:
                 json.dump(written, stream, indent=2, ensure_ascii=False, allow_nan=False)
                 stream.write("\n")
             if not force:
-                paradata.refuse_overwrite(path, [obj.name for obj, *_ in self.copies.values()])
+                paradata.refuse_overwrite(path, objects)
             atomic.move_into_place_together([(glb, path), (sidecar, paradata_path(path))])
 
     def _names(self, variants):

@@ -4,6 +4,7 @@ copies (``borrowed_names``), and the add-on's exporter itself (``export_gltf``).
 
 import contextlib
 import os
+import shutil
 import sys
 import tempfile
 from contextlib import contextmanager
@@ -128,8 +129,8 @@ def export_gltf(scene: "bpy.types.Scene", path: str, image_format: str) -> None:
     )
     if image_format == "webp":
         settings["export_image_quality"] = WEBP_QUALITY
-    # uncut: an interrupt waits for the exporter (seconds), so that stderr is given back first
-    with atomic.uncut(), _stderr_held() as held:
+    # uncut: an interrupt waits for the exporter (seconds), so that the output is given back first
+    with atomic.uncut(), _output_held() as held:
         try:
             with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
                 result = bpy.ops.export_scene.gltf(**settings)
@@ -161,23 +162,29 @@ class _Held:
 
 
 @contextmanager
-def _stderr_held():
-    """The process's stderr (file descriptor 2: Blender prints an operator's traceback there
-    itself) held in a temporary file for the block, and written out after it unless the block
-    failed without ``keep()``: a failure is then one line, not the add-on's traceback."""
+def _output_held():
+    """The process's stdout and stderr (file descriptors 1 and 2: Blender prints a failed
+    operator's traceback to stdout itself) held in temporary files for the block, and written out
+    after it unless the block failed without ``keep()``: a failure is then one line, not the
+    add-on's traceback."""
     held = _Held()
-    with contextlib.suppress(Exception):
-        sys.stderr.flush()
-    saved = os.dup(2)
-    with tempfile.TemporaryFile() as store:
-        os.dup2(store.fileno(), 2)
+    with contextlib.ExitStack() as stack:
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):
+                stream.flush()
+        kept = {fd: (os.dup(fd), stack.enter_context(tempfile.TemporaryFile())) for fd in (1, 2)}
+        for fd, (_, store) in kept.items():
+            os.dup2(store.fileno(), fd)
         try:
             yield held
         finally:
-            with contextlib.suppress(Exception):
-                sys.stderr.flush()
-            os.dup2(saved, 2)
-            os.close(saved)
-            if held.kept:
-                store.seek(0)
-                os.write(2, store.read())
+            for stream in (sys.stdout, sys.stderr):
+                with contextlib.suppress(Exception):
+                    stream.flush()
+            for fd, (saved, store) in kept.items():
+                os.dup2(saved, fd)
+                os.close(saved)
+                if held.kept:
+                    store.seek(0)
+                    with open(fd, "wb", closefd=False) as output:
+                        shutil.copyfileobj(store, output)
