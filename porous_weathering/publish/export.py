@@ -299,7 +299,8 @@ def surfaces_after_modifiers(objects: Sequence["bpy.types.Object"]) -> dict:
 def _check_names(slots, variants, name, out_dir):
     """ValueError before any work when a name the export makes does not fit: the .glb's and
     its paradata's file names in ``out_dir``, each object's texture files (in the system's
-    temporary folder) and its material and image names (Blender's name length)."""
+    temporary folder: the .glb names its images after them) and its materials (Blender's
+    longest name: a longer one would be cut, and two variants could clash)."""
     check_file_name(name)
     longest = len(os.fsencode(name + paradata.PARADATA_SUFFIX))
     if longest > _name_max(out_dir):
@@ -309,14 +310,19 @@ def _check_names(slots, variants, name, out_dir):
         )
     id_max = bpy.types.ID.bl_rna.properties["name"].length_max - 1  # bytes, without the closing NUL
     file_max = _name_max(tempfile.gettempdir())
+    longest_variant = max((state.name for state in variants), key=len)
     for obj in slots:
-        longest_name = max((f"{obj.name} {state.name} {LONGEST_LABEL}" for state in variants), key=len)
-        sizes = (len(longest_name.encode()), len(os.fsencode(safe_file_name(longest_name) + ".png")))
-        if sizes[0] > id_max or sizes[1] > file_max:
-            raise ValueError(
-                f"object '{obj.name}': its name is too long for the export's textures and materials "
-                f"('{longest_name}': {max(sizes)} bytes, at most {min(id_max, file_max)}): rename the object"
-            )
+        material = f"{obj.name} {longest_variant}"
+        texture = safe_file_name(f"{material} {LONGEST_LABEL}") + ".png"
+        for what, length, most in (
+            (material, len(material.encode()), id_max),
+            (texture, len(texture.encode()), file_max),
+        ):
+            if length > most:
+                raise ValueError(
+                    f"object '{obj.name}': its name is too long for the export's materials and textures "
+                    f"('{what}' is {length} bytes, at most {most}): rename the object"
+                )
 
 
 def _name_max(folder):
