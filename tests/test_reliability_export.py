@@ -308,6 +308,9 @@ def test_the_types_the_api_takes(tmp_path):
     assert options.out_dir == str(tmp_path) and options.ages == (0.5, 1.0)
     with pytest.raises(ValueError, match="size"):
         export.ExportOptions(size=True)
+    assert export.ExportOptions(name="").name is None  # the operator's empty field: the .blend's name
+    with pytest.raises(ValueError, match="must be a file name"):
+        export.ExportOptions(name="  ")
 
 
 def test_the_command_line_refuses_bad_input_with_exit_2(tmp_path):

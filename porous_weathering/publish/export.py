@@ -151,12 +151,14 @@ class ExportOptions:
             if not isinstance(age, numbers.Real) or isinstance(age, bool) or not 0.0 <= age <= 1.0:  # NaN fails
                 raise ValueError(f"ages must be numbers in [0, 1], not {age!r}")
         object.__setattr__(self, "ages", tuple(sorted(set(map(float, ages)))))
-        if not isinstance(self.size, numbers.Integral) or isinstance(self.size, bool):  # numpy integers are
+        if not isinstance(self.size, numbers.Integral) or isinstance(self.size, bool):  # numpy's are Integral
             raise ValueError(f"size must be a whole number of texels (an int), not {self.size!r}")
         object.__setattr__(self, "size", int(self.size))
         if not isinstance(self.out_dir, (str, os.PathLike)) or not isinstance(os.fspath(self.out_dir), str):
             raise ValueError(f"out_dir must be a folder's path (a str or os.PathLike), not {self.out_dir!r}")
         object.__setattr__(self, "out_dir", os.fspath(self.out_dir))
+        if self.name == "":  # the operator's empty field: the default
+            object.__setattr__(self, "name", None)
         if self.name is not None:
             check_file_name(self.name)
         check(self)
