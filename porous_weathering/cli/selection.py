@@ -3,8 +3,11 @@ arguments (declared once, each command saying what its default is), the objects 
 the open .blend, and an error's message on one line."""
 
 import argparse
+import warnings
 
 import bpy
+
+from ..maps.bake import has_faces
 
 
 def add_arguments(parser: argparse.ArgumentParser, *, objects_help: str, collection_help: str) -> None:
@@ -38,6 +41,20 @@ def chosen_objects(args: argparse.Namespace) -> list["bpy.types.Object"]:
     if not objects:
         raise ValueError("no mesh objects to bake")
     return objects
+
+
+def without_faceless(objects: list["bpy.types.Object"]) -> list["bpy.types.Object"]:
+    """``objects`` without the meshes that have no face (none, or none left after their
+    modifiers: ``bake.has_faces``), each left out with a warning; ValueError when none is left."""
+    kept = []
+    for obj in objects:
+        if has_faces(obj):
+            kept.append(obj)
+        else:
+            warnings.warn(f"object '{obj.name}' is left out: its mesh has no faces (after its modifiers)", stacklevel=2)
+    if not kept:
+        raise ValueError(f"no mesh object with faces: {', '.join(repr(obj.name) for obj in objects)} have none")
+    return kept
 
 
 def one_line(error: BaseException | str) -> str:
