@@ -181,6 +181,19 @@ def test_a_mesh_whose_modifiers_remove_every_face_is_refused_before_any_map(fres
     assert [layer.name for layer in obj.data.uv_layers] == []
 
 
+def test_a_mesh_whose_modifiers_drop_its_uv_maps_is_refused_before_any_image_map(fresh_scene, tmp_path):
+    obj = cube(fresh_scene)
+    obj.modifiers.new("Remesh", "REMESH")
+    options = bake.BakeOptions(maps=("rain",), resolution=16, out_dir=str(tmp_path / "maps"))
+    with pytest.raises(ValueError) as refused:  # was Blender's "No UV map found in ... "Cube.001"", after the unwrap
+        bake.bake_maps([obj], options)
+    assert str(refused.value) == (
+        "object 'Cube': its modifiers (Remesh) drop its UV maps, so image maps cannot be baked through one; "
+        "apply them, or bake to attributes (--target attribute)"
+    )
+    assert not obj.data.uv_layers and not (tmp_path / "maps").exists()
+
+
 def test_the_command_skips_an_unnamed_faceless_mesh_and_refuses_a_named_one(fresh_scene, tmp_path):
     masked_cube(fresh_scene)
     studio.add_plane(fresh_scene)

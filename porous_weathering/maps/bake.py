@@ -266,6 +266,7 @@ def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | 
                 f"object '{obj.name}' is linked from the library {library.filepath}: make it local before baking"
             )
         if options.target == "image":
+            _check_uvs_kept(obj)
             for name in options.maps:
                 try:
                     imageio.check_file_name(image_path(options.out_dir, obj.name, name))
@@ -296,6 +297,26 @@ def has_faces(obj: "bpy.types.Object") -> bool:
     if not obj.data.polygons:
         return False
     return bool(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.polygons)
+
+
+def _check_uvs_kept(obj):
+    """Image maps are baked on the evaluated surface through a UV map of the mesh: modifiers
+    that drop the UV maps (Remesh, ...) leave none to bake through. A mesh without UV maps gets
+    one for the test, removed again."""
+    if not obj.modifiers:
+        return
+    mesh = obj.data
+    added = None if mesh.uv_layers else mesh.uv_layers.new(name=lightmap.LIGHTMAP_UV)
+    try:
+        kept = bool(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.uv_layers)
+    finally:
+        if added is not None:
+            mesh.uv_layers.remove(added)
+    if not kept:
+        raise ValueError(
+            f"object '{obj.name}': its modifiers ({', '.join(m.name for m in obj.modifiers)}) drop its UV maps, "
+            "so image maps cannot be baked through one; apply them, or bake to attributes (--target attribute)"
+        )
 
 
 def _check_vertices_kept(obj):
