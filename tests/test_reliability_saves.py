@@ -16,6 +16,7 @@ import pytest
 
 from bad_meshes import cube
 from helpers import ROOT, run_cli
+from porous_weathering.cli import selection
 from porous_weathering.common import imageio
 from porous_weathering.contracts import map_image_property
 from porous_weathering.maps import bake, efflorescence_map, rain
@@ -254,6 +255,11 @@ def test_a_255_byte_object_name_is_refused_by_the_command(fresh_scene, tmp_path)
     [line] = error_lines(result)
     assert f"object '{name}': the file name" in line and "is 264 bytes, more than the 255" in line
     assert not (tmp_path / "maps").exists() or not list((tmp_path / "maps").iterdir())
+
+
+def test_an_error_line_never_has_an_empty_reason():
+    assert selection.one_line(OSError()) == "OSError"
+    assert selection.one_line(RuntimeError("Error: cannot\n  open")) == "cannot open"
 
 
 def test_api_types_are_checked_with_the_arguments_name(fresh_scene, tmp_path):

@@ -58,6 +58,7 @@ def without_faceless(objects: list["bpy.types.Object"]) -> list["bpy.types.Objec
 
 
 def one_line(error: BaseException | str) -> str:
-    """An exception's message on one line, without the "Error: " Blender puts before its own."""
-    text = " ".join(str(error).split())
-    return text.removeprefix("Error: ")
+    """An exception's message on one line, without the "Error: " Blender puts before its own;
+    never empty (an exception without a message gives its kind)."""
+    text = " ".join(str(error).split()).removeprefix("Error: ")
+    return text or (type(error).__name__ if isinstance(error, BaseException) else "no reason given")

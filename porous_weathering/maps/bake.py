@@ -334,7 +334,7 @@ def check_writable_folder(folder: str) -> None:
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as error:
-        raise OSError(f"cannot create the output folder {folder}: {error.strerror}") from error
+        raise OSError(f"cannot create the output folder {folder}: {error.strerror or error}") from error
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OSError(f"the output folder {folder} is not writable")
     with atomic.temporary_file(folder, ".exr"):  # what the maps need (root writes through modes, not into /proc)
