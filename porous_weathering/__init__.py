@@ -13,6 +13,7 @@ Importing this package does not import bpy; the names that need it load on first
 so ``porous_weathering.model`` works in plain Python too.
 """
 
+import atexit
 import importlib
 
 #: The documented modules (a file each beside this one, the module of its layer under its
@@ -54,12 +55,15 @@ def __getattr__(name):
 
 def register():
     from . import ui
+    from .blender import compat
     from .cli import entry as cli_entry
     from .shading import assets
 
     ui.register()
     assets.register()
     cli_entry.register()
+    if compat.UNREGISTER_BEFORE_EXIT:  # else bpy 4.5 segfaults at exit (docs/troubleshooting.md)
+        atexit.register(unregister)
 
 
 def unregister():
@@ -67,6 +71,7 @@ def unregister():
     from .cli import entry as cli_entry
     from .shading import assets
 
+    atexit.unregister(unregister)
     cli_entry.unregister()
     assets.unregister()
     ui.unregister()

@@ -27,3 +27,24 @@ def use_world_nodes(world):
     """Give ``world`` a node tree (use_nodes is implied, and deprecated, from 5.0)."""
     if not BLENDER_5:
         world.use_nodes = True
+
+
+#: bpy 4.x as a Python module crashes at interpreter exit (segfault, exit 139) while classes,
+#: properties or CLI commands are still registered: whatever registers them must unregister
+#: before the interpreter exits (``porous_weathering.register`` does it with atexit).
+UNREGISTER_BEFORE_EXIT = bpy.app.module and not BLENDER_5
+
+
+def newer_file_version() -> str | None:
+    """ "Blender X.Y" of the open .blend when a newer Blender than this one saved it (saving it
+    here would write it in an older format, losing what that one stores), else None."""
+    made, running = tuple(bpy.data.version), tuple(bpy.app.version_file)
+    if made <= running:
+        return None
+    shown = 3 if made[:2] == running[:2] else 2  # a newer file format of the same release
+    return "Blender " + ".".join(map(str, made[:shown]))
+
+
+def running_version() -> str:
+    """ "Blender X.Y.Z" of this Blender."""
+    return f"Blender {bpy.app.version_string}"

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import bpy
 
+from ..blender import compat
 from ..common import atomic, interrupts, options
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
@@ -67,6 +68,12 @@ def configure_parser(parser):
         "and the lightmap UV map) and save it",
     )
     parser.add_argument(
+        "--allow-downgrade",
+        action="store_true",
+        help="--save also a .blend saved by a newer Blender than this one, in this one's older format "
+        "(default: refuse it, exit 2)",
+    )
+    parser.add_argument(
         "--dry-run", action="store_true", help="check the inputs and list what would be baked; write nothing"
     )
     parser.add_argument(
@@ -94,6 +101,8 @@ def run(args):
             raise FileNotFoundError(f"no such .blend file: {', '.join(missing)}")
         if bake_options.target == "image" and not args.dry_run:
             check_writable_folder(bake_options.out_dir)
+        if args.save and not args.allow_downgrade:
+            _refuse_downgrades(args.files)
     except (ValueError, OSError) as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -113,6 +122,23 @@ def _files_and_objects(files, objects):
     if not files:
         raise ValueError("no .blend file given (usage: bake FILE.blend [FILE.blend ...] [options])")
     return files, names
+
+
+def _refuse_downgrades(files):
+    """ValueError naming the first file that ``--save`` would write in an older format than it
+    has (saved by a newer Blender); a file Blender cannot open fails later, as the bake's."""
+    for path in files:
+        try:
+            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False, use_scripts=False)
+        except RuntimeError:
+            continue
+        newer = compat.newer_file_version()
+        if newer:
+            raise ValueError(
+                f"{path} was saved by {newer}, newer than this {compat.running_version()}: --save would "
+                "rewrite it in the older format and lose what the newer one stores; bake it with "
+                f"{newer} or newer, or add --allow-downgrade"
+            )
 
 
 @dataclass
@@ -159,13 +185,15 @@ def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
     """Bake one file; its outcome lines go to stdout as its maps finish (attribute maps once the
     .blend is saved, as they exist only in it)."""
     bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
+    # a warning (a scan that looks set up wrongly, ...) is one line, above the progress bar
+    warnings.showwarning = lambda message, *_: run.bar.print(f"warning: {message}", file=sys.stderr)
     objects = selection.chosen_objects(args)
+    if not args.objects:  # objects nobody named: one without faces to bake on is left out
+        objects = selection.without_faceless(objects)
     if bake_options.target == "image" and not args.force:
         _refuse_claimed(objects, bake_options, claimed)
     stored_in_blend = bake_options.target == "attribute" and run.save
     unsaved = []
-    # a warning (a scan that looks set up wrongly, ...) is one line, above the progress bar
-    warnings.showwarning = lambda message, *_: run.bar.print(f"warning: {message}", file=sys.stderr)
     for step in iter_bake(objects, bake_options, dry_run=args.dry_run, force=args.force):
         outcome = step.outcome
         run.bar(step.fraction, step.message)

@@ -70,7 +70,7 @@ def run(args: argparse.Namespace, target: str, map_names: tuple, shared: list[st
 
     ``shared`` are the command-line words of the bake options every task of this run gets
     (``BakeOptions.to_argv``); the files, the objects chosen and ``--force``, ``--save`` and
-    ``--dry-run`` come from ``args``."""
+    ``--dry-run`` (and ``--allow-downgrade``) come from ``args``."""
     selection = (
         [f"--collection={args.collection}"] if args.collection else ["--objects", *args.objects] if args.objects else []
     )
@@ -78,7 +78,11 @@ def run(args: argparse.Namespace, target: str, map_names: tuple, shared: list[st
     files = [os.path.abspath(path) for path in args.files]
     try:
         with _interrupts_raised(), _connect(args) as client:
-            return _Run(client, words).bake(files, target, ["--dry-run"] * args.dry_run + ["--save"] * args.save)
+            return _Run(client, words).bake(
+                files,
+                target,
+                ["--dry-run"] * args.dry_run + ["--save"] * args.save + ["--allow-downgrade"] * args.allow_downgrade,
+            )
     except SchedulerUnreachable as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE

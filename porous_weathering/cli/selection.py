@@ -3,8 +3,11 @@ arguments (declared once, each command saying what its default is), the objects 
 the open .blend, and an error's message on one line."""
 
 import argparse
+import warnings
 
 import bpy
+
+from ..maps.bake import has_faces
 
 
 def add_arguments(parser: argparse.ArgumentParser, *, objects_help: str, collection_help: str) -> None:
@@ -40,7 +43,22 @@ def chosen_objects(args: argparse.Namespace) -> list["bpy.types.Object"]:
     return objects
 
 
+def without_faceless(objects: list["bpy.types.Object"]) -> list["bpy.types.Object"]:
+    """``objects`` without the meshes that have no face (none, or none left after their
+    modifiers: ``bake.has_faces``), each left out with a warning; ValueError when none is left."""
+    kept = []
+    for obj in objects:
+        if has_faces(obj):
+            kept.append(obj)
+        else:
+            warnings.warn(f"object '{obj.name}' is left out: its mesh has no faces (after its modifiers)", stacklevel=2)
+    if not kept:
+        raise ValueError(f"no mesh object with faces: {', '.join(repr(obj.name) for obj in objects)} have none")
+    return kept
+
+
 def one_line(error: BaseException | str) -> str:
-    """An exception's message on one line, without the "Error: " Blender puts before its own."""
-    text = " ".join(str(error).split())
-    return text.removeprefix("Error: ")
+    """An exception's message on one line, without the "Error: " Blender puts before its own;
+    never empty (an exception without a message gives its kind)."""
+    text = " ".join(str(error).split()).removeprefix("Error: ")
+    return text or (type(error).__name__ if isinstance(error, BaseException) else "no reason given")

@@ -31,6 +31,27 @@ def image_path(out_dir: str, object_name: str, map_name: str) -> str:
     return os.path.join(out_dir, map_file_name(object_name, map_name))
 
 
+def check_file_name(path: str | os.PathLike) -> None:
+    """ValueError when the file name of ``path`` is longer (in bytes, as the file system counts)
+    than its folder's file system holds (``PC_NAME_MAX``; 255 where it cannot be asked)."""
+    name = os.fsencode(os.path.basename(os.fspath(path)))
+    limit = _name_max(os.path.dirname(os.path.abspath(path)))
+    if len(name) > limit:
+        raise ValueError(
+            f"the file name {os.fsdecode(name)!r} is {len(name)} bytes, "
+            f"more than the {limit} its folder's file system holds"
+        )
+
+
+def _name_max(folder):
+    while not os.path.isdir(folder) and os.path.dirname(folder) != folder:  # a folder the bake will make
+        folder = os.path.dirname(folder)
+    try:
+        return os.pathconf(folder, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        return 255
+
+
 #: file extension -> (OpenImageIO pixel type name, header attributes)
 FORMATS = {
     ".exr": {"float": ("float", {"compression": "zip"}), "half": ("half", {"compression": "zip"})},

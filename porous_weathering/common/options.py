@@ -9,6 +9,8 @@ here: ``operator_properties`` takes the ``bpy.props`` module as an argument.
 
 import argparse
 import math
+import numbers
+import os
 from collections.abc import Callable
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any
@@ -71,11 +73,28 @@ def check_value(name: str, opt: Option, value: Any) -> None:
         raise ValueError(f"{name} must be {describe_range(opt)}, not {value}")
 
 
+def whole_number(name: str, value: Any) -> int:
+    """``value`` as an int: an int or a numpy integer (not a bool, not a float such as 16.0);
+    else ValueError naming ``name``."""
+    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
+        return int(value)
+    raise ValueError(f"{name} must be a whole number (an int), not {value!r}")
+
+
+def folder_path(name: str, value: Any) -> str:
+    """``value`` as a path string: a str or an ``os.PathLike``; else ValueError naming ``name``."""
+    if isinstance(value, os.PathLike):
+        value = os.fspath(value)
+    if not isinstance(value, str):
+        raise ValueError(f"{name} must be a path (a str or os.PathLike), not {value!r}")
+    return value
+
+
 def describe_range(opt: Option) -> str:
     """'in (0, 89] degrees', 'a whole number of texels from 8 to 16384', 'at least 1', ..."""
     unit = f" {opt.unit}" if opt.unit else ""
     if opt.whole and opt.low is not None and opt.high is not None:
-        return f"a whole number{' of ' + opt.unit if opt.unit else ''} from {opt.low:g} to {opt.high:g}"
+        return f"a whole number{' of ' + opt.unit if opt.unit else ''} from {opt.low:.0f} to {opt.high:.0f}"
     if opt.low is not None and opt.high is not None:
         return f"in {'(' if opt.low_open else '['}{opt.low:g}, {opt.high:g}]{unit}"
     if opt.low == 0 and opt.low_open:

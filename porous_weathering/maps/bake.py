@@ -33,9 +33,9 @@ import bpy
 import numpy as np
 
 from ..blender.mesh_arrays import write_corner_attribute  # noqa: F401  (public)
-from ..common import imageio
+from ..common import atomic, imageio
 from ..common.imageio import HASH_KEY, MAP_KEY, OBJECT_KEY, SOURCE_KEY, UV_MAP_KEY, image_path  # noqa: F401  (public: docs/api.md)
-from ..common.options import Entry, check, check_value, declared, entries, option, to_argv
+from ..common.options import Entry, check, check_value, declared, entries, folder_path, option, to_argv
 from ..contracts import map_image_property
 from . import lightmap, scan_checks
 from . import registry as maps
@@ -139,6 +139,7 @@ class BakeOptions:
 
     def __init__(self, **given):
         general = {name: given.pop(name, default) for name, _, default in declared(BakeOptions)}
+        general["out_dir"] = folder_path("out_dir", general["out_dir"])
         settings = dict(given.pop("settings", None) or {})
         for kind in maps.all_kinds():
             settings[kind.name] = given.pop(kind.options_field, None) or settings.get(kind.name) or kind.settings()
@@ -254,11 +255,23 @@ def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | 
             raise ValueError(f"object '{obj.name}' has no mesh (its type is {obj.type}): only meshes can be baked")
         if not obj.data.polygons:
             raise ValueError(f"object '{obj.name}' has a mesh without faces: nothing to bake on")
+        if not has_faces(obj):
+            raise ValueError(
+                f"object '{obj.name}': its modifiers ({', '.join(m.name for m in obj.modifiers)}) leave no face: "
+                "nothing to bake on; change or disable them"
+            )
         library = obj.library or obj.data.library
         if library is not None:  # UV maps and attributes added to library data are lost on save
             raise ValueError(
                 f"object '{obj.name}' is linked from the library {library.filepath}: make it local before baking"
             )
+        if options.target == "image":
+            _check_uvs_kept(obj)
+            for name in options.maps:
+                try:
+                    imageio.check_file_name(image_path(options.out_dir, obj.name, name))
+                except ValueError as error:
+                    raise ValueError(f"object '{obj.name}': {error}: rename the object") from None
         if options.target == "attribute":
             owners.setdefault(obj.data.name, []).append(obj.name)
             if maps.EDGES.name in options.maps:
@@ -278,6 +291,34 @@ def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | 
         )
 
 
+def has_faces(obj: "bpy.types.Object") -> bool:
+    """Whether the mesh ``obj`` has faces, and still has some after its modifiers (a Mask or a
+    Boolean can remove them all)."""
+    if not obj.data.polygons:
+        return False
+    return bool(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.polygons)
+
+
+def _check_uvs_kept(obj):
+    """Image maps are baked on the evaluated surface through a UV map of the mesh: modifiers
+    that drop the UV maps (Remesh, ...) leave none to bake through. A mesh without UV maps gets
+    one for the test, removed again."""
+    if not obj.modifiers:
+        return
+    mesh = obj.data
+    added = None if mesh.uv_layers else mesh.uv_layers.new(name=lightmap.LIGHTMAP_UV)
+    try:
+        kept = bool(obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data.uv_layers)
+    finally:
+        if added is not None:
+            mesh.uv_layers.remove(added)
+    if not kept:
+        raise ValueError(
+            f"object '{obj.name}': its modifiers ({', '.join(m.name for m in obj.modifiers)}) drop its UV maps, "
+            "so image maps cannot be baked through one; apply them, or bake to attributes (--target attribute)"
+        )
+
+
 def _check_vertices_kept(obj):
     """The edge attribute is per vertex of the mesh: modifiers must not change the vertex count."""
     evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
@@ -293,9 +334,11 @@ def check_writable_folder(folder: str) -> None:
     try:
         os.makedirs(folder, exist_ok=True)
     except OSError as error:
-        raise OSError(f"cannot create the output folder {folder}: {error.strerror}") from error
+        raise OSError(f"cannot create the output folder {folder}: {error.strerror or error}") from error
     if not os.access(folder, os.W_OK | os.X_OK):
         raise OSError(f"the output folder {folder} is not writable")
+    with atomic.temporary_file(folder, ".exr"):  # what the maps need (root writes through modes, not into /proc)
+        pass
 
 
 def bake_maps(
@@ -522,13 +565,21 @@ def link_images(objects: Sequence["bpy.types.Object"], options: BakeOptions) -> 
 
 def link_image(obj: "bpy.types.Object", map_name: str, path: str) -> "bpy.types.Image":
     """Point ``obj`` at the map image file ``path`` (also the panel's efflorescence map): an Image
-    (relative path, Non-Color, reloaded) named in the object's custom property ``pw_<map>_image``."""
-    name = os.path.basename(path)
-    image = bpy.data.images.get(name) or bpy.data.images.load(path, check_existing=True)
-    image.name = name
+    (relative path, Non-Color, reloaded) named in the object's custom property ``pw_<map>_image``.
+    That Image is the one the property already names if it reads ``path``, else a new one
+    (named after the file, with Blender's ".001" if a user's image has that name): an Image of
+    the user's is never changed."""
+    image = bpy.data.images.get(obj.get(map_image_property(map_name), ""))
+    if image is None or image.packed_file is not None or not _reads(image, path):
+        image = bpy.data.images.load(path, check_existing=False)
     image.filepath = bpy.path.relpath(path)
     image.colorspace_settings.name = "Non-Color"
     image.use_fake_user = True  # an image nothing uses yet is not saved otherwise
     image.reload()
     obj[map_image_property(map_name)] = image.name
     return image
+
+
+def _reads(image, path):
+    """Whether ``image`` is read from the file ``path``."""
+    return bool(image.filepath) and os.path.abspath(bpy.path.abspath(image.filepath)) == os.path.abspath(path)

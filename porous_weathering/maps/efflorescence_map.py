@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..common import imageio
+from ..common.options import whole_number
 from ..core.modes.efflorescence import EFFLORESCENCE_MAP
 
 if TYPE_CHECKING:
@@ -40,12 +41,14 @@ def brick_joint_map(
     noise: float = 0.4,
     seed: int = 0,
 ) -> np.ndarray:
-    """A (size, size) location map for a running-bond brick texture of ``rows`` courses.
+    """A (size, size) location map for a running-bond brick texture of ``rows`` courses
+    (``size`` an int: ValueError naming it otherwise).
 
     1 on the mortar joints (``mortar`` wide, in texture units), falling off exponentially over
     ``reach`` into each brick, multiplied by smooth noise of strength ``noise`` in [0, 1] so the
     salt does not appear evenly along every joint; normalised to [0, 1].
     """
+    size = whole_number("size", size)
     centres = (np.arange(size) + 0.5) / size
     v, u = centres[::-1, None], centres[None, :]  # top row first: v = 1 at the top
     course = np.floor(v * rows)
@@ -73,6 +76,7 @@ def photo_map(photo_path: str | os.PathLike, *, denoise_width: int = 5, size: in
     """
     import OpenImageIO as oiio
 
+    size = None if size is None else whole_number("size", size)
     photo = oiio.ImageBuf(os.fspath(photo_path))
     # check before reading pixels: get_pixels of a buffer that failed to open trips an OIIO assertion
     pixels = None if photo.has_error else photo.get_pixels(oiio.FLOAT)
@@ -113,7 +117,9 @@ def default_path(name: str) -> str:
 
     if not bpy.data.filepath:
         raise ValueError("save the .blend first: the efflorescence map is saved beside it")
-    return imageio.image_path(os.path.dirname(bpy.data.filepath), name, "efflorescence")
+    path = imageio.image_path(os.path.dirname(bpy.data.filepath), name, MAP_NAME)
+    imageio.check_file_name(path)
+    return path
 
 
 def make_map(
@@ -123,29 +129,39 @@ def make_map(
     size: int = 512,
     rows: int = 8,
     bricks_per_row: int = 4,
+    force: bool = False,
 ) -> "bpy.types.Image":
     """Make the mesh ``obj``'s efflorescence map beside the .blend (``default_path``) and point
     ``obj`` at it (``bake.link_image``): from the photograph ``photo`` if given (an empty path
     is refused), else along brick joints (``brick_joint_map`` of ``rows`` courses of
-    ``bricks_per_row``), ``size``² pixels.  ValueError or OSError, the file unchanged, if ``obj``
-    has no UV map, the .blend is unsaved or the photograph cannot be read."""
+    ``bricks_per_row``), ``size``² pixels.  The map records what it was made from, as a bake's
+    does (``Provenance``): a file there made from another .blend or object, or not by this
+    extension, is refused (``OverwriteRefused``) unless ``force``.  ValueError or OSError, the
+    file unchanged, if ``obj`` has no UV map, the .blend is unsaved, ``size`` is no int or the
+    photograph cannot be read."""
     from .bake import link_image
+    from .provenance import Provenance, refuse_overwrite
 
+    size = whole_number("size", size)
     if not obj.data.uv_layers:
         raise ValueError("has no UV map to read an efflorescence map through: unwrap it first")
     path = default_path(obj.name)
+    made = Provenance.of(obj, MAP_NAME)
+    if not force:
+        refuse_overwrite(path, made)
     if photo is not None:
         if not os.fspath(photo):
             raise ValueError("choose the photograph to make the efflorescence map from")
         height = photo_map(photo, size=size)
     else:
         height = brick_joint_map(size, rows=rows, bricks_per_row=bricks_per_row)
-    return link_image(obj, MAP_NAME, save_map(height, path))
+    return link_image(obj, MAP_NAME, save_map(height, path, metadata=made.header()))
 
 
-def save_map(height: np.ndarray, path: str | os.PathLike) -> str:
-    """Write a location map as a single-channel float EXR, atomically; returns the path."""
-    imageio.write_image(path, np.asarray(height, dtype=np.float32))
+def save_map(height: np.ndarray, path: str | os.PathLike, metadata: dict[str, str] | None = None) -> str:
+    """Write a location map as a single-channel float EXR, atomically, with ``metadata`` in its
+    header; returns the path."""
+    imageio.write_image(path, np.asarray(height, dtype=np.float32), metadata=metadata)
     return os.fspath(path)
 
 

@@ -36,6 +36,8 @@ from . import lightmap
 RAIN_ATTRIBUTE = map_attribute("rain")
 #: Samples per texel: see benchmarks/bench_rain.py and docs/maps.md.
 DEFAULT_SAMPLES = 64
+#: The most samples Cycles takes (its own upper bound, 2^24).
+MAX_SAMPLES = 1 << 24
 #: A vertex probe's size and height above the surface, in mean edge lengths (``_bake_vertices``).
 PROBE_SIZE = 0.01
 #: An image of a mesh smooth at its vertices is baked at the vertices and drawn across the
@@ -86,6 +88,7 @@ class RainSettings:
         label="Samples",
         flag="--samples",
         low=1,
+        high=MAX_SAMPLES,
         whole=True,
         metavar="N",
         tooltip="Rain samples per texel or corner (docs/maps.md)",

@@ -13,6 +13,7 @@ from ..contracts import GROUP_NODE
 from ..core import model
 from ..maps import efflorescence_map, linking
 from ..maps import registry as maps
+from ..maps.provenance import OverwriteRefused
 from ..shading import material, weathering
 from . import bake_operator as ops_bake
 from .settings import key_light
@@ -107,6 +108,11 @@ class PW_OT_make_efflorescence_map(bpy.types.Operator):
         max=4096,
         description="Bricks over the UV map's width (From: Brick Joints)",
     )
+    replace: bpy.props.BoolProperty(
+        name="Replace",
+        description="Replace the map file even if it was made from another .blend or object, or not by "
+        "Porous Weathering (default: refuse)",
+    )
 
     @classmethod
     def poll(cls, context):
@@ -124,8 +130,16 @@ class PW_OT_make_efflorescence_map(bpy.types.Operator):
         photo = (bpy.path.abspath(self.photo) if self.photo else "") if self.source == "PHOTO" else None
         try:
             image = maps.EFFLORESCENCE.make(
-                obj, photo=photo, size=self.resolution, rows=self.rows, bricks_per_row=self.bricks_per_row
+                obj,
+                photo=photo,
+                size=self.resolution,
+                rows=self.rows,
+                bricks_per_row=self.bricks_per_row,
+                force=self.replace,
             )
+        except OverwriteRefused as error:
+            self.report({"ERROR"}, f"object '{obj.name}': {error}; set Replace to replace it")
+            return {"CANCELLED"}
         except (ValueError, OSError) as error:
             self.report({"ERROR"}, f"object '{obj.name}': {error}")
             return {"CANCELLED"}
