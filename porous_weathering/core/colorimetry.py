@@ -52,6 +52,11 @@ def lab_to_linear(lab: ArrayLike) -> np.ndarray:
     return xyz @ np.linalg.inv(RGB_TO_XYZ).T
 
 
+#: 180° for the mean hue's case split, with room for rounding: hues exactly opposite (Sharma et al.'s
+#: pairs 13-15) must not fall either side of it by the last bit of a float, which varies by platform.
+_HALF_TURN = 180.0 + 1e-9
+
+
 def delta_e_2000(lab1: ArrayLike, lab2: ArrayLike) -> np.ndarray:
     """CIEDE2000 colour difference (k_L = k_C = k_H = 1), as Sharma, Wu & Dalal write it ("The
     CIEDE2000 color-difference formula: implementation notes, supplementary test data, and
@@ -71,7 +76,7 @@ def delta_e_2000(lab1: ArrayLike, lab2: ArrayLike) -> np.ndarray:
     L_mean, c_mean = (L1 + L2) / 2.0, (c1 + c2) / 2.0
     h_sum = h1 + h2
     h_mean = np.where(
-        np.abs(h1 - h2) <= 180.0, h_sum / 2.0, np.where(h_sum < 360.0, h_sum + 360.0, h_sum - 360.0) / 2.0
+        np.abs(h1 - h2) <= _HALF_TURN, h_sum / 2.0, np.where(h_sum < 360.0, h_sum + 360.0, h_sum - 360.0) / 2.0
     )
     h_mean = np.where(chromatic, h_mean, h_sum)
     t = (
