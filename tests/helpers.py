@@ -125,8 +125,10 @@ class MaskedPlane:
 
 
 def weathered(name, modes, key_light=None, **state):
+    """A weathered material on the test stone with the API's plain defaults (no environment), as
+    model_weights takes them; the environments' values are held in tests/test_environments.py."""
     return pw.make_weathered_material(
-        name, modes=modes, key_light=key_light, water_roughness=WATER_ROUGHNESS, **STONE, **state
+        name, modes=modes, key_light=key_light, water_roughness=WATER_ROUGHNESS, environment=None, **STONE, **state
     )
 
 

@@ -135,6 +135,7 @@ def soiled(composite, **state):
         key_light=composite.sun,
         rain_map=bake.ATTRIBUTES["rain"],
         edge_map=bake.ATTRIBUTES["edges"],
+        environment=None,  # the API's plain defaults, as model_image takes them
         **STONE,
         **state,
     )

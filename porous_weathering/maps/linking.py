@@ -13,6 +13,7 @@ from typing import Any
 import bpy
 
 from ..contracts import map_image_property
+from ..core import environments
 from ..core import modes as weathering_modes
 from ..shading import material, presets, weathering
 from . import registry
@@ -60,26 +61,32 @@ def weathered_material_for(
     preset: str | None,
     key_light: "bpy.types.Object | None" = None,
     values: Mapping[str, Any] | None = None,
+    environment: str | None = environments.DEFAULT_ENVIRONMENT,
+    stone: Mapping[str, Any] | None = None,
 ) -> "bpy.types.Material":
     """A new material for ``obj``: porous, weathered by ``modes`` (none: porous only) with the
     weathering input ``values``, every mask input read from the map of ``obj`` that feeds it
     (``map_inputs``), lit by ``key_light``. From the stone ``preset`` (a key of
     ``presets.PRESETS``), or, with None, from ``obj``'s own material: its base colour and
-    roughness images are kept. ValueError on a bad input (see ``make_weathered_material``)."""
+    roughness images are kept. ``environment`` sets the site's inputs ``values`` leave out;
+    ``stone`` replaces material keywords (a measured ``base_color``: ``presets.from_colorimetry``).
+    ValueError on a bad input (see ``make_weathered_material``)."""
     if preset is None:
         textures = material.principled_textures(obj.active_material)
         params = {"base_color": textures.get("Base Color", DEFAULT_BASE_COLOR)}
         name = f"{obj.active_material.name if obj.active_material else obj.name} Porous"
     else:
-        stone = presets.PRESETS[preset]
+        chosen = presets.PRESETS[preset]
         textures = {}
-        params = stone.material_params()
-        name = f"{obj.name} {stone.label}"
+        params = chosen.material_params()
+        name = f"{obj.name} {chosen.label}"
+    params.update(stone or {})
     if modes:
         new = weathering.make_weathered_material(
             name,
             modes=modes,
             key_light=key_light,
+            environment=environment,
             **params,
             **dict(values or {}),
             **map_inputs(obj, modes),

@@ -8,6 +8,8 @@ Plain numpy, no bpy: importable (and testable) outside Blender.
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.colorimetry import linear_to_srgb  # noqa: F401  (the base colour textures' transfer function)
+
 #: glTF's dielectric F0 at specular 1 (IOR 1.5). A specular colour factor of 1 / F0 makes
 #: F0 = F90 = specularFactor: a reflectance without Fresnel rise, as the porous glossy lobe.
 DIELECTRIC_F0 = 0.04
@@ -41,12 +43,6 @@ def pbr_from_weights(
         squares > 0.0, (ks**2 * alpha_stone + water**2 * alpha_water) / np.maximum(squares, tiny), alpha_stone
     )
     return base, specular, np.sqrt(alpha)
-
-
-def linear_to_srgb(values: ArrayLike) -> np.ndarray:
-    """The sRGB transfer function (IEC 61966-2-1) of linear values in [0, 1]."""
-    values = np.clip(np.asarray(values, dtype=np.result_type(np.asarray(values).dtype, np.float32)), 0.0, 1.0)
-    return np.where(values <= 0.0031308, values * 12.92, 1.055 * np.power(values, 1.0 / 2.4) - 0.055)
 
 
 def texel_codes(values: np.ndarray, covered: np.ndarray) -> np.ndarray:

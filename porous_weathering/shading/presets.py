@@ -6,11 +6,14 @@ picks; a stone may also set the weathering inputs the panel shows (the black cru
 docs/presets.md gives the source of every range and value and the reasoning behind each pick.
 """
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from ..contracts import PRESET_PROPERTY
+from ..core import colorimetry
 from ..core import modes as weathering_modes
+from ..core.environments import DEFAULT_ENVIRONMENT, ENVIRONMENTS, Environment  # noqa: F401  (public: docs/api.md)
 
 if TYPE_CHECKING:
     import bpy
@@ -49,11 +52,7 @@ class Preset:
 
     def linear_base_color(self):
         """k_d: the sRGB hex colour decoded to linear RGBA, which is what shaders take."""
-        return (*(_srgb_to_linear(int(self.base_color[i : i + 2], 16) / 255) for i in (1, 3, 5)), 1.0)
-
-
-def _srgb_to_linear(c):
-    return c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4
+        return (*colorimetry.measured_linear(self.base_color, "srgb").tolist(), 1.0)
 
 
 PRESETS = {
@@ -154,3 +153,38 @@ def make_preset_material(
     material.diffuse_color = params["base_color"]  # the viewport's solid-mode colour
     material[PRESET_PROPERTY] = preset_name
     return material
+
+
+def from_colorimetry(
+    clean: Sequence[float] | str,
+    soiled: Sequence[float] | str,
+    crust: Sequence[float] | str,
+    *,
+    space: str = "lab",
+    preset: str = "LIMESTONE",
+) -> dict:
+    """make_weathered_material's keywords that reproduce a survey's colours at t = 1 (face on,
+    ambient light; docs/presets.md, "From measured colours"): the stone's ``base_color`` and the
+    ``preset``'s ks, roughness, porosity and pore depth, the ``deposit_color``, the
+    ``pollution_color`` and the ``crust`` coverage.
+
+    ``clean``, ``soiled`` and ``crust`` are the clean stone, the grey (sheltered) soiled stone and
+    the black crust, each three floats, CIE L*a*b* (D65) with ``space="lab"`` or sRGB in [0, 1]
+    with ``space="srgb"``, or a "#RRGGBB" string (sRGB).  ValueError, before anything is made, for
+    colours no setting gives (out of gamut, not darkening from clean to soiled to crust, a soiled
+    stone darker than a deposit makes it, ...).
+    """
+    stone = PRESETS.get(preset)
+    if stone is None:
+        raise ValueError(f"unknown preset {preset!r}: choose one of {', '.join(PRESETS)}")
+    params = stone.material_params()
+    colours = [colorimetry.measured_linear(colour, space) for colour in (clean, soiled, crust)]
+    model_stone = dict(ks=stone.ks, m=stone.roughness, alpha=stone.porosity, sp=stone.pore_depth_ratio)
+    found = colorimetry.invert(*colours, model_stone, stone.panel_weathering()["crust"])
+    return {
+        **params,
+        "base_color": (*found["kd"].tolist(), 1.0),
+        "deposit_color": tuple(found["deposit_color"].tolist()),
+        "pollution_color": tuple(found["pollution_color"].tolist()),
+        "crust": found["crust"],
+    }

@@ -13,8 +13,9 @@ from ..blender import compat
 from ..common import imageio
 from ..common.imageio import UV_MAP_KEY
 from ..contracts import GROUP_NODE, LIGHT_MODE_PROPERTY, MODES_PROPERTY, socket_name
-from ..core import model
+from ..core import environments, model
 from ..core import modes as weathering_modes
+from ..core.aging import age_for_years  # noqa: F401  (public: docs/api.md, porous_weathering.weathering)
 from ..core.shader_math import Graph
 from . import material, nodes
 
@@ -37,6 +38,7 @@ def make_weathered_material(
     pore_depth_ratio: float = 2.0,
     key_light: "bpy.types.Object | str | None" = None,
     water_roughness: float = nodes.WATER_ROUGHNESS,
+    environment: str | None = environments.DEFAULT_ENVIRONMENT,
     **weathering: MaskValue | Sequence[float],
 ) -> "bpy.types.Material":
     """A new material: the porous BRDF (as make_porous_material) weathered by ``modes``.
@@ -50,8 +52,12 @@ def make_weathered_material(
     colour attribute.  Out-of-range values are clamped and a missing image becomes the
     mask's default constant, each with a PorousInputWarning; the material never renders
     NaN or the missing-texture pink.  ``water_roughness`` is the water lobe's roughness.
+    ``environment`` (a key of ``environments.ENVIRONMENTS``, default "URBAN") sets the site's inputs
+    the modes use (deposit and pollution colours, crust, streaks, efflorescence level); the inputs
+    given explicitly win; None leaves the API defaults.
     """
     modes = model.weathering_modes(modes)
+    weathering = {**environments.weathering_inputs(environment, modes), **weathering}
     masks = [item.name for item in weathering_modes.inputs().values() if item.mask]
     base_color, values = material.porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio)
     light = material.resolve_key_light(key_light)
@@ -113,6 +119,40 @@ def animate_weathering(
     low, high = item.low, item.high
     for frame, value in ((frame_start, start), (frame_end, end)):
         socket.default_value = float(model.sanitize(input_name, value, low, high))
+        socket.keyframe_insert("default_value", frame=frame)
+
+
+#: At most this many keyframes follow the soiling law over a frame range (animate_years).
+YEAR_KEYFRAMES = 100
+
+
+def animate_years(
+    material_: "bpy.types.Material",
+    frame_start: int,
+    frame_end: int,
+    years: float,
+    elemental_carbon: float,
+    *,
+    law: str = "sqrt",
+) -> None:
+    """Keyframe the time so that the frame range spans ``years`` of exposure (0 at ``frame_start``)
+    at ``elemental_carbon`` µg/m³: t follows ``age_for_years`` (the square root of the dose by
+    default, not a straight line), one keyframe per frame up to YEAR_KEYFRAMES of them.
+    ValueError for an empty frame range or bad years, concentration or law, before any keyframe."""
+    if frame_end <= frame_start:
+        raise ValueError(f"frame range {frame_start}-{frame_end}: the last frame must come after the first")
+    age_for_years(years, elemental_carbon, law)  # checks the arguments before any keyframe
+    frames = sorted(
+        {
+            round(frame)
+            for frame in np.linspace(frame_start, frame_end, min(frame_end - frame_start + 1, YEAR_KEYFRAMES))
+        }
+    )
+    socket = material_.node_tree.nodes[GROUP_NODE].inputs[socket_name("time")]
+    for frame in frames:
+        socket.default_value = age_for_years(
+            years * (frame - frame_start) / (frame_end - frame_start), elemental_carbon, law
+        )
         socket.keyframe_insert("default_value", frame=frame)
 
 

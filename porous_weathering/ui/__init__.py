@@ -22,6 +22,7 @@ def classes() -> tuple[type, ...]:
         settings.settings_class(),
         operators.PW_OT_add_porous_material,
         operators.PW_OT_make_material,
+        operators.PW_OT_make_from_colorimetry,
         *operators.make_map_operators(),
         operators.PW_OT_keyframe_aging,
         bake_operator.operator_class(),

@@ -167,11 +167,10 @@ def map_button(map_name: str) -> str:
     return made.bl_label if made is not None else ops_bake.BakeMapsOperator.bl_label
 
 
-class PW_OT_make_material(NeedsMaterialObject, bpy.types.Operator):
-    """Give the active object a porous material from the chosen stone, light and weathering modes, wired to its maps"""
+class MakeMaterial(NeedsMaterialObject):
+    """What the two Make operators share: the scene's stone, environment, light and modes, wired to the
+    object's maps; ``measured_values``/``measured_stone`` say what measured colours add."""
 
-    bl_idname = "porous_weathering.make_material"
-    bl_label = "Make Porous Material"
     bl_options = {"REGISTER", "UNDO"}
 
     def execute(self, context):
@@ -186,7 +185,9 @@ class PW_OT_make_material(NeedsMaterialObject, bpy.types.Operator):
                     modes,
                     preset=settings.preset(),
                     key_light=key_light(context.scene, settings),
-                    values=settings.weathering_values(modes),
+                    values={**settings.weathering_values(modes), **self.measured_values(settings, modes)},
+                    environment=settings.environment,
+                    stone=self.measured_stone(settings),
                 )
         except ValueError as error:
             self.report({"ERROR"}, f"object '{obj.name}': {error}")
@@ -206,6 +207,43 @@ class PW_OT_make_material(NeedsMaterialObject, bpy.types.Operator):
             obj.data.materials.append(new)
         return {"FINISHED"}
 
+    def measured_values(self, settings, modes) -> dict:
+        """Weathering inputs from measured colours: none for the plain Make."""
+        return {}
+
+    def measured_stone(self, settings) -> dict:
+        """Material keywords from measured colours: none for the plain Make."""
+        return {}
+
+
+class PW_OT_make_material(MakeMaterial, bpy.types.Operator):
+    """Give the active object a porous material from the chosen stone, light and weathering modes, wired to its maps"""
+
+    bl_idname = "porous_weathering.make_material"
+    bl_label = "Make Porous Material"
+
+
+class PW_OT_make_from_colorimetry(MakeMaterial, bpy.types.Operator):
+    """Make Porous Material whose clean stone, grey deposit and black crust are the measured colours at t = 1"""
+
+    bl_idname = "porous_weathering.make_from_colorimetry"
+    bl_label = "Make from Measured Colours"
+
+    def execute(self, context):
+        try:
+            self._found = context.scene.porous_weathering.measured()
+        except ValueError as error:
+            self.report({"ERROR"}, f"measured colours: {error}")
+            return {"CANCELLED"}
+        return super().execute(context)
+
+    def measured_values(self, settings, modes) -> dict:
+        used = set(model.inputs_of(modes))
+        return {name: value for name, value in self._found.items() if name in used}
+
+    def measured_stone(self, settings) -> dict:
+        return {name: value for name, value in self._found.items() if name not in model.WEATHERING_INPUTS}
+
 
 def active_material(context: "bpy.types.Context") -> "bpy.types.Material | None":
     """The material the panel shows: the Properties editor's, else the active object's."""
@@ -220,11 +258,19 @@ def time_socket(mat: "bpy.types.Material | None") -> "bpy.types.NodeSocket | Non
 
 
 class PW_OT_keyframe_aging(bpy.types.Operator):
-    """Animate the active material from new (time 0, first frame) to fully weathered (time 1, last frame)"""
+    """Animate the active material from new (time 0, first frame) to weathered (time 1, last frame) or over years"""
 
     bl_idname = "porous_weathering.keyframe_aging"
     bl_label = "Keyframe Aging"
     bl_options = {"REGISTER", "UNDO"}
+
+    years: bpy.props.FloatProperty(
+        name="Years",
+        description="Years the frame range spans, Time following the soiling law at the environment's soot "
+        "concentration; 0: Time from 0 to 1",
+        default=0.0,
+        min=0.0,
+    )
 
     @classmethod
     def poll(cls, context):
@@ -235,5 +281,18 @@ class PW_OT_keyframe_aging(bpy.types.Operator):
 
     def execute(self, context):
         scene = context.scene
-        weathering.animate_weathering(active_material(context), scene.frame_start, scene.frame_end)
+        if self.years == 0.0:
+            weathering.animate_weathering(active_material(context), scene.frame_start, scene.frame_end)
+            return {"FINISHED"}
+        try:
+            weathering.animate_years(
+                active_material(context),
+                scene.frame_start,
+                scene.frame_end,
+                self.years,
+                scene.porous_weathering.elemental_carbon(),
+            )
+        except ValueError as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
         return {"FINISHED"}

@@ -6,6 +6,7 @@ listed and the Make-map buttons are derived from the map registry (``linking.kno
 
 import bpy
 
+from ..core import aging
 from ..core import modes as weathering_modes
 from ..maps import registry as maps
 from ..maps.linking import discover_maps, known_maps, missing_maps
@@ -23,6 +24,7 @@ def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> No
 
     col = layout.column(heading="Material")
     col.prop(settings, "source")
+    col.prop(settings, "environment")
     col.prop(settings, "key_light")
     if settings.key_light is None:
         sun = scene_sun(context.scene)
@@ -41,6 +43,12 @@ def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> No
         for map_name in missing_maps(obj, settings.modes()):
             col.label(text=f"Needs the {labels[map_name]} map: make it below first", icon="ERROR")
     col.operator(operators.PW_OT_make_material.bl_idname, icon="MATERIAL")
+
+    col = layout.column(heading="Measured")
+    col.prop(settings, "measured_space")
+    for name in ("clean", "soiled", "crust"):
+        col.prop(settings, f"measured_{name}")
+    col.operator(operators.PW_OT_make_from_colorimetry.bl_idname, icon="EYEDROPPER")
 
     col = layout.column(heading="Maps")
     have = discover_maps(obj) if obj is not None else {}
@@ -65,7 +73,17 @@ def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> No
         row = col.row()
         row.use_property_decorate = True
         row.prop(socket, "default_value", text="Time", slider=True)
+        col.prop(settings, "years")
+        col.label(
+            text=f"at {settings.elemental_carbon():g} µg/m³ of soot: t = 1 after "
+            f"{aging.years_for_full_age(settings.elemental_carbon()):.0f} years"
+        )
     col.operator(operators.PW_OT_keyframe_aging.bl_idname, icon="KEY_HLT")
+    if settings.years > 0.0:
+        years_button = col.operator(
+            operators.PW_OT_keyframe_aging.bl_idname, text=f"Keyframe {settings.years:g} Years", icon="KEY_HLT"
+        )
+        years_button.years = settings.years
 
     col = layout.column(heading="Publish")
     col.operator(ops_export.ExportVariantsOperator.bl_idname, icon="EXPORT")

@@ -1,9 +1,11 @@
 """The scene's Porous Weathering settings (``Scene.porous_weathering``): what the panel's Make
-button builds. Generated from the registries at registration: the stone, the key light, one
-switch per weathering mode and one slider per weathering input marked for the panel."""
+button builds. Generated from the registries at registration: the stone, the environment, the key
+light, one switch per weathering mode and one slider per weathering input marked for the panel;
+the age in years; the measured colours of a survey."""
 
 import bpy
 
+from ..core import aging, environments
 from ..core import modes as weathering_modes
 from ..shading import presets
 
@@ -21,16 +23,28 @@ def panel_inputs() -> list[weathering_modes.Input]:
     return [item for item in weathering_modes.inputs().values() if item.panel]
 
 
-def source_weathering(source: str) -> dict:
-    """{panel input: value} a stone source sets: a preset's own values, else the API defaults."""
+def source_weathering(source: str, environment: str = environments.DEFAULT_ENVIRONMENT) -> dict:
+    """{panel input: value} a stone source and an environment set: the preset's own values (else the
+    API defaults), then the environment's, its crust a share of the stone's."""
     preset = presets.PRESETS.get(source)
-    return preset.panel_weathering() if preset else {item.name: item.default for item in panel_inputs()}
+    values = preset.panel_weathering() if preset else {item.name: item.default for item in panel_inputs()}
+    site = environments.get(environment).weathering(crust=values["crust"])
+    return {name: site.get(name, value) for name, value in values.items()}
 
 
 def _apply_source(settings, _context):
-    """Picking a stone sets the panel's weathering inputs to that stone's values."""
-    for name, value in source_weathering(settings.source).items():
+    """Picking a stone or an environment sets the panel's weathering inputs to their values."""
+    for name, value in source_weathering(settings.source, settings.environment).items():
         setattr(settings, name, value)
+
+
+def _apply_years(settings, context):
+    """Setting Years sets the active material's Time by the soiling law at the environment's soot."""
+    from .operators import active_material, time_socket  # the operators import these settings
+
+    socket = time_socket(active_material(context))
+    if socket is not None:
+        socket.default_value = settings.age()
 
 
 class SettingsBase:
@@ -46,6 +60,22 @@ class SettingsBase:
     def preset(self) -> str | None:
         """The stone preset chosen, None for the object's own material."""
         return None if self.source == FROM_MATERIAL else self.source
+
+    def elemental_carbon(self) -> float:
+        """The chosen environment's typical elemental-carbon concentration, µg/m³."""
+        return environments.get(self.environment).elemental_carbon
+
+    def age(self, years: float | None = None) -> float:
+        """t after ``years`` (default: the Years field) in the chosen environment (aging.age_for_years)."""
+        return aging.age_for_years(self.years if years is None else years, self.elemental_carbon())
+
+    def measured(self) -> dict:
+        """make_weathered_material's keywords from the measured colours (presets.from_colorimetry), on
+        the chosen stone (limestone for the object's own material); ValueError for colours no setting gives."""
+        colours = [tuple(getattr(self, f"measured_{name}")) for name in ("clean", "soiled", "crust")]
+        return presets.from_colorimetry(
+            *colours, space=self.measured_space.lower(), preset=self.preset() or DEFAULT_SOURCE
+        )
 
 
 def settings_class() -> type:
@@ -66,6 +96,32 @@ def settings_class() -> type:
             ],
             update=_apply_source,
         ),
+        "environment": bpy.props.EnumProperty(
+            name="Environment",
+            description="Where the stone stands: sets the site's weathering values (deposit, crust, streaks, salt) "
+            "and the soot concentration that turns Years into Time",
+            default=environments.DEFAULT_ENVIRONMENT,
+            items=[(key, site.label, site.description) for key, site in environments.ENVIRONMENTS.items()],
+            update=_apply_source,
+        ),
+        "years": bpy.props.FloatProperty(
+            name="Years",
+            description="Years of exposure: sets the active material's Time by the soiling law of sheltered stone "
+            "at the environment's soot concentration (t = 1: 30% of the reflectance lost); Keyframe Years "
+            "spans the frame range over them",
+            default=0.0,
+            min=0.0,
+            soft_max=200.0,
+            update=_apply_years,
+        ),
+        "measured_space": bpy.props.EnumProperty(
+            name="Measured As",
+            description="How the measured colours below are given",
+            items=[
+                ("LAB", "CIE L*a*b* (D65)", "L* in [0, 100], a* and b*, as colorimeters report them"),
+                ("SRGB", "sRGB", "sRGB components in [0, 1], e.g. from a calibrated photograph"),
+            ],
+        ),
         "key_light": bpy.props.PointerProperty(
             name="Key Light",
             type=bpy.types.Object,
@@ -76,6 +132,18 @@ def settings_class() -> type:
     }
     for mode in map(weathering_modes.get, weathering_modes.names()):
         properties[mode.name] = bpy.props.BoolProperty(name=mode.label, description=mode.description)
+    for name, label, default in (
+        ("clean", "Clean", (80.0, 1.5, 9.0)),
+        ("soiled", "Soiled (Grey)", (62.0, 1.0, 6.0)),
+        ("crust", "Black Crust", (35.0, 0.5, 2.0)),
+    ):
+        properties[f"measured_{name}"] = bpy.props.FloatVectorProperty(
+            name=label,
+            description=f"Measured colour of the {label.lower()} stone, as Measured As says (Make from Measured "
+            "Colours reproduces it at t = 1)",
+            size=3,
+            default=default,
+        )
     defaults = source_weathering(DEFAULT_SOURCE)
     for item in panel_inputs():
         properties[item.name] = bpy.props.FloatProperty(

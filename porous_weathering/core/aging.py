@@ -1,0 +1,51 @@
+"""Time in years: the weathering time t from years of exposure at an elemental-carbon concentration,
+by a published soiling law of surfaces sheltered from rain (docs/weathering.md, "Time in years").
+
+t = 1 is defined in reflectance terms: the sheltered (grey) surface has lost
+``LOSS_AT_FULL_AGE`` (30%) of its reflectance, the loss Pio, Ramos & Duarte (1998) take as calling
+for cleaning.  The model's grey area darkens linearly in t, so t is the loss over 30%.
+"""
+
+import math
+
+#: Reflectance loss of a sheltered surface at t = 1 (Pio et al. 1998: 30% calls for cleaning).
+LOSS_AT_FULL_AGE = 0.30
+
+#: The calibration: Pio et al. 1998 measured the 30% loss in 5.5-8.8 years in Oporto's city centre;
+#: we take the geometric mean of the range, 6.96 years, at an elemental-carbon concentration of
+#: 5 µg/m³ (our judgement of that street-level site's; docs/weathering.md).
+REFERENCE_YEARS = math.sqrt(5.5 * 8.8)
+REFERENCE_ELEMENTAL_CARBON = 5.0
+
+#: The soiling laws: reflectance loss as a function of the dose (µg/m³ x years) over the dose of t = 1.
+LAWS = ("sqrt", "exponential")
+
+
+def reflectance_loss(dose_ratio: float, law: str = "sqrt") -> float:
+    """The fraction of its reflectance a sheltered surface has lost at ``dose_ratio`` times the
+    dose of t = 1: "sqrt", 0.3 sqrt(ratio) (Beloin & Haynie 1975; Pio et al. 1998), or
+    "exponential", 1 - 0.7^ratio (R = R0 exp(-k dose), the form Grossi & Brimblecombe review),
+    both 30% at ratio 1."""
+    if law == "sqrt":
+        return LOSS_AT_FULL_AGE * math.sqrt(dose_ratio)
+    if law == "exponential":
+        return 1.0 - (1.0 - LOSS_AT_FULL_AGE) ** dose_ratio
+    raise ValueError(f"unknown soiling law {law!r}: choose one of {', '.join(LAWS)}")
+
+
+def age_for_years(years: float, elemental_carbon: float, law: str = "sqrt") -> float:
+    """t in [0, 1] after ``years`` of exposure at ``elemental_carbon`` µg/m³ (annual mean), by the
+    soiling ``law`` of rain-sheltered surfaces ("sqrt" or "exponential"): the reflectance loss
+    over the 30% of t = 1, capped at 1 (the model's fully weathered state; the stone goes on
+    darkening).  ValueError for negative years, a concentration not above 0 or an unknown law."""
+    if not (math.isfinite(years) and years >= 0.0):
+        raise ValueError(f"years must be a number >= 0, not {years!r}")
+    if not (math.isfinite(elemental_carbon) and elemental_carbon > 0.0):
+        raise ValueError(f"elemental_carbon must be a concentration > 0 µg/m³, not {elemental_carbon!r}")
+    ratio = years * elemental_carbon / (REFERENCE_YEARS * REFERENCE_ELEMENTAL_CARBON)
+    return min(reflectance_loss(ratio, law) / LOSS_AT_FULL_AGE, 1.0)
+
+
+def years_for_full_age(elemental_carbon: float) -> float:
+    """The years to t = 1 (30% loss) at ``elemental_carbon`` µg/m³: the same dose as the calibration."""
+    return REFERENCE_YEARS * REFERENCE_ELEMENTAL_CARBON / elemental_carbon
