@@ -119,13 +119,14 @@ def node_material(sample, state):
     reference the export's textures are compared with)."""
     modes = (model.SOILING, model.WET) if state.wet else (model.SOILING,)
     masks = {mask: sample.sources[map_name] for mask, map_name in sample.recipe.masks[model.SOILING].items()}
-    inputs = {name: value for name, value in sample.recipe.inputs.items() if name in model.inputs_of(modes)}
+    inputs = {name: value for mode in modes for name, value in sample.inputs(mode).items()}
     return weathering.make_weathered_material(
         f"{sample.name} {state.name} reference",
         modes=modes,
         key_light=None,
         time=state.age,
-        **sample.recipe.stone,
+        environment=sample.recipe.environment,
+        **sample.stone,
         **masks,
         **inputs,
     )

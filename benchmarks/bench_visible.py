@@ -4,11 +4,12 @@
                                        [--only NAME ...] [--areas DIR]
 
 Each sample scene is weathered as the main job weathers it (``demo.Sample`` and ``demo.RECIPES``:
-its stone, maps, rain, inputs and view), with the API's **default** black crust and wet darkening
-(no recipe sets them; checked), and rendered with Cycles (the main job's 4 bounces, no denoising,
-pixel filter 0.01 so that each pixel is one surface point) at t = 0 and t = 1. Each area is found
-from the geometry, as tests/test_weathering_composite.py finds its areas: position and normal
-probe renders of the weathered objects, never the baked maps (the maps' mean values in each area
+the stone and environment a user picks in the panel, its maps baked with the bake's defaults, the
+site's rain and the view), every weathering input at the panel's value for them, and rendered
+with Cycles (the main job's 4 bounces, no denoising, pixel filter 0.01 so that each pixel is
+one surface point) at t = 0 and t = 1. Each area is found from the geometry, as
+tests/test_weathering_composite.py finds its areas: position and normal probe renders of the
+weathered objects, never the baked maps (the maps' mean values in each area
 are printed beside it, to explain a miss). An area's change is the mean luminance of its pixels
 at t = 1 over the mean luminance of the same pixels at t = 0 (only pixels lit at t = 0 count).
 Beside it, "k_d, model" is the same ratio of model.py's diffuse weight alone at those pixels (the
@@ -17,9 +18,7 @@ stone's colour, without the light: the water lobe's sheen of the sky, shadows an
 Targets (docs/weathering.md): black area <= 0.35x, grey area 0.5-0.9x, white area 0.98-1.02x; wet area,
 away from the mirror direction of the sun (> 25 degrees from it), <= 0.8x on limestone and on
 brick; efflorescence >= 1.5x where salted, <= 1.05x on bare stone. ``VARIANTS`` adds rows for the
-recipe's weathering inputs a result comes from and ``BAKE_VARIANTS`` rows baked with other
-edge-mask settings (a recipe may be tuned; the model's defaults are not changed here): each
-names what it changes.
+model's settings a result comes from (the paper's equations): each names what it changes.
 
 ``--areas DIR`` writes, per sample and mode, the t = 1 picture with each area tinted, to check
 that the areas are where their names say. Prints a Markdown table and the machine line.
@@ -48,7 +47,7 @@ from mathutils import Vector  # noqa: E402
 from porous_weathering.blender import render  # noqa: E402
 from porous_weathering.core import model
 from porous_weathering.samples import demo, studio
-from porous_weathering.shading import nodes, weathering
+from porous_weathering.shading import weathering
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -288,25 +287,9 @@ AREAS = {
     },
 }
 
-#: Extra rows: (sample, mode, what changes, {weathering input: value}) on top of the recipe, for
-#: the settings of the recipe or the model a result comes from (nothing here changes a default).
-VARIANTS = (
-    ("brick_wall", model.SOILING, "deposit_color 0.30, the API's", {"deposit_color": (0.30, 0.29, 0.27)}),
-    ("sculpted_stone", model.SOILING, "deposit_color 0.30, the API's", {"deposit_color": (0.30, 0.29, 0.27)}),
-    ("brick_wall", model.WET, "wet_darkening 0, the paper's equations", {"wet_darkening": 0.0}),
-    (
-        "bust",
-        model.SOILING,
-        "the API's deposit_color 0.30, front_width 0.25 and rain_threshold 0.5",
-        {"deposit_color": (0.30, 0.29, 0.27), "front_width": 0.25, "rain_threshold": 0.5},
-    ),
-)
-#: Extra rows that bake the sample's edge mask again: (sample, mode, what changes, the recipe's
-#: ``edges``, edges.EdgeSettings fields, replaced by these).
-BAKE_VARIANTS = (
-    ("limestone_facade", model.SOILING, "edge mask scale 0.025, cavity weight 1", {"scale": 0.025}),
-    ("bust", model.SOILING, "edge mask at its defaults (cavity weight 1)", {}),
-)
+#: Extra rows: (sample, mode, what changes, {weathering input: value}) on top of the sample's
+#: panel choices, for the model's settings a result comes from (nothing here changes a default).
+VARIANTS = (("brick_wall", model.WET, "wet_darkening 0, the paper's equations", {"wet_darkening": 0.0}),)
 
 
 # --- measuring -------------------------------------------------------------------------------
@@ -368,21 +351,10 @@ def probe_maps(sample, mode):
     return values
 
 
-def check_defaults(material, mode, changed=()):
-    """The material's crust and wet darkening are the API's defaults (but those a variant
-    names in ``changed``)."""
-    group = material.node_tree.nodes["Porous"]
-    for name in ("crust", "wet_darkening"):
-        if name in model.inputs_of(mode) and name not in changed:
-            default = model.WEATHERING_INPUTS[name][0]
-            value = group.inputs[nodes.socket_name(name)].default_value
-            assert abs(value - default) < 1e-6, f"{name} is {value}, not the API's default {default}"
-
-
 def model_diffuse(sample, mode, geometry, maps, age, inputs):
     """model.py's diffuse weight k_d (luminance) at each pixel at ``age``: what the stone's own
     colour does, without the light (the sheen of the water lobe, shadows, bounces)."""
-    stone = sample.recipe.stone
+    stone = sample.stone
     weights = model.weathered_coefficients(
         stone["base_color"][:3],
         stone["ks"],
@@ -425,7 +397,6 @@ def measure(name, mode, args, work, inputs=None, label="", areas_dir=None, sampl
     aspect = scene.render.resolution_x / scene.render.resolution_y
     render.use_cycles(scene, size=args.size, samples=args.samples, bounces=4, pixel_filter=0.01)
     scene.render.resolution_x = round(args.size * aspect)
-    check_defaults(sample.material(mode, **inputs), mode, inputs)
     geometry = probe_geometry(sample)
     maps = probe_maps(sample, mode)
     sample.show(mode, 0.0, **inputs)
@@ -518,17 +489,6 @@ def main(argv=None):
                     found, sample = measure(name, mode, args, work, inputs, label, args.areas, sample)
                     rows += found
                     print("\n".join(table(found).splitlines()[2:]), flush=True)  # progress
-            for sample_name, mode, label, edge_settings in BAKE_VARIANTS:
-                if sample_name != name:
-                    continue
-                recipe = demo.RECIPES[name]
-                demo.RECIPES[name] = dataclasses.replace(recipe, edges=edge_settings)
-                try:
-                    found, _ = measure(name, mode, args, work, {}, label, args.areas)
-                finally:
-                    demo.RECIPES[name] = recipe
-                rows += found
-                print("\n".join(table(found).splitlines()[2:]), flush=True)
     print()
     print(table(rows))
     print(

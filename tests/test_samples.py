@@ -124,7 +124,7 @@ class Weathered:
         towards_camera = np.array(scene.camera.location) - self.position
         n_dot_v = (normals * towards_camera).sum(-1) / np.linalg.norm(towards_camera, axis=-1)
         n_dot_l = normals @ np.array(sample.sun.matrix_world.to_3x3().col[2])
-        stone = sample.recipe.stone
+        stone = sample.stone
 
         def diffuse(time):
             weights = model.weathered_coefficients(
@@ -285,7 +285,7 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
     towards_camera = np.array(scene.camera.matrix_world.translation) - points
     n_dot_v = (normals * towards_camera).sum(-1) / np.linalg.norm(towards_camera, axis=-1)
     n_dot_l = normals @ np.array(sample.sun.matrix_world.to_3x3().col[2])
-    stone = sample.recipe.stone
+    stone = sample.stone
     checked = 0
     for mode, masks in sample.recipe.masks.items():
         inputs = sample.inputs(mode)

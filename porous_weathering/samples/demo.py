@@ -34,8 +34,8 @@ from mathutils import Vector
 from ..blender import render
 from ..common.progress import ProgressBar
 from ..contracts import EXTENSION_ROOT, GROUP_NODE, SAMPLES_DIR
-from ..core import model
-from ..maps import bake, edges, efflorescence_map, rain
+from ..core import environments, model
+from ..maps import bake, efflorescence_map, rain
 from ..maps import registry as maps
 from ..shading import material, presets, weathering
 from . import studio
@@ -49,39 +49,11 @@ DOCS_SCALE = 0.75
 STONE = dict(base_color=(0.62, 0.55, 0.45), ks=0.25, roughness=0.35)
 POROUS = dict(porosity=0.4, pore_depth_ratio=3.0)
 
-#: Rain driven 25 degrees from the vertical by a wind from the front (the samples face -Y):
-#: it washes the open wall (E = sin 25 = 0.42 there), while cornices, sills and window heads
-#: keep what lies below dry. Vertical rain would leave every wall face unwashed (E = 0).
+#: Rain driven 25 degrees from the vertical by a wind from the front (the samples face -Y), a fact
+#: of the samples' site: it reaches the open walls (E = sin 25 = 0.42 there), while cornices,
+#: sills and window heads keep what lies below dry. Vertical rain would leave every wall face
+#: with no rain of its own (E = 0), only the water that runs down it.
 DRIVEN_RAIN = dict(wind_azimuth=-90.0, wind_tilt=25.0)
-#: Soiling in a polluted city: a surface open to driven rain counts as washed (E >= 0.3), and the
-#: deposit is a dark, soot-laden grey (luminance 0.1), so the sheltered areas stand out at a
-#: glance while staying lighter than the crusts (benchmarks/bench_visible.py: the sculpted
-#: stone's sheltered flanks 0.51x the clean stone, its hollows' crusts 0.34x).
-CITY_SOILING = dict(rain_threshold=0.3, deposit_color=(0.11, 0.105, 0.095))
-#: The façade's: washed where E >= 0.36 (the open wall gets 0.41 from the driven rain, the band
-#: the cornice shelters from 0 up to that over about 1.5 m), a narrow front (0.1) so that the
-#: sheltered band below the cornice, the window heads and the sills is grey right down to where
-#: the rain washes the wall, and a deposit a little lighter (the grey area stays between the
-#: washed wall and the crusts: 0.5-0.9x the clean stone).
-FACADE_SOILING = dict(CITY_SOILING, rain_threshold=0.36, front_width=0.1, deposit_color=(0.17, 0.16, 0.14))
-#: The bust's: the city's, with the façade's narrow front (0.1), so that the crust fills the
-#: eye sockets, the ears and the corner under the brim, and a lighter deposit (0.15), so that the
-#: sheltered face stays grey. Washed where E >= 0.3: the driven rain reaches the chest with 0.33.
-BUST_SOILING = dict(CITY_SOILING, front_width=0.1, deposit_color=(0.15, 0.14, 0.125))
-#: Brick soils darker than it is: the API's grey deposit (luminance 0.29) is lighter than a red
-#: brick (#A0523C, luminance 0.13) and would make sheltered brick lighter; a soot-laden deposit
-#: (luminance 0.04) darkens it.
-BRICK_SOILING = dict(deposit_color=(0.05, 0.04, 0.035))
-#: A soft, porous limestone (Lecce or Caen stone: the top of the preset's porosity range) with
-#: shallow pores. Deep pores are nearly black when clean (A_p near 1), so carbon, water or salt
-#: in them would hardly change how the stone looks.
-SOFT_LIMESTONE = dict(presets.PRESETS["LIMESTONE"].material_params(), porosity=0.3, pore_depth_ratio=0.5)
-#: The façade's stone: the soft limestone, its rain water a film that follows the stone's grain
-#: (water roughness 0.2) rather than the API's near mirror (0.05, standing water). Water reflects
-#: 2% face on (docs/weathering.md, "Wet darkening"), so a wet wall shows the sun's glint only near
-#: its mirror direction: 0.2 spreads it over a bay of the wall as a sheen, where 0.05 makes a
-#: spot a few centimetres wide.
-FACADE_STONE = dict(SOFT_LIMESTONE, water_roughness=0.2)
 #: The brick sample's efflorescence map: salt along the joints of its bond, reaching a few
 #: millimetres into each brick. Rows and bricks per row are the sample's courses and bricks per
 #: course, whose UV map build_samples.py projects onto the bond.
@@ -104,49 +76,35 @@ class View:
 
 @dataclass(frozen=True)
 class Recipe:
-    """How a sample scene weathers: the objects (None: every mesh but the ground), their stone
-    (``stone``: make_weathered_material's material keywords, the water roughness among them),
-    for each mode the map each mask reads: "rain", "runoff" or "edges" (baked as colour attributes) or
-    "joints" (JOINT_MAP, an image on the bricks' UV map), the rain of the bake (``rain``:
-    rain.RainSettings fields), the edge mask's settings that differ from their defaults
-    (``edges``: edges.EdgeSettings fields), the weathering inputs (model.WEATHERING_INPUTS) that
-    differ from their defaults (the black crust and the wet darkening keep the API's defaults in
-    every recipe), the main job's ``view`` (None: the scene's own camera, sun and aspect) and
-    ``unite``: if not None, the name of the one object the weathered objects are united into
-    (a Boolean union) before the bake, so that the corners between parts built as separate
-    boxes (a wall and its cornice, a wall and a sill) are concave corners of one surface, as on
-    a real building or a scan: the edge mask sees curvature only within a surface; and
-    ``cell``: if not None, the size (scene units) of the cells the weathered objects' faces are
-    cut into before the bake, so that the per-corner maps resolve shelter and corners at the
-    scale of the main job's pictures."""
+    """How a sample scene weathers: only what a user picks in the panel, and facts of the scene,
+    never a tuning of the model. The objects (None: every mesh but the ground); their ``stone``
+    (a key of presets.PRESETS) and ``environment`` (a key of environments.ENVIRONMENTS), the
+    panel's Stone and Environment choices; for each mode the map each mask reads: "rain",
+    "runoff" or "edges" (baked as colour attributes with the bake's defaults, as the command
+    line bakes them) or "joints" (JOINT_MAP, an image on the bricks' UV map); the ``rain`` of the
+    site (rain.RainSettings fields: its wind); the main job's ``view`` (None: the scene's own
+    camera, sun and aspect); and how the scene's geometry is prepared for per-corner maps:
+    ``unite``: if not None, the name of the one object the weathered objects are united into (a
+    Boolean union) before the bake, so that the corners between parts built as separate boxes
+    (a wall and its cornice, a wall and a sill) are concave corners of one surface, as on a real
+    building or a scan: the edge mask sees curvature only within a surface; and ``cell``: if not
+    None, the size (scene units) of the cells the weathered objects' faces are cut into before
+    the bake, so that the per-corner maps resolve shelter and corners at the scale of the main
+    job's pictures."""
 
     objects: tuple
-    stone: dict
+    stone: str
     masks: dict
     rain: dict = field(default_factory=lambda: DRIVEN_RAIN)
-    inputs: dict = field(default_factory=dict)
+    environment: str = environments.DEFAULT_ENVIRONMENT
     view: View | None = None
-    edges: dict = field(default_factory=dict)
     unite: str | None = None
     cell: float | None = None
 
 
-#: Where water goes (docs/model.md §7): the run-off map feeds soiling and the wet mode beside the rain.
+#: What the panel's Make wires for soiling and wetting: every baked map the mode reads.
 WATER = dict(rain_map="rain", runoff_map="runoff")
 RAIN_AND_EDGES = dict(WATER, edge_map="edges")
-#: The façade's edge mask (edges.EdgeSettings): a radius of 1.5% of its size (16 cm), the concave
-#: part weighted 2.5. Black crusts fill a building's sheltered recesses (the window heads, the
-#: corner under a sill), wider than the band where a right-angled inner corner reaches C = 1 at
-#: weight 1 (|H| r is 0.6 on it and 0.33 half a radius away; C = 1 needs 0.45, with 2.5 only
-#: 0.18). At 2.5% (27 cm) a 8 cm sill's convex front edges and the concave corner under it fall
-#: within one radius and cancel (C = 0.14 there); at 1-1.25% the crust spreads less over the
-#: window heads (docs/weathering.md, "The façade's recipe").
-FACADE_EDGES = dict(scale=0.015, cavity_weight=2.5)
-#: The bust's edge mask: the default radius (1%, 7 mm) and the concave part weighted 3. A
-#: sculpture's hollows are rounded: at the default radius its eye sockets, ears and the corner
-#: under the brim have |H| r mostly under 0.2 (a building's right-angled corner 0.6), and rims
-#: and curls share those areas, so at weight 1 they reach C = 0.3-0.55 (docs/weathering.md).
-BUST_EDGES = dict(cavity_weight=3.0)
 #: The façade from the front left at eye height (the undersides of the cornice and the sills
 #: show), 16:9. A low sun from the front right (10.5 degrees up) lights the wall and the band the
 #: cornice shelters, and its mirror direction meets the wall at the right-hand pilaster (x = 3.6 m,
@@ -158,42 +116,33 @@ RECIPES = {
     # Efflorescence follows the rain map on the façade: salts crystallise where rain soaks in.
     FACADE: Recipe(
         None,
-        FACADE_STONE,
+        "LIMESTONE",
         {
             model.SOILING: RAIN_AND_EDGES,
             model.WET: WATER,
             model.EFFLORESCENCE: dict(efflorescence_map="rain"),
         },
-        inputs=FACADE_SOILING,
         view=FACADE_VIEW,
-        edges=FACADE_EDGES,
         unite="Facade",
         cell=0.1,
     ),
-    # The brick preset, soiled by a soot-laden deposit darker than the brick (BRICK_SOILING).
     "brick_wall": Recipe(
         ("Bricks",),
-        presets.PRESETS["BRICK"].material_params(),
+        "BRICK",
         {
             model.SOILING: RAIN_AND_EDGES,
             model.WET: WATER,
             model.EFFLORESCENCE: dict(efflorescence_map="joints"),
         },
-        inputs=BRICK_SOILING,
     ),
     # Vertical rain: the hollows and the undersides of the ridges are the sheltered places.
-    "sculpted_stone": Recipe(
-        ("Sculpted Stone",), SOFT_LIMESTONE, {model.SOILING: RAIN_AND_EDGES}, rain={}, inputs=CITY_SOILING
-    ),
-    # The scan-like bust (millimetres, no UV map) with the limestone preset: driven rain washes
-    # the hat and the chest, the brim shelters the face; its rounded hollows baked with cavity
-    # weight 3 (BUST_EDGES).
+    "sculpted_stone": Recipe(("Sculpted Stone",), "LIMESTONE", {model.SOILING: RAIN_AND_EDGES}, rain={}),
+    # The scan-like bust (millimetres, no UV map): driven rain reaches the hat and the chest,
+    # the brim shelters the face.
     "bust": Recipe(
         ("Bust",),
-        presets.PRESETS["LIMESTONE"].material_params(),
+        "LIMESTONE",
         {model.SOILING: RAIN_AND_EDGES, model.WET: WATER},
-        inputs=BUST_SOILING,
-        edges=BUST_EDGES,
         view=View(location=(-520.0, -900.0, 200.0), target=(0.0, 0.0, 300.0), lens=55.0, aspect=1.0, sun_strength=2.5),
     ),
 }
@@ -251,7 +200,6 @@ class Sample:
                 maps=baked,
                 target="attribute",
                 rain_settings=rain.RainSettings(samples=bake_samples, **self.recipe.rain),
-                edge_settings=edges.EdgeSettings(**self.recipe.edges),
             )
             bar = ProgressBar(f"baking the maps of {self.name}") if progress else None
             bake.bake_maps(self.objects, options, progress=bar)
@@ -263,21 +211,35 @@ class Sample:
         return sources
 
     def inputs(self, mode, **changes):
-        """The weathering inputs ``mode``'s material is given: the recipe's that ``mode`` reads,
-        updated with ``changes`` (e.g. the paper-exact ``crust=0``); the rest keep the API's
-        defaults."""
-        recipe = {name: value for name, value in self.recipe.inputs.items() if name in model.inputs_of(mode)}
-        return {**recipe, **changes}
+        """The weathering inputs ``mode``'s material is given: the panel's values for the
+        recipe's stone and environment (presets.weathering_values) that ``mode`` reads, then
+        the environment's other inputs, updated with ``changes`` (e.g. the paper-exact
+        ``crust=0``); the rest keep the API's defaults."""
+        used = model.inputs_of(mode)
+        panel = presets.weathering_values(self.recipe.stone, self.recipe.environment)
+        site = environments.weathering_inputs(self.recipe.environment, (mode,))
+        return {**site, **{name: value for name, value in panel.items() if name in used}, **changes}
+
+    @property
+    def stone(self):
+        """make_weathered_material's material keywords of the recipe's stone preset."""
+        return presets.PRESETS[self.recipe.stone].material_params()
 
     def material(self, mode, **changes):
-        """The weathered material of ``mode`` (made once per set of ``changes`` to the recipe's
-        inputs), on the sample's stone and maps."""
+        """The weathered material of ``mode`` (made once per set of ``changes``: see ``inputs``),
+        on the sample's stone and maps, as the panel's Make makes it."""
         key = (mode, tuple(sorted(changes.items())))
         if key not in self._materials:
             masks = {mask: self.sources[map_name] for mask, map_name in self.recipe.masks[mode].items()}
             name = f"{self.name} {mode}" + "".join(f" {k}={v}" for k, v in sorted(changes.items()))
             self._materials[key] = weathering.make_weathered_material(
-                name, modes=(mode,), key_light=self.sun, **self.recipe.stone, **masks, **self.inputs(mode, **changes)
+                name,
+                modes=(mode,),
+                key_light=self.sun,
+                environment=self.recipe.environment,
+                **self.stone,
+                **masks,
+                **self.inputs(mode, **changes),
             )
         return self._materials[key]
 

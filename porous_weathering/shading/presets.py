@@ -134,6 +134,21 @@ PRESETS = {
 }
 
 
+def panel_inputs() -> list[weathering_modes.Input]:
+    """The weathering inputs the panel shows (``Input.panel``), each once, in socket order."""
+    return [item for item in weathering_modes.inputs().values() if item.panel]
+
+
+def weathering_values(source: str, environment: str = DEFAULT_ENVIRONMENT) -> dict:
+    """{panel input: value} a stone and a site set, as the panel's Stone and Environment choices
+    do: the preset ``source``'s own values (else, e.g. for the object's own material, the API
+    defaults), then the environment's, its crust a share of the stone's."""
+    preset = PRESETS.get(source)
+    values = preset.panel_weathering() if preset else {item.name: item.default for item in panel_inputs()}
+    site = ENVIRONMENTS[environment].weathering(crust=values["crust"])
+    return {name: site.get(name, value) for name, value in values.items()}
+
+
 def make_preset_material(
     preset_name: str, name: str | None = None, key_light: "bpy.types.Object | str | None" = None
 ) -> "bpy.types.Material":

@@ -18,23 +18,9 @@ def _is_light(_settings, obj):
     return obj.type == "LIGHT"
 
 
-def panel_inputs() -> list[weathering_modes.Input]:
-    """The weathering inputs the panel shows (``Input.panel``), each once, in socket order."""
-    return [item for item in weathering_modes.inputs().values() if item.panel]
-
-
-def source_weathering(source: str, environment: str = environments.DEFAULT_ENVIRONMENT) -> dict:
-    """{panel input: value} a stone source and an environment set: the preset's own values (else the
-    API defaults), then the environment's, its crust a share of the stone's."""
-    preset = presets.PRESETS.get(source)
-    values = preset.panel_weathering() if preset else {item.name: item.default for item in panel_inputs()}
-    site = environments.get(environment).weathering(crust=values["crust"])
-    return {name: site.get(name, value) for name, value in values.items()}
-
-
 def _apply_source(settings, _context):
     """Picking a stone or an environment sets the panel's weathering inputs to their values."""
-    for name, value in source_weathering(settings.source, settings.environment).items():
+    for name, value in presets.weathering_values(settings.source, settings.environment).items():
         setattr(settings, name, value)
 
 
@@ -144,8 +130,8 @@ def settings_class() -> type:
             size=3,
             default=default,
         )
-    defaults = source_weathering(DEFAULT_SOURCE)
-    for item in panel_inputs():
+    defaults = presets.weathering_values(DEFAULT_SOURCE)
+    for item in presets.panel_inputs():
         properties[item.name] = bpy.props.FloatProperty(
             name=item.socket,
             description=item.tooltip,
