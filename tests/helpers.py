@@ -13,6 +13,7 @@
 - ``rain_only_modes``: the modes as they were before run-off (docs/model.md §7): the rain map's E
   where they now read the water W, and no dirty streaks.
 - ``run_cli``: ``python -m porous_weathering COMMAND ...`` in a subprocess, as users run it.
+- ``corner_values``: a baked colour attribute's value at every corner of a mesh.
 - ``bust_mesh``, ``add_bust``: the scan-like bust of sample_blends/scan_generator.py, in
   millimetres, and the same bust added to the scene (the ``bust`` fixture of conftest.py).
 """
@@ -282,6 +283,18 @@ def add_bust(triangles=20_000, name="Bust", *, scale=1.0, rotation=(0.0, 0.0, 0.
     obj.rotation_euler = rotation
     bpy.context.view_layer.update()
     return obj
+
+
+def corner_values(obj, name):
+    """The first channel of the colour attribute ``name`` of ``obj``'s mesh at every corner
+    (a point attribute read through each corner's vertex)."""
+    attribute = obj.data.color_attributes[name]
+    values = np.empty(len(attribute.data) * 4, np.float32)
+    attribute.data.foreach_get("color", values)
+    values = values[0::4]
+    if attribute.domain == "POINT":
+        values = values[mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)]
+    return values
 
 
 # --- a toy mode and a toy map: one declaration each is enough (the ``toys`` fixture) -----------
