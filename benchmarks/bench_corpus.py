@@ -59,7 +59,7 @@ from porous_weathering.core import model  # noqa: E402
 from porous_weathering.core import modes as weathering_modes  # noqa: E402
 from porous_weathering.maps import edges, linking  # noqa: E402
 from porous_weathering.samples import studio  # noqa: E402
-from porous_weathering.shading import weathering  # noqa: E402
+from porous_weathering.shading import presets, weathering  # noqa: E402
 from porous_weathering.ui import settings as panel_settings  # noqa: E402
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -137,18 +137,19 @@ def bake(path):
 
 def made_material(obj, modes, environment=None):
     """The material the panel's Make gives ``obj`` for ``modes`` with the scene's default panel
-    settings: the default stone, its panel values, the scene's sun (``ui/operators.py``)."""
+    settings: the default stone and ``environment`` (None: the default one), their panel values,
+    the scene's sun (``ui/operators.py``)."""
     stone = panel_settings.DEFAULT_SOURCE
-    defaults = panel_settings.source_weathering(stone)
+    environment = environment or presets.DEFAULT_ENVIRONMENT
+    defaults = presets.weathering_values(stone, environment)
     values = {item.name: defaults[item.name] for item in weathering_modes.inputs_of(modes) if item.panel}
-    extra = {} if environment is None else {"environment": environment}
     return linking.weathered_material_for(
         obj,
         modes,
         preset=stone,
         key_light=panel_settings.scene_sun(bpy.context.scene),
         values=values,
-        **extra,
+        environment=environment,
     )
 
 

@@ -117,15 +117,17 @@ def test_attribute_mask_is_the_same_in_millimetres_metres_and_tenths(bust):
 
 def test_image_mask_is_the_same_at_every_unit_and_matches_the_attribute(fresh_scene):
     """At the same texels (the same surface points, as the UVs are the same) the images agree
-    within 0.02; and sampled at the vertices they agree with the attribute mask."""
+    within 0.02; and sampled at the vertices they agree with the attribute mask. At cavity
+    weight 1, so that 0.02 is in units of the curvature itself (a weight scales both sides)."""
     resolution = 256
+    unit_weight = edges.EdgeSettings(cavity_weight=1.0)
     spheres = {unit: bumpy_sphere(f"Sphere {unit}", radius) for unit, radius in SPHERE_RADII.items()}
-    images = {unit: edges.edge_mask_image(obj, "UVMap", resolution) for unit, obj in spheres.items()}
+    images = {unit: edges.edge_mask_image(obj, "UVMap", resolution, unit_weight) for unit, obj in spheres.items()}
     islands = images["mm"] > 0
     assert islands.mean() > 0.5 and images["mm"].max() > 0.25
     for unit in ("m", "tenth"):
         assert np.abs(images[unit] - images["mm"]).max() < 0.02, unit
-    attribute = edges.write_curvature_attribute(spheres["tenth"])
+    attribute = edges.write_curvature_attribute(spheres["tenth"], settings=unit_weight)
     uvs, vertices = corner_uvs_and_vertices(spheres["tenth"])
     assert np.abs(sample_image(images["tenth"], uvs) - attribute[vertices]).max() < 0.02
 
