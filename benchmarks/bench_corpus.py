@@ -24,7 +24,7 @@ For each shape and unit:
    the ratio of linear luminance t = 1 / t = 0 at each pixel, its median over each region and
    over the object, its 5th percentile (the darkest 5%), and the fraction of the pixels that
    rain or run-off reaches (W >= 0.1) whose wet / dry luminance (wet t = 1 over the t = 0
-   render) is <= 0.8.
+   render; the wet material at t = 0 renders the same pixels, checked on the head) is <= 0.8.
 
 Ratios are per pixel on the noisy renders (same seed at both ages, so most of the noise is
 shared); only pixels lit at t = 0 (luminance > 1e-3) count. Prints a Markdown table against the
@@ -182,7 +182,7 @@ def luminance(image):
 
 
 def measure(shape, unit, args):
-    """(row of measures, the three renders) of one shape in one unit."""
+    """(row of measures, {key: picture}: the three renders and the regions) of one shape in one unit."""
     path = pathlib.Path(args.out) / f"{shape}_{unit}.blend"
     if args.fresh or not path.exists():
         build_scene(shape, unit)

@@ -1,7 +1,8 @@
 """The corpus benchmark's region classifier (benchmarks/corpus_regions.py) on cases whose answer
 is known: given arrays, then small meshes baked with the bake's defaults (a ledge over a wall,
 a groove in a block, their open tops), classified at their corners from the baked maps and the
-sign of the mean curvature."""
+sign of the mean curvature. And the corpus itself (sample_blends/corpus_generator.py): closed
+meshes of the promised sizes, the same on every run."""
 
 import numpy as np
 import pytest
@@ -15,6 +16,21 @@ from scripts import load_script
 CORPUS = load_script("sample_blends/corpus_generator.py")
 #: The test solids' length along X (m).
 LENGTH = 0.3
+
+
+#: shape -> its height (m), within 2%
+HEIGHTS = {"head": 0.3, "draped_figure": 1.74, "relief_panel": 0.7, "column": 2.9, "cornice": 1.0, "gargoyle": 0.49}
+
+
+@pytest.mark.parametrize("name", sorted(HEIGHTS))
+def test_the_corpus_shapes_are_closed_and_of_real_size(name):
+    vertices, triangles = CORPUS.shape_mesh(name, "m")
+    assert CORPUS.scan_generator.is_closed_manifold(CORPUS.scan_generator.check_mesh(vertices, triangles))
+    assert 20_000 <= len(triangles) <= 80_000
+    assert vertices[:, 2].min() == pytest.approx(0.0, abs=1e-6)  # standing on z = 0
+    assert np.ptp(vertices[:, 2]) == pytest.approx(HEIGHTS[name], rel=0.02)
+    again, same = CORPUS.shape_mesh(name, "mm")
+    assert np.array_equal(same, triangles) and np.allclose(again * 0.001, vertices)
 
 
 def test_water_is_rain_or_runoff():
