@@ -267,7 +267,7 @@ AREAS = {
     },
     "brick_wall": {
         model.SOILING: [
-            ("grey", "brick faces (E = 0.42 < rain threshold 0.5)", brick_faces),
+            ("grey", "brick faces (W = 0.81, E = 0.42)", brick_faces),
         ],
         model.WET: [("wet", "brick faces", brick_faces)],
         model.EFFLORESCENCE: [

@@ -138,12 +138,14 @@ def test_image_mask_is_the_same_at_every_unit_and_matches_the_attribute(fresh_sc
 def test_scan_noise_below_the_scale_does_not_light_up_the_mask(bust):
     """The 100k-triangle bust with and without its scan noise (1.2-4 mm, RMS 0.1 mm): the
     same mask within 0.1 everywhere at the default scale, while at a scale near the noise's
-    own the noise lights it up (so the comparison can tell)."""
+    own the noise lights it up (so the comparison can tell). At cavity weight 1: the bounds are
+    in units of the curvature (the default weight 3 scales the concave part, noise included)."""
     noisy, clean = bust(100_000, "Noisy"), bust(100_000, "Clean", scan_noise=False)
-    masks = [edges.write_curvature_attribute(obj) for obj in (noisy, clean)]
+    unit_weight = edges.EdgeSettings(cavity_weight=1.0)
+    masks = [edges.write_curvature_attribute(obj, settings=unit_weight) for obj in (noisy, clean)]
     difference = np.abs(masks[0] - masks[1])
     assert difference.max() < 0.1 and difference.mean() < 0.01
-    fine = edges.EdgeSettings(scale=0.005)
+    fine = edges.EdgeSettings(scale=0.005, cavity_weight=1.0)
     fine_masks = [edges.write_curvature_attribute(obj, settings=fine) for obj in (noisy, clean)]
     assert np.abs(fine_masks[0] - fine_masks[1]).max() > 0.15
 

@@ -27,14 +27,19 @@ SIZE = 32  #: texels: the wall's UV map is the whole square, so every texel is o
 STONE = dict(base_color=(0.6, 0.55, 0.45), ks=0.1, roughness=0.4, porosity=0.3, pore_depth_ratio=0.5)
 SOILING = dict(rain_threshold=0.6, deposit_color=(0.06, 0.055, 0.05))
 AGES = (0.0, 0.5, 1.0)
+#: The run-off map R of a wall with ``runoff``, of the texel's u: strong where the rain
+#: (E = u) is weak, so that it washes some of the sheltered side and streaks the rest. Linear,
+#: as the per-corner values are interpolated across the faces.
+RUNOFF = lambda u: 0.9 * (1.0 - u)
 
 
 # --- a tiny wall and its export -------------------------------------------------------------
 
 
-def make_wall(name="Wall", key_light=True, modes=("soiling",)):
+def make_wall(name="Wall", key_light=True, modes=("soiling",), runoff=False):
     """A 2 m square of 8 x 8 quads facing +Z, its UV map the whole [0, 1]² square, with a rain
-    map E = u and an edge map C = v (colour attributes), and a weathered material (sun mode)."""
+    map E = u and an edge map C = v (colour attributes), and a weathered material (sun mode);
+    with ``runoff``, a run-off map R = RUNOFF(u) read by the soiling too."""
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=2.0)
     wall = bpy.context.active_object
     wall.name = name
@@ -42,10 +47,14 @@ def make_wall(name="Wall", key_light=True, modes=("soiling",)):
     uvs = np.empty(len(mesh.loops) * 2, dtype=np.float32)
     mesh.uv_layers.active.data.foreach_get("uv", uvs)
     uvs = uvs.reshape(-1, 2)
-    for attribute, values in (("pw_rain", uvs[:, 0]), ("pw_edges", uvs[:, 1])):
+    maps = [("pw_rain", uvs[:, 0]), ("pw_edges", uvs[:, 1])]
+    maps += [("pw_runoff", RUNOFF(uvs[:, 0]))] if runoff else []
+    for attribute, values in maps:
         mesh.color_attributes.new(attribute, "FLOAT_COLOR", "CORNER").data.foreach_set("color", np.repeat(values, 4))
     sun = add_sun(bpy.context.scene, (0.3, -0.5, 0.8)) if key_light else None
     masks = dict(rain_map="pw_rain", edge_map="pw_edges", **SOILING) if "soiling" in modes else {}
+    if runoff:
+        masks["runoff_map"] = "pw_runoff"
     if "efflorescence" in modes:
         masks["efflorescence_map"] = "pw_edges"
     material = weathering.make_weathered_material(f"{name} Stone", modes=modes, key_light=sun, **STONE, **masks)
@@ -175,13 +184,15 @@ def test_srgb_encoding():
 # --- the textures against the model -----------------------------------------------------------
 
 
-def expected_weights(age, wet, size=SIZE):
+def expected_weights(age, wet, size=SIZE, runoff=False):
     """The model's weights on the wall's texel centres (top row first), in the ambient mode
     seen face on, as glTF values: (base colour, S, roughness)."""
     u = (np.arange(size) + 0.5) / size
     rain, edges = np.meshgrid(u, u[::-1])  # texel (row, column): E = u, C = v
     modes = ("soiling", "wet") if wet else ("soiling",)
     state = dict(time=age, rain_map=rain, edge_map=edges, **SOILING)
+    if runoff:
+        state["runoff_map"] = RUNOFF(rain)
     kd, ks, water = model.weathered_coefficients(
         STONE["base_color"],
         STONE["ks"],
@@ -241,6 +252,20 @@ def test_textures_match_the_model(exported, tmp_path, variant, age, wet):
         dry_base, dry_s, _ = expected_weights(age, False)
         assert (srgb(dry_base) - srgb(want_base)).max() > 0.1
         assert (want_s - dry_s).max() > 10 * want_s.max() / 255
+
+
+def test_the_runoff_reaches_the_exported_textures(tmp_path):
+    """A wall whose soiling reads a run-off map: its t = 1 textures are the model's with the
+    run-off (washed in the map's band, streaked beside it), not the model's without it."""
+    wall = make_wall(runoff=True)
+    save(tmp_path)
+    result = export.export_variants([wall], (1.0,), size=SIZE, out_dir=str(tmp_path / "out"))
+    gltf, binary = read_glb(result.path)
+    base, _, _ = material_values(variant_materials(gltf)["t=1"], gltf, binary, tmp_path)
+    srgb = mapping.linear_to_srgb
+    with_runoff, without = (expected_weights(1.0, False, runoff=flag)[0] for flag in (True, False))
+    assert np.abs(srgb(base) - srgb(with_runoff)).max() <= 1.5 / 255
+    assert np.abs(srgb(with_runoff) - srgb(without)).max() > 0.1
 
 
 def test_webp_textures_match_the_png_ones(exported, tmp_path):

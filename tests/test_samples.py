@@ -180,14 +180,15 @@ def luminance(image):
 
 
 def soiling_areas(weathered):
-    """docs/model.md §4's three areas by the baked maps: white where rain washes (E at or above the
-    threshold), grey where it is sheltered and flat, black where sheltered on an edge or cavity."""
+    """docs/model.md §4's three areas by the baked maps: white where water washes (W, rain or
+    run-off, at or above the threshold: §7.2), grey where it is sheltered and flat, black where
+    sheltered on an edge or cavity."""
     threshold, width = weathered.inputs["rain_threshold"], weathered.inputs["front_width"]
-    sheltered = (0.0, threshold - width)
+    sheltered = weathered.water_area(0.0, threshold - width)
     return {
-        "white": weathered.area(rain_map=(threshold + 0.05, 1.0)),
-        "grey": weathered.area(rain_map=sheltered, edge_map=(0.0, 0.05)),
-        "black": weathered.area(rain_map=sheltered, edge_map=(0.5, 1.0)),
+        "white": weathered.water_area(threshold + 0.05, 1.0),
+        "grey": sheltered & weathered.area(edge_map=(0.0, 0.05)),
+        "black": sheltered & weathered.area(edge_map=(0.5, 1.0)),
     }
 
 

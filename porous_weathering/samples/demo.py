@@ -150,6 +150,9 @@ RECIPES = {
 DOCS_BUST = ((model.SOILING, 0.0), (model.SOILING, 1.0), (model.WET, 1.0))
 #: The sample scene that shows each mode in docs/images/<mode>_before_after.png.
 DOCS_BEFORE_AFTER = {model.SOILING: "sculpted_stone", model.WET: "brick_wall", model.EFFLORESCENCE: "brick_wall"}
+#: docs/images/runoff_before_after.png: the façade soiled at t = 1 by the rain alone (the modes
+#: without run-off: docs/model.md §7.2) and by the rain and its run-off (the defaults).
+DOCS_RUNOFF = (("rain alone", dict(runoff=0.0, streaks=0.0)), ("rain and run-off", {}))
 
 
 class Sample:
@@ -250,11 +253,11 @@ class Sample:
         for obj in self.objects:
             studio.assign(obj, weathered)
 
-    def render(self, mode, age, path):
-        """A picture of ``mode`` at ``age``. The Standard view keeps the contrast that AgX, made
-        for bright highlights, squeezes out of the weathered areas: a deposit that halves the
-        light looks only a little darker through AgX."""
-        self.show(mode, age)
+    def render(self, mode, age, path, **changes):
+        """A picture of ``mode`` at ``age`` (``changes``: see ``material``). The Standard view
+        keeps the contrast that AgX, made for bright highlights, squeezes out of the weathered
+        areas: a deposit that halves the light looks only a little darker through AgX."""
+        self.show(mode, age, **changes)
         return render.render_picture(self.scene, path, view_transform="Standard")
 
     def use_cycles(self, size, samples):
@@ -329,7 +332,7 @@ def run(args):
     else:
         os.makedirs(args.out, exist_ok=True)
         written = [render_porous_vs_base(os.path.join(args.out, "porous_vs_base.png"), args.size, args.samples * 2)]
-        aging = render_aging(args.out, args.size, args.samples, args.bake_samples)
+        _, aging = render_aging(args.out, args.size, args.samples, args.bake_samples)
         labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in AGES]
         written += aging + [side_by_side(aging, len(AGES), os.path.join(args.out, "comparison.png"), labels)]
     print(f"wrote {len(written)} pictures in {time.time() - started:.0f} s", file=sys.stderr)
@@ -343,9 +346,10 @@ def docs_pictures(args):
     with tempfile.TemporaryDirectory(prefix="pw_docs_") as work:
         # The README's sheet: new and fully weathered, a row per mode (the main job's has four ages).
         ends = (AGES[0], AGES[-1])
-        aging = render_aging(work, args.size, args.samples, args.bake_samples, ends)
+        facade, aging = render_aging(work, args.size, args.samples, args.bake_samples, ends)
         labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in ends]
         written.append(side_by_side(aging, 2, os.path.join(DOCS_IMAGES, "facade_aging.png"), labels, DOCS_SCALE))
+        written.append(render_runoff_before_after(facade, work, os.path.join(DOCS_IMAGES, "runoff_before_after.png")))
         modes_of = {}  # sample -> the modes it shows: each sample is opened and baked once
         for mode, name in DOCS_BEFORE_AFTER.items():
             modes_of.setdefault(name, []).append(mode)
@@ -391,7 +395,8 @@ def render_porous_vs_base(path, size=256, samples=64):
 
 
 def render_aging(out, size, samples, bake_samples, ages=AGES):
-    """Bake the façade's maps, then render each weathering mode at each of ``ages``."""
+    """Bake the façade's maps, then render each weathering mode at each of ``ages``: (the façade's
+    ``Sample``, the pictures)."""
     facade = Sample(FACADE, bake_samples=bake_samples, map_dir=out, progress=True)
     facade.use_cycles(size, samples)
     modes = list(facade.recipe.masks)
@@ -403,7 +408,17 @@ def render_aging(out, size, samples, bake_samples, ages=AGES):
             pictures.append(facade.render(mode, age, os.path.join(out, f"{mode}_t{age:.2f}.png")))
     progress(1.0, "done")
     progress.finish()
-    return pictures
+    return facade, pictures
+
+
+def render_runoff_before_after(facade, work, path):
+    """The façade (an opened ``Sample``) soiled at t = 1 without and with run-off (DOCS_RUNOFF)."""
+    pictures = [
+        facade.render(model.SOILING, 1.0, os.path.join(work, f"runoff {label}.png"), **changes)
+        for label, changes in DOCS_RUNOFF
+    ]
+    labels = [f"soiling, t = 1, {label}" for label, _ in DOCS_RUNOFF]
+    return side_by_side(pictures, len(pictures), path, labels, DOCS_SCALE)
 
 
 def side_by_side(paths, columns, out_path, labels=(), scale=1.0):

@@ -91,7 +91,7 @@ class Mode:
 
 TIME = Input("time", 0.0, 0.0, 1.0, "Age t: 0 is the clean material exactly, 1 fully weathered. Keyframe it to animate")
 FRONT_WIDTH = Input(
-    "front_width", 0.25, 0.01, 1.0, "Width, in mask units, over which a point goes from clean to fully filled"
+    "front_width", 0.1, 0.01, 1.0, "Width, in mask units, over which a point goes from clean to fully filled"
 )
 RAIN_MAP = Input(
     "rain_map", 0.0, 0.0, 1.0, "Rain exposure E: 1 where rain falls freely, 0 where sheltered", mask=True, map="rain"

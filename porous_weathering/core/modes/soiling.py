@@ -39,7 +39,7 @@ CRUST_DEFAULT = 0.8
 STREAKS_DEFAULT = 0.5
 
 RAIN_THRESHOLD = Input(
-    "rain_threshold", 0.5, 0.0, 1.0, "Water W (rain or run-off) at and above which it washes the surface (white area)"
+    "rain_threshold", 0.8, 0.0, 1.0, "Water W (rain or run-off) at and above which it washes the surface (white area)"
 )
 EDGE_MAP = Input(
     "edge_map",
