@@ -242,7 +242,7 @@ def test_dirty_streaks_darken_where_runoff_is_half_the_washing_water():
     t = 1, streaks = 1, a sheltered point (E = 0) is all deposit: darker than with R = 0, where
     there is no tail; the streaks alone make the difference (streaks = 0 gives R = 0's weights)."""
     deposit = np.array([0.1, 0.09, 0.08])
-    state = dict(time=1.0, rain_map=0.0, streaks=1.0, deposit_color=deposit)
+    state = dict(time=1.0, rain_map=0.0, streaks=1.0, rain_threshold=0.5, front_width=0.25, deposit_color=deposit)
     streaked = weathered(STONE, model.SOILING, runoff_map=0.25, **state)
     plain = weathered(STONE, model.SOILING, runoff_map=0.0, **state)
     assert (streaked[0] < plain[0]).all() and streaked[1] < plain[1]
@@ -340,7 +340,7 @@ def test_crust_covers_a_fully_black_point_with_its_coverage():
     stone = dict(kd=np.array([0.6, 0.5, 0.4]), ks=0.1, m=0.6, alpha=0.3, sp=2.0, n_dot_l=0.7, n_dot_v=0.9)
     pollution = np.array([0.02, 0.03, 0.04])
     # E = 0.2: sheltered (threshold 0.5 - width 0.25) yet wet (the water front has reached E = 0)
-    black = dict(time=1.0, rain_map=0.2, edge_map=1.0, pollution_color=pollution)
+    black = dict(time=1.0, rain_map=0.2, edge_map=1.0, rain_threshold=0.5, front_width=0.25, pollution_color=pollution)
     modes = (model.SOILING, model.WET, model.EFFLORESCENCE)
     beneath = weathered(stone, modes, crust=0.0, efflorescence_map=0.9, **black)
     assert beneath[2].min() > 0.0, "the water lobe lies beneath the crust too"
@@ -356,8 +356,8 @@ def test_crust_grows_behind_the_carbon_front():
     pores are full (there the result is the crust-free one bit for bit), then a second front."""
     stone = dict(kd=np.array([0.6, 0.5, 0.4]), ks=0.1, m=0.6, alpha=0.3, sp=2.0, n_dot_l=0.7, n_dot_v=0.9)
     edge, width, time, level, crust = np.array([0.4, 0.6, 0.8, 1.0]), 0.25, 0.9, 0.8, 0.7
-    state = dict(time=time, soiling_level=level, rain_map=0.35, edge_map=edge, front_width=width)
-    sheltered = (0.5 - 0.35) / width  # E = 0.35 below the default threshold 0.5
+    state = dict(time=time, soiling_level=level, rain_map=0.35, rain_threshold=0.5, edge_map=edge, front_width=width)
+    sheltered = (0.5 - 0.35) / width  # E = 0.35 below the threshold 0.5
     _, bare, _ = weathered(stone, model.SOILING, crust=0.0, **state)
     kd_w, ks_w, _ = weathered(stone, model.SOILING, crust=crust, **state)
     progress = np.clip((edge - (1 - level * time) - width) / (1 - width), 0.0, 1.0)

@@ -338,8 +338,8 @@ def _name_max(folder):
 def _check_folder(out_dir):
     """Create ``out_dir`` if needed and write a file in it (a file system such as /proc or a
     full disk refuses what ``os.access`` allows): OSError saying why it cannot take the files."""
-    bake.check_writable_folder(out_dir)
     try:
+        bake.check_writable_folder(out_dir)
         with atomic.temporary_file(out_dir, ".glb") as probe, open(probe, "wb") as stream:
             stream.write(b"glTF")
     except OSError as error:
