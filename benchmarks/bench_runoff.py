@@ -3,12 +3,13 @@
 surface's nodes).
 
 Each stage runs in a child process of its own, whose peak resident memory is its
-``ru_maxrss``; only the run-off bake is timed (``bake.bake_maps(maps=("runoff",))``), the rain
-it reads being made first from the surface's own normals (vertical rain, no occlusion: what the
-flow costs does not depend on it):
+``ru_maxrss`` (making the scene included) and the bake's own peak, ``runoff_peak_mib`` (the
+process's peak started anew before the bake); only the run-off bake is timed
+(``bake.bake_maps(maps=("runoff",))``), the rain it reads being made first from the surface's
+own normals (vertical rain, no occlusion: what the flow costs does not depend on it):
 
-- ``facade``: the bundled façade's parts (as they are in the file: 0.2 m faces), each to an
-  image of ``--resolution``² on its lightmap;
+- ``facade``: the bundled façade's parts joined into one object (its 0.2 m faces as they are
+  in the file), to one image of ``--resolution``² on its lightmap;
 - ``scan``: the scan generator's bust of ``--triangles`` triangles, in millimetres, to colour
   attributes;
 - ``series``: the numpy flow alone (``runoff_flow.sample_surface`` and ``route``) on a sphere at
@@ -28,6 +29,19 @@ import time
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 MIB = 1024**2
 STAGES = ("facade", "scan", "series")
+
+
+def _reset_peak_memory():
+    """Start the process's peak resident memory (VmHWM) anew (Linux 4.0+), so that the peak read
+    after the bake is the bake's, not the scene's making."""
+    with open("/proc/self/clear_refs", "w") as stream:
+        stream.write("5")
+
+
+def _peak_memory_mib():
+    with open("/proc/self/status") as stream:
+        line = next(line for line in stream if line.startswith("VmHWM:"))
+    return round(int(line.split()[1]) / 1024)
 
 
 def _vertical_rain_attribute(obj):
@@ -54,6 +68,9 @@ def facade(resolution, out_dir):
 
     bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_blends", "limestone_facade.blend"), load_ui=False)
     parts = [obj for obj in bpy.context.scene.objects if obj.type == "MESH" and obj.name != "Ground"]
+    with bpy.context.temp_override(active_object=parts[0], selected_editable_objects=parts):
+        bpy.ops.object.join()
+    parts = parts[:1]
     # the lightmaps and rain maps as the bake makes them, then the rain of vertical rain in their place
     started = time.monotonic()
     options = bake.BakeOptions(
@@ -69,10 +86,17 @@ def facade(resolution, out_dir):
         exposure = np.where(islands, np.clip(normals[..., 2], 0.0, 1.0), 0.0)[..., None].astype(np.float32)
         imageio.write_image(path, exposure, metadata=header)
         texels += int(islands.sum())
+    _reset_peak_memory()
     started = time.monotonic()
     bake.bake_maps(parts, bake.BakeOptions(maps=("runoff",), resolution=resolution, out_dir=out_dir))
     seconds = time.monotonic() - started
-    return dict(parts=len(parts), texels=texels, prepare_s=round(prepared, 1), runoff_s=round(seconds, 1))
+    return dict(
+        parts=len(parts),
+        texels=texels,
+        prepare_s=round(prepared, 1),
+        runoff_s=round(seconds, 1),
+        runoff_peak_mib=_peak_memory_mib(),
+    )
 
 
 def scan(triangles):
@@ -89,9 +113,12 @@ def scan(triangles):
         "Bust", scan_generator.scaled(vertices, "mm"), faces, bpy.context.scene.collection
     )
     _vertical_rain_attribute(obj)
+    del vertices, faces
+    _reset_peak_memory()
     started = time.monotonic()
     bake.bake_maps([obj], bake.BakeOptions(maps=("runoff",), target="attribute"))
-    return dict(triangles=len(faces), runoff_s=round(time.monotonic() - started, 1))
+    seconds = time.monotonic() - started
+    return dict(triangles=len(obj.data.polygons), runoff_s=round(seconds, 1), runoff_peak_mib=_peak_memory_mib())
 
 
 def series():

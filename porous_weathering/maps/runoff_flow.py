@@ -45,6 +45,10 @@ _GRAVITY = np.array([0.0, 0.0, -1.0])
 #: faces of a mesh modelled on a grid do not lie on cell boundaries, where the rounding of a
 #: scaled copy (millimetres against metres) would put their points in other cells.
 _GRID_OFFSET = np.array([1.2071, 1.3183, 1.1537])
+#: Points read or sampled at a time (``interpolate``, ``_triangle_samples``): a bounded working set.
+_CHUNK = 1 << 16
+#: Nodes whose neighbours ``_neighbours`` lists at a time.
+_NODES_AT_A_TIME = 1 << 18
 
 
 @dataclass(frozen=True)
@@ -82,8 +86,11 @@ def _triangle_samples(vertices, triangles, spacing, per_point=()):
     cross = np.cross(b - a, c - a)
     double_area = np.linalg.norm(cross, axis=1)
     normals = cross / np.maximum(double_area, 1e-300)[:, None]
-    edges = np.stack([b - a, c - b, a - c])
-    parts = np.maximum(1, np.ceil(np.linalg.norm(edges, axis=2).max(0) / (0.5 * spacing))).astype(np.int64)
+    longest = np.maximum(
+        np.maximum(np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1)), np.linalg.norm(a - c, axis=1)
+    )
+    parts = np.maximum(1, np.ceil(longest / (0.5 * spacing))).astype(np.int64)
+    del cross, longest
     each = 0.5 * double_area / (parts * parts)
     solid = each > 0  # degenerate triangles (a sphere's poles) hold no surface
     # the triangles grouped by their number of parts (stable: in their order within a group)
@@ -109,10 +116,15 @@ def _triangle_samples(vertices, triangles, spacing, per_point=()):
             np.multiply(a[chosen, d, None], w0, out=out)  # w0 a + w1 b + w2 c, in that order
             out += np.multiply(b[chosen, d, None], w1, out=scratch)
             out += np.multiply(c[chosen, d, None], w2, out=scratch)
-        if per_point:
-            weights = np.tile(np.column_stack([w0, w1, w2]), (len(chosen), 1))
+        # the quantities at the points, a bounded number of points at a time (a scan's millions of
+        # triangles would otherwise hold several (points, 3) arrays at once)
+        step = max(1, _CHUNK // len(uv))
+        for first in range(0, len(chosen) if per_point else 0, step):
+            part = chosen[first : first + step]
+            weights = np.tile(np.column_stack([w0, w1, w2]), (len(part), 1))
+            where = slice(at + first * len(uv), at + (first + len(part)) * len(uv))
             for value, function in zip(values, per_point):
-                value[at : at + size] = function(np.repeat(chosen, len(uv)), weights)
+                value[where] = function(np.repeat(part, len(uv)), weights)
         at += size
     return coords, normals[order], each[order], parts[order] ** 2, order, values
 
@@ -192,6 +204,7 @@ def sample_surface(
     if point_border is not None:
         border[node[point_border]] = True
     values = None if point_values is None else np.bincount(node, areas * point_values, count) / area
+    del node, areas, point_border, point_values  # the points are summed up: free them for the neighbours
     indptr, indices = _neighbours(cells, normal)
     return Surface(position, normal, area, border, float(spacing), indptr, indices, cells, origin, values)
 
@@ -212,8 +225,25 @@ def near_border(vertices, triangles, border_edges, spacing):
 
 
 def _cells_around(cells: np.ndarray, voxels: np.ndarray):
-    """(query index, node) pairs: the nodes in the 27 voxels around each query voxel."""
+    """(query index, node) pairs: the nodes in the 27 voxels around each query voxel, searched
+    once per distinct voxel (points read at texels share their voxels)."""
+    distinct, which = np.unique(_pack(voxels), return_inverse=True)
+    around, nodes = _cells_around_distinct(cells, distinct)
+    # each query takes its voxel's pairs: the pairs grouped by voxel, then repeated per query
+    order = np.argsort(around, kind="stable")
+    around, nodes = around[order], nodes[order]
+    count = np.bincount(around, minlength=len(distinct))
+    start = np.cumsum(count) - count
+    taken = count[which]
+    queries = np.repeat(np.arange(len(which)), taken)
+    first = np.repeat(start[which] - np.cumsum(taken) + taken, taken)
+    return queries, nodes[first + np.arange(len(queries))]
+
+
+def _cells_around_distinct(cells: np.ndarray, packed: np.ndarray):
+    """(index into ``packed``, node) pairs for sorted, distinct packed voxels."""
     cell_voxels = cells >> 3
+    voxels = np.column_stack([(packed >> 40) & 0xFFFFF, (packed >> 20) & 0xFFFFF, packed & 0xFFFFF])
     queries, nodes = [], []
     for offset in _OFFSETS:
         wanted = _pack(voxels + offset)
@@ -302,13 +332,20 @@ def _neighbours(cells, normals):
     row_length = np.bincount(source_voxel, width, len(voxels)).astype(np.int64)
     row = np.repeat(first[target] - np.cumsum(width) + width, width) + np.arange(int(width.sum()))
     row_start = np.cumsum(row_length) - row_length
-    # each node takes its voxel's row
-    length = row_length[voxel_of]
-    sources = np.repeat(np.arange(count), length)
-    targets = row[np.repeat(row_start[voxel_of] - np.cumsum(length) + length, length) + np.arange(int(length.sum()))]
-    keep = (sources != targets) & (_edge_cosines(normals, sources, targets) > _OPPOSED)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(sources[keep], minlength=count))])
-    return indptr, targets[keep]
+    # each node takes its voxel's row, a bounded number of nodes at a time (a scan's millions of
+    # candidate pairs would otherwise be held several times over)
+    degrees, lists = [], []
+    for first in range(0, count, _NODES_AT_A_TIME):
+        voxels_here = voxel_of[first : first + _NODES_AT_A_TIME]
+        length = row_length[voxels_here]
+        sources = np.repeat(np.arange(first, first + len(voxels_here)), length)
+        at = np.repeat(row_start[voxels_here] - np.cumsum(length) + length, length) + np.arange(int(length.sum()))
+        targets = row[at]
+        keep = (sources != targets) & (_edge_cosines(normals, sources, targets) > _OPPOSED)
+        degrees.append(np.bincount(sources[keep] - first, minlength=len(voxels_here)))
+        lists.append(targets[keep])
+    indptr = np.concatenate([[0], np.cumsum(np.concatenate(degrees))]) if count else np.zeros(1, np.int64)
+    return indptr, np.concatenate(lists) if lists else np.zeros(0, np.int64)
 
 
 def nearest_nodes(surface: Surface, points: np.ndarray, normals: np.ndarray | None = None) -> np.ndarray:
@@ -551,10 +588,6 @@ def _neighbourhood_sum(surface: Surface, values: np.ndarray, rings: int = SMOOTH
     return np.array(sums).reshape(values.shape)
 
 
-#: Points read at a time (``interpolate``): each looks at the nodes of 27 cells.
-_CHUNK = 1 << 16
-
-
 def interpolate(surface: Surface, values: np.ndarray, points: np.ndarray, normals: np.ndarray) -> np.ndarray:
     """``values`` (one per node) at ``points`` with ``normals``: the mean of the nodes within
     1.5 cells on the same side (normals within 60 degrees), weighted by closeness; the nearest
@@ -562,10 +595,14 @@ def interpolate(surface: Surface, values: np.ndarray, points: np.ndarray, normal
     points = np.asarray(points, float).reshape(-1, 3)
     normals = np.asarray(normals, float).reshape(-1, 3)
     if len(points) > _CHUNK:  # a bounded working set, whatever the number of points
-        parts = range(0, len(points), _CHUNK)
-        return np.concatenate(
-            [interpolate(surface, values, points[i : i + _CHUNK], normals[i : i + _CHUNK]) for i in parts]
-        )
+        # read in the order of the cells: the searches of neighbouring points then fall near
+        # each other (numpy's search starts from the last answer for rising keys)
+        order = np.argsort(_pack(surface.voxels_of(points)), kind="stable")
+        result = np.empty(len(points))
+        for i in range(0, len(points), _CHUNK):
+            chunk = order[i : i + _CHUNK]
+            result[chunk] = interpolate(surface, values, points[chunk], normals[chunk])
+        return result
     result = np.zeros(len(points))
     if not len(points):
         return result
