@@ -254,7 +254,7 @@ AREAS = {
         ],
         model.WET: [("wet", "open wall, 2.4-3.8 m", facade_open_wall)],
         model.EFFLORESCENCE: [
-            ("salted", "open wall (its map: the rain map)", facade_open_wall),
+            ("salted", "open wall (its map: the run-off map)", facade_open_wall),
             ("bare", "wall under the cornice", facade_under_cornice),
         ],
     },
@@ -387,6 +387,31 @@ def target_text(kind):
     return f"{low:g}-{high:g}"
 
 
+def use_cycles(sample, args):
+    """Cycles for measuring: ``args.size`` pixels high in the sample's aspect, ``args.samples``,
+    the main job's 4 bounces, no denoising, pixel filter 0.01 (a pixel is one surface point)."""
+    scene = sample.scene
+    aspect = scene.render.resolution_x / scene.render.resolution_y
+    render.use_cycles(scene, size=args.size, samples=args.samples, bounces=4, pixel_filter=0.01)
+    scene.render.resolution_x = round(args.size * aspect)
+
+
+def add_render_options(parser):
+    """--size, --samples and --bake-samples, which ``use_cycles``, ``demo.Sample`` and
+    ``closing_line`` read."""
+    parser.add_argument("--size", type=int, default=160, help="picture height in pixels (default: 160)")
+    parser.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel (default: 16)")
+    parser.add_argument("--bake-samples", type=int, default=32, help="rain samples per corner (default: 32)")
+
+
+def closing_line(args, started):
+    """The settings, the machine and the time taken, under the table."""
+    return (
+        f"\n{args.size} px high, {args.samples} samples, 4 bounces, {args.bake_samples} rain samples; "
+        f"{machine.describe(bpy.app.version_string)}; {time.time() - started:.0f} s"
+    )
+
+
 def measure(name, mode, args, work, inputs=None, label="", areas_dir=None, sample=None):
     """Rows of the table for one sample and mode (``inputs``: changes to the recipe's weathering
     inputs, for a variant), and the sample (opened and baked once for all its rows)."""
@@ -394,9 +419,7 @@ def measure(name, mode, args, work, inputs=None, label="", areas_dir=None, sampl
     if sample is None or sample.name != name:
         sample = demo.Sample(name, map_dir=work, bake_samples=args.bake_samples, progress=True)
     scene = sample.scene
-    aspect = scene.render.resolution_x / scene.render.resolution_y
-    render.use_cycles(scene, size=args.size, samples=args.samples, bounces=4, pixel_filter=0.01)
-    scene.render.resolution_x = round(args.size * aspect)
+    use_cycles(sample, args)
     geometry = probe_geometry(sample)
     maps = probe_maps(sample, mode)
     sample.show(mode, 0.0, **inputs)
@@ -464,9 +487,7 @@ def table(rows):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--size", type=int, default=160, help="picture height in pixels (default: 160)")
-    parser.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel (default: 16)")
-    parser.add_argument("--bake-samples", type=int, default=32, help="rain samples per corner (default: 32)")
+    add_render_options(parser)
     parser.add_argument("--only", nargs="*", default=None, metavar="NAME", help="only these samples")
     parser.add_argument("--areas", metavar="DIR", help="write pictures of the areas to this folder")
     args = parser.parse_args(argv)
@@ -491,10 +512,7 @@ def main(argv=None):
                     print("\n".join(table(found).splitlines()[2:]), flush=True)  # progress
     print()
     print(table(rows))
-    print(
-        f"\n{args.size} px high, {args.samples} samples, 4 bounces, {args.bake_samples} rain samples; "
-        f"{machine.describe(bpy.app.version_string)}; {time.time() - started:.0f} s"
-    )
+    print(closing_line(args, started))
     os._exit(0)  # bpy 4.5 can hang at interpreter exit
 
 

@@ -11,6 +11,10 @@ untuned corpus"):
 - **washed**: W >= ``WASHED_FROM``;
 - **the rest**: everything else.
 
+And the run-off's streaks (benchmarks/bench_runoff_look.py): where rain alone would not wash
+(E < e_rain), the **clean streaks** the run-off washes (W >= e_rain) and the **dirty tails** it
+reaches too weakly to wash (R >= ``TAIL_FROM``, W < e_rain).
+
 Pure numpy: the same function classifies per pixel (the benchmark), per vertex or any array.
 """
 
@@ -28,6 +32,8 @@ WASHED_FROM = 0.8
 CAVITY_FROM = 0.25
 #: W from which rain or run-off reaches a point, for the wet measure.
 REACHED_FROM = 0.1
+#: R from which run-off reaches a point (a dirty tail's lower end).
+TAIL_FROM = 0.1
 
 
 def water_reaching(rain, runoff):
@@ -45,3 +51,11 @@ def classify(rain, runoff, edges, curvature):
     regions[(water < SHELTERED_BELOW) & concave] = SHELTERED_HOLLOW
     regions[water >= WASHED_FROM] = WASHED
     return regions
+
+
+def streak_regions(rain, runoff, threshold):
+    """(clean streaks, dirty tails), boolean arrays, for the washing threshold e_rain ``threshold``."""
+    rain, runoff = np.asarray(rain, float), np.asarray(runoff, float)
+    unwashed_by_rain = rain < threshold
+    washed = water_reaching(rain, runoff) >= threshold
+    return unwashed_by_rain & washed, unwashed_by_rain & ~washed & (runoff >= TAIL_FROM)

@@ -37,6 +37,16 @@ def test_water_is_rain_or_runoff():
     assert regions.water_reaching([0.0, 0.5, 0.2, 1.0], [0.0, 0.0, 0.5, 0.3]) == pytest.approx([0.0, 0.5, 0.6, 1.0])
 
 
+def test_streaks_of_given_values():
+    """Where rain alone washes (E >= 0.8) there is no streak; below it run-off that brings W to
+    0.8 washes a clean streak, weaker run-off (R >= 0.1) leaves a dirty tail, none is neither."""
+    rain = np.array([0.9, 0.5, 0.0, 0.0, 0.5, 0.0])
+    runoff = np.array([0.0, 0.6, 0.8, 0.4, 0.2, 0.05])
+    clean, tails = regions.streak_regions(rain, runoff, 0.8)
+    assert clean.tolist() == [False, True, True, False, False, False]
+    assert tails.tolist() == [False, False, False, True, True, False]
+
+
 def test_classes_of_given_values():
     # (E, R, C, H): each line's region
     cases = [

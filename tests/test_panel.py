@@ -207,8 +207,9 @@ def test_panel_weathering_values_come_from_the_registry_and_the_stone(registered
 
 def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_path):
     """Open the brick wall, save it, pick the stone, tick Wet and Efflorescence, Make (the maps
-    are missing), Bake Weathering Maps, Make Efflorescence Map (brick joints, then from a
-    photograph), set Wet Darkening, Make: the sun lights it, every map is connected, the values
+    are missing), Bake Weathering Maps, Make (the salt reads the run-off: the absorbed water),
+    Make Efflorescence Map (brick joints, then from a photograph), set Wet Darkening, Make: the
+    sun lights it, every map is connected, the location map in the run-off's place, the values
     are the panel's."""
     obj = open_and_select(SAMPLES[[path.stem for path in SAMPLES].index("brick_wall")], "Bricks")
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))  # the maps go beside it
@@ -222,7 +223,11 @@ def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_pa
     assert linking.missing_maps(obj, settings.modes()) == read
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}  # warns, and still makes it
     assert bpy.ops.porous_weathering.bake_maps(maps=set(maps.names()), target="attribute", samples=2) == {"FINISHED"}
-    assert linking.missing_maps(obj, settings.modes()) == ["efflorescence"]
+    # no location map made yet: the salt follows the water the stone absorbs, the run-off map
+    assert linking.missing_maps(obj, settings.modes()) == []
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    runoff = linking.discover_maps(obj)["runoff"]
+    assert_reads(obj.active_material.node_tree.nodes["Porous"].inputs["Efflorescence Map"], runoff, obj)
 
     assert bpy.ops.porous_weathering.make_efflorescence_map(source="BRICK_JOINTS", resolution=64) == {"FINISHED"}
     path = efflorescence_map.default_path(obj.name)

@@ -42,16 +42,23 @@ def discover_maps(obj: "bpy.types.Object") -> dict[str, "bpy.types.Image | str"]
     return found
 
 
+def _source(item, have):
+    """The map of ``have`` that feeds the mask ``item``: its own, else its fallback's, else None."""
+    return have.get(item.map) or have.get(item.fallback_map)
+
+
 def missing_maps(obj: "bpy.types.Object", modes: Iterable[str]) -> list[str]:
-    """The maps that ``modes`` read and ``obj`` lacks, sorted."""
-    wanted = {item.map for item in weathering_modes.inputs_of(modes) if item.map}
-    return sorted(wanted - set(discover_maps(obj)))
+    """The maps that ``modes`` read and ``obj`` lacks (with no fallback map in their place), sorted."""
+    have = discover_maps(obj)
+    return sorted({item.map for item in weathering_modes.inputs_of(modes) if item.map and not _source(item, have)})
 
 
 def map_inputs(obj: "bpy.types.Object", modes: Iterable[str]) -> dict[str, "bpy.types.Image | str"]:
-    """{weathering input: source} of ``obj``'s maps, for each mask input ``modes`` read."""
+    """{weathering input: source} of ``obj``'s maps, for each mask input ``modes`` read: its own
+    map, or where ``obj`` has none its fallback map (``Input.fallback_map``)."""
     have = discover_maps(obj)
-    return {item.name: have[item.map] for item in weathering_modes.inputs_of(modes) if item.map in have}
+    found = {item.name: _source(item, have) for item in weathering_modes.inputs_of(modes) if item.map}
+    return {name: source for name, source in found.items() if source is not None}
 
 
 def weathered_material_for(

@@ -113,14 +113,15 @@ FACADE_VIEW = View(
     location=(-2.6, -12.5, 1.4), target=(-0.2, 0.0, 3.1), lens=33.0, sun=(0.437, -0.881, 0.183), sun_strength=3.0
 )
 RECIPES = {
-    # Efflorescence follows the rain map on the façade: salts crystallise where rain soaks in.
+    # Efflorescence on the façade follows the water it absorbs, the run-off map, as the panel's
+    # Make connects it where no location map was made (docs/model.md §7.2).
     FACADE: Recipe(
         None,
         "LIMESTONE",
         {
             model.SOILING: RAIN_AND_EDGES,
             model.WET: WATER,
-            model.EFFLORESCENCE: dict(efflorescence_map="rain"),
+            model.EFFLORESCENCE: dict(efflorescence_map="runoff"),
         },
         view=FACADE_VIEW,
         unite="Facade",

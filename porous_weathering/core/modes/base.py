@@ -35,6 +35,8 @@ class Input:
     map: str | None = None
     #: A scalar the artist's panel shows (and its Make button passes), stone presets may set.
     panel: bool = False
+    #: The map read in its place where the object has no ``map`` (docs/model.md §7.2).
+    fallback_map: str | None = None
 
     @property
     def socket(self) -> str:

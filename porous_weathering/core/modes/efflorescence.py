@@ -1,5 +1,6 @@
 """Efflorescence (docs/model.md §4, section 4.3 of the paper): salt fills the pores where a location
-map (a height field from a photograph, or generated) is highest first."""
+map (a height field from a photograph, or generated; without one, the water the stone absorbs,
+docs/model.md §7.2) is highest first."""
 
 from .base import FILL_SALT, FRONT_WIDTH, TIME, Input, Layer, Mode, blend, filled_absorption, pore_fill
 
@@ -11,6 +12,7 @@ EFFLORESCENCE_MAP = Input(
     "Efflorescence location: salt fills the pores from the highest value down",
     mask=True,
     map="efflorescence",
+    fallback_map="runoff",  # the absorbed water: salts come out where water soaks in (docs/model.md §7.2)
 )
 EFFLORESCENCE_LEVEL = Input(
     "efflorescence_level", 1.0, 0.0, 1.0, "How far down the location map the salt reaches at t = 1"
