@@ -210,7 +210,7 @@ def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_pa
     are missing), Bake Weathering Maps, Make (the salt reads the run-off: the absorbed water),
     Make Efflorescence Map (brick joints, then from a photograph), set Wet Darkening, Make: the
     sun lights it, every map is connected, the location map in the run-off's place, the values
-    are the panel's."""
+    are the panel's; then From: Absorbed Water, Make: the run-off again."""
     obj = open_and_select(SAMPLES[[path.stem for path in SAMPLES].index("brick_wall")], "Bricks")
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))  # the maps go beside it
     scene = bpy.context.scene
@@ -264,6 +264,12 @@ def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_pa
     image.pixels.foreach_get(pixels)
     assert np.allclose(pixels.reshape(64, 64, 4)[::-1, :, 0], from_photo)  # Blender's rows: bottom first
 
+    # back to the absorbed water: Make reads the run-off again, the photograph's map stays on disk
+    assert bpy.ops.porous_weathering.make_efflorescence_map(source="ABSORBED_WATER") == {"FINISHED"}
+    assert "efflorescence" not in linking.discover_maps(obj) and os.path.exists(path)
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    assert_reads(obj.active_material.node_tree.nodes["Porous"].inputs["Efflorescence Map"], runoff, obj)
+
 
 def test_efflorescence_map_needs_a_saved_blend_and_a_uv_map(registered, fresh_scene, tmp_path):
     """One clear line each, and nothing written."""
@@ -275,4 +281,6 @@ def test_efflorescence_map_needs_a_saved_blend_and_a_uv_map(registered, fresh_sc
     scan.data.uv_layers.remove(scan.data.uv_layers[0])
     with pytest.raises(RuntimeError, match="no UV map"):
         bpy.ops.porous_weathering.make_efflorescence_map(resolution=32)
+    with pytest.raises(RuntimeError, match="has no runoff map to take the place of its efflorescence map: bake it"):
+        bpy.ops.porous_weathering.make_efflorescence_map(source="ABSORBED_WATER")
     assert "pw_efflorescence_image" not in scan and not list(tmp_path.glob("*.exr"))

@@ -61,6 +61,23 @@ def map_inputs(obj: "bpy.types.Object", modes: Iterable[str]) -> dict[str, "bpy.
     return {name: source for name, source in found.items() if source is not None}
 
 
+def follow_fallback(obj: "bpy.types.Object", map_name: str) -> str:
+    """Let the masks ``map_name`` feeds read their fallback map on ``obj`` (``Input.fallback_map``:
+    the efflorescence's is the run-off, the absorbed water): forget the map made for ``obj`` (its
+    ``pw_<map>_image`` property; the file and the Image stay). Returns the fallback's name;
+    ValueError, nothing changed, when ``obj`` has no fallback map baked."""
+    fallbacks = sorted(
+        {item.fallback_map for item in weathering_modes.inputs().values() if item.map == map_name and item.fallback_map}
+    )
+    have = discover_maps(obj)
+    found = [name for name in fallbacks if name in have]
+    if not found:
+        wanted = " or ".join(fallbacks) or "other"
+        raise ValueError(f"has no {wanted} map to take the place of its {map_name} map: bake it first")
+    obj.pop(map_image_property(map_name), None)
+    return found[0]
+
+
 def weathered_material_for(
     obj: "bpy.types.Object",
     modes: tuple[str, ...],

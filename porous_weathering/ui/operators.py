@@ -74,7 +74,8 @@ def _keyword_default(function, name):
 
 
 class PW_OT_make_efflorescence_map(bpy.types.Operator):
-    """Make the active mesh's efflorescence map (brick joints or a photograph) beside the .blend; Make connects it"""
+    """Make the active mesh's efflorescence map (brick joints or a photograph) beside the .blend, or let it follow
+    the absorbed water (the run-off map); Make connects it"""
 
     bl_idname = "porous_weathering.make_efflorescence_map"
     bl_label = "Make Efflorescence Map"
@@ -86,6 +87,12 @@ class PW_OT_make_efflorescence_map(bpy.types.Operator):
         items=[
             ("BRICK_JOINTS", "Brick Joints", "Generated: along the mortar joints of a running bond on the UV map"),
             ("PHOTO", "Photograph", "A photograph of efflorescence: its brightness, denoised and normalised"),
+            (
+                "ABSORBED_WATER",
+                "Absorbed Water",
+                "The baked run-off map: salt first where most water soaks in (no file is written; a map made "
+                "before stays on disk)",
+            ),
         ],
     )
     photo: bpy.props.StringProperty(
@@ -127,6 +134,14 @@ class PW_OT_make_efflorescence_map(bpy.types.Operator):
 
     def execute(self, context):
         obj = context.active_object
+        if self.source == "ABSORBED_WATER":
+            try:
+                followed = linking.follow_fallback(obj, efflorescence_map.MAP_NAME)
+            except ValueError as error:
+                self.report({"ERROR"}, f"object '{obj.name}': {error}")
+                return {"CANCELLED"}
+            self.report({"INFO"}, f"{obj.name}: efflorescence follows the {followed} map; Make connects it")
+            return {"FINISHED"}
         photo = (bpy.path.abspath(self.photo) if self.photo else "") if self.source == "PHOTO" else None
         try:
             image = maps.EFFLORESCENCE.make(
