@@ -227,23 +227,22 @@ def near_border(vertices, triangles, border_edges, spacing):
 def _cells_around(cells: np.ndarray, voxels: np.ndarray):
     """(query index, node) pairs: the nodes in the 27 voxels around each query voxel, searched
     once per distinct voxel (points read at texels share their voxels)."""
-    distinct, which = np.unique(_pack(voxels), return_inverse=True)
-    around, nodes = _cells_around_distinct(cells, distinct)
+    _, first, which = np.unique(_pack(voxels), return_index=True, return_inverse=True)
+    around, nodes = _cells_around_distinct(cells, voxels[first])
     # each query takes its voxel's pairs: the pairs grouped by voxel, then repeated per query
     order = np.argsort(around, kind="stable")
     around, nodes = around[order], nodes[order]
-    count = np.bincount(around, minlength=len(distinct))
+    count = np.bincount(around, minlength=len(first))
     start = np.cumsum(count) - count
     taken = count[which]
     queries = np.repeat(np.arange(len(which)), taken)
-    first = np.repeat(start[which] - np.cumsum(taken) + taken, taken)
-    return queries, nodes[first + np.arange(len(queries))]
+    pair = np.repeat(start[which] - np.cumsum(taken) + taken, taken) + np.arange(len(queries))
+    return queries, nodes[pair]
 
 
-def _cells_around_distinct(cells: np.ndarray, packed: np.ndarray):
-    """(index into ``packed``, node) pairs for sorted, distinct packed voxels."""
+def _cells_around_distinct(cells: np.ndarray, voxels: np.ndarray):
+    """(index into ``voxels``, node) pairs for distinct voxels, in the order of their keys."""
     cell_voxels = cells >> 3
-    voxels = np.column_stack([(packed >> 40) & 0xFFFFF, (packed >> 20) & 0xFFFFF, packed & 0xFFFFF])
     queries, nodes = [], []
     for offset in _OFFSETS:
         wanted = _pack(voxels + offset)
