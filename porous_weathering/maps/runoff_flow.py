@@ -227,12 +227,14 @@ def near_border(vertices, triangles, border_edges, spacing):
 def _cells_around(cells: np.ndarray, voxels: np.ndarray):
     """(query index, node) pairs: the nodes in the 27 voxels around each query voxel, searched
     once per distinct voxel (points read at texels share their voxels)."""
-    _, first, which = np.unique(_pack(voxels), return_index=True, return_inverse=True)
-    around, nodes = _cells_around_distinct(cells, voxels[first])
+    distinct, which = np.unique(_pack(voxels), return_inverse=True)
+    one = np.empty(len(distinct), np.int64)
+    one[which] = np.arange(len(which))  # a query of each distinct voxel (np.unique's return_index sorts stably: slower)
+    around, nodes = _cells_around_distinct(cells, voxels[one])
     # each query takes its voxel's pairs: the pairs grouped by voxel, then repeated per query
     order = np.argsort(around, kind="stable")
     around, nodes = around[order], nodes[order]
-    count = np.bincount(around, minlength=len(first))
+    count = np.bincount(around, minlength=len(distinct))
     start = np.cumsum(count) - count
     taken = count[which]
     queries = np.repeat(np.arange(len(which)), taken)
