@@ -336,14 +336,14 @@ def _neighbours(cells, normals):
     # each node takes its voxel's row, a bounded number of nodes at a time (a scan's millions of
     # candidate pairs would otherwise be held several times over)
     degrees, lists = [], []
-    for first in range(0, count, _NODES_AT_A_TIME):
-        voxels_here = voxel_of[first : first + _NODES_AT_A_TIME]
+    for start in range(0, count, _NODES_AT_A_TIME):
+        voxels_here = voxel_of[start : start + _NODES_AT_A_TIME]
         length = row_length[voxels_here]
-        sources = np.repeat(np.arange(first, first + len(voxels_here)), length)
+        sources = np.repeat(np.arange(start, start + len(voxels_here)), length)
         at = np.repeat(row_start[voxels_here] - np.cumsum(length) + length, length) + np.arange(int(length.sum()))
         targets = row[at]
         keep = (sources != targets) & (_edge_cosines(normals, sources, targets) > _OPPOSED)
-        degrees.append(np.bincount(sources[keep] - first, minlength=len(voxels_here)))
+        degrees.append(np.bincount(sources[keep] - start, minlength=len(voxels_here)))
         lists.append(targets[keep])
     indptr = np.concatenate([[0], np.cumsum(np.concatenate(degrees))]) if count else np.zeros(1, np.int64)
     return indptr, np.concatenate(lists) if lists else np.zeros(0, np.int64)
