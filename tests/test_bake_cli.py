@@ -72,16 +72,17 @@ def test_dry_run_writes_nothing(blend, tmp_path):
         ([], 2, "no .blend file given"),
         (["--objects", "{blend}"], 2, "--objects needs at least one object name"),
         (["{blend}", "--resolution", "1"], 2, "resolution"),
-        (["{blend}", "--objects", "Marker"], 1, "'Marker' has no mesh"),
-        (["{blend}", "--objects", "Nobody"], 1, "no object named Nobody"),
+        (["{blend}", "--objects", "Marker"], 2, "'Marker' has no mesh"),
+        (["{blend}", "--objects", "Nobody"], 2, "no object named Nobody"),
         (["{blend}", "--out", "/proc/forbidden"], 2, "/proc/forbidden"),
         (["{blend}", "--target", "attribute"], 2, "--save"),
         (["{blend}", "--edge-radius", "0"], 2, "edge radius must be a positive number"),
-        (["{blend}", "--occluders", "Nowhere", "--dry-run"], 1, "no collection named 'Nowhere'"),
+        (["{blend}", "--occluders", "Nowhere", "--dry-run"], 2, "no collection named 'Nowhere'"),
     ],
 )
 def test_bad_input_fails_with_one_clear_line(blend, args, code, message):
-    """Exit 2 for what is wrong before any file is opened (usage), 1 for a file that fails."""
+    """Exit 2 for bad input, found before anything is baked: in the words, or in a file (each is
+    opened and checked first)."""
     result = run_cli("bake", *[a.format(blend=blend, folder=blend.parent) for a in args])
     assert result.returncode == code, result.stderr
     [line] = result.stderr.splitlines()

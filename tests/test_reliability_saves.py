@@ -206,7 +206,7 @@ def test_the_command_skips_an_unnamed_faceless_mesh_and_refuses_a_named_one(fres
     assert "warning: object 'Cube' is left out: its mesh has no faces (after its modifiers)" in skipped.stderr
     assert [line.split()[1] for line in written(skipped)] == ["Plane.edges"]
     named = run_cli("bake", blend, *words, "--objects", "Cube", "Plane")
-    assert named.returncode == 1
+    assert named.returncode == 2
     [line] = error_lines(named)
     assert "object 'Cube': its modifiers (Mask) leave no face" in line and "Cube." not in line
     assert not written(named)
@@ -251,7 +251,7 @@ def test_a_255_byte_object_name_is_refused_by_the_command(fresh_scene, tmp_path)
     blend = tmp_path / "scene.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
     result = run_cli("bake", blend, "--maps", "rain", "--out", tmp_path / "maps", *FAST)
-    assert result.returncode == 1
+    assert result.returncode == 2
     [line] = error_lines(result)
     assert f"object '{name}': the file name" in line and "is 264 bytes, more than the 255" in line
     assert not (tmp_path / "maps").exists() or not list((tmp_path / "maps").iterdir())

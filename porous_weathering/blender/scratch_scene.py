@@ -8,6 +8,9 @@ texel) of what a probe emits on an object's UV map."""
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import TypeVar
 
 import bpy
@@ -145,6 +148,44 @@ def placed_copy(obj, scene, material, *, own_mesh=False, ledger=None):
         slot.material = material
     scene.collection.objects.link(copy)
     return copy
+
+
+@dataclass(frozen=True)
+class Rendered:
+    """An object as the render sees it: ``evaluated``, its evaluated copy in ``depsgraph``,
+    and ``mesh``, that copy's mesh (modifiers applied at their render settings)."""
+
+    evaluated: bpy.types.Object
+    mesh: bpy.types.Mesh
+    depsgraph: bpy.types.Depsgraph
+
+    @property
+    def matrix_world(self) -> np.ndarray:
+        return np.array(self.evaluated.matrix_world, dtype=np.float64)
+
+
+@contextmanager
+def rendered(obj: bpy.types.Object, modifiers: int | None = None) -> Iterator[Rendered]:
+    """``obj`` evaluated as a render (and every Cycles bake) evaluates it, not as the viewport
+    does: a copy of it in a temporary scene whose modifiers show what they render (Subdivision
+    at its render levels, modifiers off in renders off), only its first ``modifiers`` ones if
+    given. Its mesh is what the maps are made on; the user's object and scene are untouched. A
+    Geometry Nodes tree that asks whether it is in the viewport still answers yes (docs/maps.md)."""
+    with Ledger() as made:
+        scene = made.add(bpy.data.scenes.new("PW Render Mesh"))
+        copy = placed_copy(obj, scene, None, ledger=made)
+        for index, modifier in enumerate(copy.modifiers):
+            modifier.show_viewport = modifier.show_render and (modifiers is None or index < modifiers)
+            if hasattr(modifier, "render_levels"):  # Subdivision Surface, Multiresolution
+                modifier.levels = modifier.render_levels
+        with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
+            depsgraph = bpy.context.evaluated_depsgraph_get()
+        evaluated = copy.evaluated_get(depsgraph)
+        mesh = evaluated.to_mesh()
+        try:
+            yield Rendered(evaluated, mesh, depsgraph)
+        finally:
+            evaluated.to_mesh_clear()
 
 
 def only_selected(obj):

@@ -21,12 +21,14 @@ from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
 from ..maps import registry as maps
 from ..maps.bake import (
     BakeOptions,
+    ForeignInput,
     OverwriteRefused,
     Provenance,
+    check_targets,
     check_writable_folder,
     image_path,
     iter_bake,
-    link_images,
+    link_outcomes,
     option_entries,
     options_from_values,
 )
@@ -101,8 +103,10 @@ def run(args):
             raise FileNotFoundError(f"no such .blend file: {', '.join(missing)}")
         if bake_options.target == "image" and not args.dry_run:
             check_writable_folder(bake_options.out_dir)
-        if args.save and not args.allow_downgrade:
-            _refuse_downgrades(args.files)
+        _check_files(args, bake_options)
+    except ForeignInput as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_REFUSED
     except (ValueError, OSError) as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
@@ -124,21 +128,37 @@ def _files_and_objects(files, objects):
     return files, names
 
 
-def _refuse_downgrades(files):
-    """ValueError naming the first file that ``--save`` would write in an older format than it
-    has (saved by a newer Blender); a file Blender cannot open fails later, as the bake's."""
-    for path in files:
+def _check_files(args, bake_options):
+    """Open every file once before any work and check it as its bake will: ValueError (exit 2)
+    naming the first file whose objects cannot be baked with these options, or that ``--save``
+    would write in an older format than it has (saved by a newer Blender); ForeignInput (exit 3)
+    for a map the bake would read that another .blend or object made. A file Blender cannot open
+    fails later, as the bake's."""
+    for path in args.files:
         try:
             bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False, use_scripts=False)
         except RuntimeError:
             continue
         newer = compat.newer_file_version()
-        if newer:
+        if args.save and not args.allow_downgrade and newer:
             raise ValueError(
                 f"{path} was saved by {newer}, newer than this {compat.running_version()}: --save would "
                 "rewrite it in the older format and lose what the newer one stores; bake it with "
                 f"{newer} or newer, or add --allow-downgrade"
             )
+        with warnings.catch_warnings():  # said again as the file is baked
+            warnings.simplefilter("ignore")
+            try:
+                check_targets(_objects_to_bake(args), bake_options)
+                bake_options.occluder_collection()
+            except ValueError as error:
+                raise type(error)(f"{path}: {error}") from None
+
+
+def _objects_to_bake(args):
+    """The objects of the open file that the command bakes: those named, or else those with faces."""
+    objects = selection.chosen_objects(args)
+    return objects if args.objects else selection.without_faceless(objects)
 
 
 @dataclass
@@ -177,6 +197,9 @@ def _bake_serially(args, bake_options):
             except (ValueError, OSError, RuntimeError) as error:
                 run.fail(f"error: {path}: {one_line(error)}")
                 failed += 1
+            except Exception as error:  # a bug: said in one line, and the other files go on
+                run.fail(f"error: {path}: {type(error).__name__}: {one_line(error)} (a bug: please report it)")
+                failed += 1
             run.bar.finish()
     return EXIT_FAILED if failed else EXIT_REFUSED if refused else EXIT_OK
 
@@ -187,27 +210,31 @@ def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
     bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
     # a warning (a scan that looks set up wrongly, ...) is one line, above the progress bar
     warnings.showwarning = lambda message, *_: run.bar.print(f"warning: {message}", file=sys.stderr)
-    objects = selection.chosen_objects(args)
-    if not args.objects:  # objects nobody named: one without faces to bake on is left out
-        objects = selection.without_faceless(objects)
+    objects = _objects_to_bake(args)  # objects nobody named: one without faces to bake on is left out
     if bake_options.target == "image" and not args.force:
         _refuse_claimed(objects, bake_options, claimed)
     stored_in_blend = bake_options.target == "attribute" and run.save
-    unsaved = []
-    for step in iter_bake(objects, bake_options, dry_run=args.dry_run, force=args.force):
-        outcome = step.outcome
-        run.bar(step.fraction, step.message)
-        if outcome is None:
-            continue
-        line = f"{outcome.status:9} {outcome.object}.{outcome.map} -> {outcome.where}"
-        if bake_options.target == "image":
-            claimed[outcome.where] = Provenance.of(bpy.data.objects[outcome.object], outcome.map)
-        if stored_in_blend and outcome.status == "written":
-            unsaved.append(line)
-        else:
-            run.bar.print(line)
+    unsaved, outcomes = [], []
+    try:
+        for step in iter_bake(objects, bake_options, dry_run=args.dry_run, force=args.force):
+            outcome = step.outcome
+            run.bar(step.fraction, step.message)
+            if outcome is None:
+                continue
+            outcomes.append(outcome)
+            line = f"{outcome.status:9} {outcome.object}.{outcome.map} -> {outcome.where}"
+            if bake_options.target == "image":
+                claimed[outcome.where] = Provenance.of(bpy.data.objects[outcome.object], outcome.map)
+            if stored_in_blend and outcome.status == "written":
+                unsaved.append(line)
+            else:
+                run.bar.print(line)
+    except Exception:
+        if run.save and any(outcome.status == "written" for outcome in outcomes):  # keep what was baked
+            _save(path, outcomes, bake_options, unsaved, run)
+        raise
     if run.save:
-        _save(path, objects, bake_options, unsaved, run)
+        _save(path, outcomes, bake_options, unsaved, run)
 
 
 def _refuse_claimed(objects, bake_options, claimed):
@@ -220,9 +247,9 @@ def _refuse_claimed(objects, bake_options, claimed):
                 raise OverwriteRefused(f"{where} is made in this run from {claimed[where]}, not from {wanted}")
 
 
-def _save(path, objects, bake_options, unsaved, run):
+def _save(path, outcomes, bake_options, unsaved, run):
     if bake_options.target == "image":
-        link_images(objects, bake_options)
+        link_outcomes(outcomes)
     try:
         with atomic.uncut():  # Blender writes FILE.blend@ and renames it: never cut in between
             bpy.ops.wm.save_mainfile(filepath=path)

@@ -16,9 +16,11 @@ from ..contracts import map_file_name
 from . import atomic
 
 #: Header fields of a baked map: the hash of its inputs, the map's name, the UV map it was baked
-#: on (weathered materials read the image through it, weathering.image_uv_map), and what it was
-#: made from: the .blend file (absolute path; empty when unsaved) and the object's exact name.
+#: on (weathered materials read the image through it, weathering.image_uv_map), what it was
+#: made from: the .blend file (absolute path; empty when unsaved) and the object's exact name,
+#: and the map's settings (JSON: a map that reads it checks they are its run's).
 HASH_KEY = "pw:inputs"
+SETTINGS_KEY = "pw:settings"
 MAP_KEY = "pw:map"
 UV_MAP_KEY = "pw:uv_map"
 SOURCE_KEY = "pw:source"

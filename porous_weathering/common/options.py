@@ -38,6 +38,9 @@ class Option:
     metavar: str | None = None
     #: Command-line words -> value (argparse ``type``), for values that are not plain numbers or words.
     parse: Callable[[str], Any] | None = None
+    #: The value sets how the map is estimated (its noise), not what it is: a map that reads this
+    #: one takes it baked with any value.
+    estimate: bool = False
 
 
 def option(default=MISSING, *, default_factory=MISSING, **meta) -> Any:

@@ -24,7 +24,7 @@ import hashlib
 import json
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -32,14 +32,23 @@ import bpy
 
 import numpy as np
 
+from ..blender import scratch_scene
 from ..blender.mesh_arrays import write_corner_attribute  # noqa: F401  (public)
 from ..common import atomic, imageio
-from ..common.imageio import HASH_KEY, MAP_KEY, OBJECT_KEY, SOURCE_KEY, UV_MAP_KEY, image_path  # noqa: F401  (public: docs/api.md)
+from ..common.imageio import (  # noqa: F401  (public: docs/api.md)
+    HASH_KEY,
+    MAP_KEY,
+    OBJECT_KEY,
+    SETTINGS_KEY,
+    SOURCE_KEY,
+    UV_MAP_KEY,
+    image_path,
+)
 from ..common.options import Entry, check, check_value, declared, entries, folder_path, option, to_argv
 from ..contracts import map_image_property
 from . import lightmap, scan_checks
 from . import registry as maps
-from .provenance import OverwriteRefused, Provenance, refuse_overwrite  # noqa: F401  (public: docs/api.md)
+from .provenance import ForeignInput, OverwriteRefused, Provenance, refuse_overwrite  # noqa: F401  (public: docs/api.md)
 
 TARGETS = ("image", "attribute")
 DEFAULT_RESOLUTION = 512
@@ -274,21 +283,59 @@ def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | 
                     raise ValueError(f"object '{obj.name}': {error}: rename the object") from None
         if options.target == "attribute":
             owners.setdefault(obj.data.name, []).append(obj.name)
-            if maps.EDGES.name in options.maps:
-                _check_vertices_kept(obj)
+            _check_corners_kept(obj)
         for name in options.maps:
             for read in maps.get(name).reads:
-                if read not in options.maps and _stored_hash(obj, read, options) is None:
-                    raise ValueError(
-                        f"object '{obj.name}': the {name} map reads the {read} map, which is neither baked "
-                        f"for it nor asked for: bake both (--maps {read},{name})"
-                    )
+                if read not in options.maps:
+                    _check_read(obj, name, read, options)
     shared = next((names for names in owners.values() if len(names) > 1), None)
     if shared:  # one mesh holds one attribute: each object would overwrite the others' map
         raise ValueError(
             f"objects {', '.join(repr(n) for n in shared)} share one mesh, which can hold only "
             "one colour-attribute map: bake them to images, or make their meshes single-user"
         )
+
+
+def _check_read(obj, name, read, options):
+    """The ``read`` map that ``obj``'s ``name`` map reads, baked before, must be ``obj``'s, from
+    this .blend (ForeignInput) and of this run's settings (ValueError naming the first that
+    differs): else the map would be made from something else than its header says."""
+    stored = _stored(obj, read, options)
+    both = f"bake both (--maps {read},{name})"
+    if stored.get(HASH_KEY) is None:
+        raise ValueError(
+            f"object '{obj.name}': the {name} map reads the {read} map, which is neither baked "
+            f"for it nor asked for: {both}"
+        )
+    made, wanted = Provenance.from_header(stored), Provenance.of(obj, read)
+    if not made.yields_to(wanted):
+        raise ForeignInput(
+            f"object '{obj.name}': the {name} map would read the {read} map made from {made}, not from {wanted}: "
+            f"{both}, or bake into another --out"
+        )
+    if SETTINGS_KEY not in stored:  # made before maps recorded their settings, or by hand: no clash
+        return
+    settings = json.loads(stored[SETTINGS_KEY])
+    ours = json.loads(_settings_json(options, read))
+    read_options = {entry.name: entry.option for entry in option_entries() if entry.owner == read}
+    differing = [
+        field
+        for field, value in ours.items()
+        if settings.get(field) != value and not (field in read_options and read_options[field].estimate)
+    ]
+    if differing:
+        said = ", ".join(
+            f"{read_options[field].flag or field} {ours[field]} (the map's: {settings.get(field, 'unknown')})"
+            for field in differing
+        )
+        raise ValueError(
+            f"object '{obj.name}': the {read} map the {name} map reads was baked with other settings: {said}; {both}"
+        )
+
+
+def _settings_json(options, map_name):
+    """The settings of ``map_name`` in this run, as the JSON its map stores (``SETTINGS_KEY``)."""
+    return json.dumps(asdict(options.settings[map_name]), sort_keys=True)
 
 
 def has_faces(obj: "bpy.types.Object") -> bool:
@@ -319,13 +366,18 @@ def _check_uvs_kept(obj):
         )
 
 
-def _check_vertices_kept(obj):
-    """The edge attribute is per vertex of the mesh: modifiers must not change the vertex count."""
-    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    if len(evaluated.data.vertices) != len(obj.data.vertices):
+def _check_corners_kept(obj):
+    """Attribute maps are values of the mesh's vertices and corners, which the render reads
+    after the modifiers: these must keep them (a Displace does; a Subdivision, Array or Bevel
+    does not)."""
+    if not obj.modifiers:
+        return
+    with scratch_scene.rendered(obj) as seen:
+        kept = len(seen.mesh.vertices) == len(obj.data.vertices) and len(seen.mesh.loops) == len(obj.data.loops)
+    if not kept:
         raise ValueError(
-            f"object '{obj.name}': its modifiers change the vertex count, so the edge attribute "
-            "cannot follow its mesh; apply the modifiers or bake edges to an image"
+            f"object '{obj.name}': its modifiers ({', '.join(m.name for m in obj.modifiers)}) change its vertices, "
+            "so attribute maps cannot follow its mesh; bake to images (--target image) or apply the modifiers"
         )
 
 
@@ -400,48 +452,60 @@ def _steps(objects, options, dry_run, force):
     per_object = len(options.maps) + unwraps
     total = len(objects) * per_object
     for number, obj in enumerate(objects):
-        mesh = obj.data
         scan_checks.warn(obj, rain=maps.RAIN.name in options.maps)
-        uv_map, new_uvs = (yield from _unwrap(obj, options, number * per_object, total)) if unwraps else (None, None)
-        added_uv_map = new_uvs is not None and not dry_run
-        if added_uv_map:
-            lightmap.add_uv_map(mesh, uv_map, new_uvs)
+        undo = None
+        if unwraps:
+            uv_map, uvs, undo = yield from _unwrap(obj, options, number * per_object, total, dry_run)
         written = False
         try:
             for offset, map_name in enumerate(options.maps):
                 index = number * per_object + unwraps + offset
                 yield Step(index, total, obj.name, map_name)
-                uvs = new_uvs if new_uvs is not None else (lightmap.corner_uvs(mesh, uv_map) if uv_map else None)
-                inputs = _inputs_hash(obj, map_name, options, uvs, digests)
-                outcome = _bake_one(obj, map_name, options, uv_map, inputs, dry_run, force)
+                inputs = _inputs_hash(obj, map_name, options, uvs if unwraps else None, digests)
+                outcome = _bake_one(obj, map_name, options, uv_map if unwraps else None, inputs, dry_run, force)
                 written = written or outcome.status == "written"
                 yield Step(index, total, obj.name, map_name, outcome)
         except BaseException:
-            if added_uv_map and not written:
-                mesh.uv_layers.remove(mesh.uv_layers[uv_map])
+            if undo is not None and not written:
+                undo()
             raise
 
 
-def _unwrap(obj, options, index, total):
+def _unwrap(obj, options, index, total, dry_run):
     """The unwrap step of ``obj``: its Steps while it runs (in a child process, stopped when this
-    generator is closed); returns (the UV map to bake on, per-corner UVs to add as it or None)."""
-    unwrap = lightmap.iter_lightmap(obj.data, options.resolution)
-    try:
-        while True:
-            try:
-                part, stage = next(unwrap)
-            except StopIteration as done:
-                unwrapped = done.value
-                break
-            yield Step(index, total, obj.name, LIGHTMAP_STEP, part=part, stage=stage)
-    except lightmap.LightmapError as error:
-        raise ValueError(f"object '{obj.name}': cannot make a lightmap: {error}") from error
-    finally:
-        unwrap.close()
+    generator is closed), on the mesh its modifiers make (``lightmap.anchor``); returns (the UV
+    map to bake on, its UVs at the corners of the mesh the render sees, the function undoing a
+    new lightmap or None). A dry run lays out no new lightmap."""
+    undo = None
+    with scratch_scene.rendered(obj, lightmap.anchor(obj)) as made_on:
+        ours = obj.modifiers.get(lightmap.LIGHTMAP_MODIFIER)
+        unwrap = lightmap.iter_lightmap(made_on.mesh, options.resolution, replaceable=ours is not None)
+        try:
+            while True:
+                try:
+                    part, stage = next(unwrap)
+                except StopIteration as done:
+                    unwrapped = done.value
+                    break
+                yield Step(index, total, obj.name, LIGHTMAP_STEP, part=part, stage=stage)
+        except lightmap.LightmapError as error:
+            raise ValueError(f"object '{obj.name}': cannot make a lightmap: {error}") from error
+        finally:
+            unwrap.close()
+        if unwrapped.uvs is not None and not dry_run:
+            undo = lightmap.lay_out(obj, made_on, unwrapped.uvs)
     made = "new" if unwrapped.uvs is not None else "reused"
     stage = f"'{unwrapped.name}' ({made}, {unwrapped.report.utilisation:.0%} used)"
-    yield Step(index, total, obj.name, LIGHTMAP_STEP, part=1.0, stage=stage)
-    return unwrapped.name, unwrapped.uvs
+    try:
+        yield Step(index, total, obj.name, LIGHTMAP_STEP, part=1.0, stage=stage)
+        if dry_run and unwrapped.uvs is not None:
+            return unwrapped.name, unwrapped.uvs, None
+        with scratch_scene.rendered(obj) as seen:
+            return unwrapped.name, lightmap.corner_uvs(seen.mesh, unwrapped.name), undo
+    except BaseException:
+        if undo is not None:
+            undo()
+        raise
 
 
 def _bake_one(obj, map_name, options, uv_map, inputs, dry_run, force):
@@ -464,13 +528,16 @@ def _bake_one(obj, map_name, options, uv_map, inputs, dry_run, force):
         pixels = np.clip(kind.bake_image(obj, uv_map, options, MARGIN), 0.0, 1.0)
         if not force:  # the file as it is now: another run may have written it meanwhile
             refuse_overwrite(where, made)
-        imageio.write_image(where, pixels, metadata={HASH_KEY: inputs, UV_MAP_KEY: uv_map, **made.header()})
+        settings = _settings_json(options, map_name)
+        metadata = {HASH_KEY: inputs, UV_MAP_KEY: uv_map, SETTINGS_KEY: settings, **made.header()}
+        imageio.write_image(where, pixels, metadata=metadata)
     else:
         kind.bake_attribute(obj, options)
         _clamp_attribute(mesh.color_attributes[where])
         mesh[f"{where}_inputs"] = inputs
         mesh[f"{where}_source"] = made.source
         mesh[f"{where}_object"] = made.object
+        mesh[f"{where}_settings"] = _settings_json(options, map_name)
     return Outcome(obj.name, map_name, "written", where)
 
 
@@ -534,10 +601,20 @@ def _inputs_hash(obj, map_name, options, uvs, digests):
 
 def _stored_hash(obj, map_name, options):
     """The input hash stored with ``obj``'s baked ``map_name`` of the bake's target, or None."""
+    return _stored(obj, map_name, options).get(HASH_KEY)
+
+
+def _stored(obj, map_name, options):
+    """What ``obj``'s baked ``map_name`` of the bake's target records (its EXR header's fields, or
+    the same read from the mesh's properties); {} when it is not baked."""
     if options.target == "image":
-        return imageio.read_metadata(image_path(options.out_dir, obj.name, map_name)).get(HASH_KEY)
+        return imageio.read_metadata(image_path(options.out_dir, obj.name, map_name))
     attribute = maps.get(map_name).attribute
-    return obj.data.get(f"{attribute}_inputs") if attribute in obj.data.color_attributes else None
+    if attribute not in obj.data.color_attributes:
+        return {}
+    recorded = {HASH_KEY: "inputs", SOURCE_KEY: "source", OBJECT_KEY: "object", SETTINGS_KEY: "settings"}
+    stored = {key: obj.data.get(f"{attribute}_{suffix}") for key, suffix in recorded.items()}
+    return {key: value for key, value in stored.items() if value is not None} | {MAP_KEY: map_name}
 
 
 # --- linking the maps into the .blend ----------------------------------------------------------
@@ -561,6 +638,14 @@ def link_images(objects: Sequence["bpy.types.Object"], options: BakeOptions) -> 
     for obj in objects:
         for map_name in options.maps:
             link_image(obj, map_name, image_path(options.out_dir, obj.name, map_name))
+
+
+def link_outcomes(outcomes: Sequence[Outcome]) -> None:
+    """Point each object at the image maps ``outcomes`` wrote or found up to date (those of a
+    bake that stopped part-way included), as ``link_images`` does."""
+    for outcome in outcomes:
+        if outcome.status in ("written", "unchanged") and outcome.where.endswith(".exr"):
+            link_image(bpy.data.objects[outcome.object], outcome.map, outcome.where)
 
 
 def link_image(obj: "bpy.types.Object", map_name: str, path: str) -> "bpy.types.Image":

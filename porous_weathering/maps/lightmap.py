@@ -22,12 +22,15 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Generator
+from collections.abc import Callable, Generator
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+import bpy
+
 import numpy as np
 
+from ..blender import mesh_arrays
 from . import lightmap_child
 from .lightmap_check import (  # noqa: F401  (public: docs/api.md, the ``uv`` module)
     ON_EDGE,
@@ -66,9 +69,13 @@ from .lightmap_child import (  # noqa: F401  (public: docs/api.md, the ``uv`` mo
 )
 
 if TYPE_CHECKING:
-    import bpy
+    from ..blender import scratch_scene
 
 LIGHTMAP_UV = "PW Lightmap"
+#: The Data Transfer modifier that lays a lightmap over the corners of an object's modifiers
+#: (Array, Mirror, Solidify, Bevel, ...), copied by index from a carrier object holding that
+#: mesh with its lightmap (``lay_out``); named after the UV map it fills.
+LIGHTMAP_MODIFIER = LIGHTMAP_UV
 
 
 # --- the mesh as arrays (bpy meshes, read in the caller's process) ---------------------------
@@ -133,7 +140,7 @@ class Lightmap:
 
 
 def iter_lightmap(
-    mesh: "bpy.types.Mesh", resolution: int, padding: int | None = None
+    mesh: "bpy.types.Mesh", resolution: int, padding: int | None = None, *, replaceable: bool = False
 ) -> Generator[tuple[float, str], None, Lightmap]:
     """The lightmap of ``mesh`` for a bake at ``resolution``², as a generator of
     (fraction, stage) while it runs in a child process (closing it stops that process at once);
@@ -142,8 +149,9 @@ def iter_lightmap(
     The mesh's own "PW Lightmap", then its other UV maps in order, are reused if they pass
     ``check_uvs``; else a new lightmap is made, unless the mesh has a "PW Lightmap" (made for
     another resolution, or since distorted): that is refused (ValueError saying what is wrong),
-    as maps baked on it would no longer match it. A lightmap that cannot be made raises
-    LightmapError."""
+    as maps baked on it would no longer match it, unless it is ``replaceable`` (it comes from a
+    carrier ``lay_out`` made, whose mesh no longer matches the modifiers'). A lightmap that
+    cannot be made raises LightmapError."""
     padding = padding_for(resolution) if padding is None else padding
     geometry = Geometry.of(mesh)
     names = _candidates(mesh)
@@ -156,7 +164,7 @@ def iter_lightmap(
         candidates=np.stack([corner_uvs(mesh, name)[geometry.corners] for name in names])
         if names
         else np.zeros((0, len(geometry.vertices), 3, 2), np.float32),
-        settings=np.array([resolution, padding, LIGHTMAP_UV not in names]),
+        settings=np.array([resolution, padding, replaceable or LIGHTMAP_UV not in names]),
     )
     # No files: pipes work where a disk is full or file sizes are limited, and leave nothing behind.
     process = subprocess.Popen(
@@ -202,7 +210,7 @@ def iter_lightmap(
             chosen = int(found["chosen"])
             if chosen >= 0:
                 return Lightmap(names[chosen], None, report)
-            if LIGHTMAP_UV in names:
+            if LIGHTMAP_UV in names and not replaceable:
                 raise ValueError(
                     f"mesh '{mesh.name}': its UV map '{LIGHTMAP_UV}' cannot hold a bake at {resolution}²: "
                     f"{'; '.join(report.problems())}. Bake at the resolution it was made for, or remove "
@@ -268,3 +276,70 @@ def add_uv_map(mesh: "bpy.types.Mesh", name: str, uvs: np.ndarray) -> "bpy.types
     if active is not None:
         mesh.uv_layers.active = active
     return layer
+
+
+# --- where a new lightmap goes: the mesh, or a carrier over the modifiers ----------------------
+
+
+def anchor(obj: "bpy.types.Object") -> int:
+    """How many of ``obj``'s modifiers the lightmap is made after: all but the trailing ones that
+    refine the surface by levels (Subdivision Surface, Multiresolution), which carry UVs across
+    smoothly, so a lightmap made before them holds in the viewport and in renders alike, whatever
+    levels each uses."""
+    count = len(obj.modifiers)
+    while count and hasattr(obj.modifiers[count - 1], "render_levels"):
+        count -= 1
+    return count
+
+
+def lay_out(obj: "bpy.types.Object", made_on: "scratch_scene.Rendered", uvs: np.ndarray) -> Callable[[], None]:
+    """Give ``obj`` the lightmap ``uvs``, per corner of ``made_on`` (``obj`` after its first
+    ``anchor`` modifiers); returns the function that undoes it.
+
+    Where those modifiers keep the mesh's corners (none, or modifiers that only move vertices),
+    the lightmap is the UV map LIGHTMAP_UV of the mesh. Otherwise (Array, Mirror, Solidify,
+    Bevel, ...) it cannot be one: the modifiers' copies would share its texels, and their new
+    faces have no UVs of their own. Then a carrier object (in no scene, saved with the file)
+    holds that mesh with the lightmap, and a Data Transfer modifier (LIGHTMAP_MODIFIER), placed
+    after those modifiers, copies it corner by corner into the mesh's own LIGHTMAP_UV (all zeros
+    on the mesh itself). A carrier made by an earlier bake is given the new mesh."""
+    base, evaluated, undo = obj.data, made_on.evaluated, []
+
+    def undo_all():
+        for step in reversed(undo):
+            step()
+
+    same_corners = len(made_on.mesh.loops) == len(base.loops) and np.array_equal(
+        mesh_arrays.attribute(made_on.mesh, ".corner_vert", np.int32),
+        mesh_arrays.attribute(base, ".corner_vert", np.int32),
+    )
+    if LIGHTMAP_UV not in base.uv_layers:
+        add_uv_map(base, LIGHTMAP_UV, uvs if same_corners else np.zeros((len(base.loops), 2), np.float32))
+        undo.append(lambda: base.uv_layers.remove(base.uv_layers[LIGHTMAP_UV]))
+    if same_corners:
+        return undo_all
+    carrier_mesh = bpy.data.meshes.new_from_object(evaluated)
+    carrier_mesh.name = f"{obj.name} {LIGHTMAP_UV}"
+    undo.append(lambda: bpy.data.meshes.remove(carrier_mesh) if carrier_mesh.users == 0 else None)
+    layer = carrier_mesh.uv_layers.get(LIGHTMAP_UV) or carrier_mesh.uv_layers.new(name=LIGHTMAP_UV, do_init=False)
+    layer.data.foreach_set("uv", np.ascontiguousarray(uvs, np.float32).reshape(-1))
+    modifier = obj.modifiers.get(LIGHTMAP_MODIFIER)
+    if modifier is not None and modifier.type == "DATA_TRANSFER" and modifier.object is not None:
+        carrier, old_mesh = modifier.object, modifier.object.data
+        carrier.data = carrier_mesh
+        undo.append(lambda: setattr(carrier, "data", old_mesh))
+        return undo_all
+    carrier = bpy.data.objects.new(carrier_mesh.name, carrier_mesh)
+    carrier.use_fake_user = True  # in no scene: kept for the modifier's sake
+    undo.append(lambda: bpy.data.objects.remove(carrier))
+    position = anchor(obj)
+    modifier = obj.modifiers.new(LIGHTMAP_MODIFIER, "DATA_TRANSFER")
+    undo.append(lambda: obj.modifiers.remove(obj.modifiers[LIGHTMAP_MODIFIER]))
+    modifier.object = carrier
+    modifier.use_loop_data = True
+    modifier.data_types_loops = {"UV"}
+    modifier.loop_mapping = "TOPOLOGY"
+    modifier.layers_uv_select_src = "ALL"
+    modifier.layers_uv_select_dst = "NAME"
+    obj.modifiers.move(len(obj.modifiers) - 1, position)
+    return undo_all

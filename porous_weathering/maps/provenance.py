@@ -24,6 +24,11 @@ class OverwriteRefused(ValueError):
     was about to be written (a file that appeared meanwhile), when the maps before it are kept."""
 
 
+class ForeignInput(ValueError):
+    """A map the bake would read (the run-off reads the rain) was made from another .blend or
+    object: nothing was baked."""
+
+
 @dataclass(frozen=True)
 class Provenance:
     """What a map was made from: the .blend file (absolute path; "" when unsaved or not

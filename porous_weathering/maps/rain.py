@@ -91,14 +91,16 @@ class RainSettings:
         high=MAX_SAMPLES,
         whole=True,
         metavar="N",
+        estimate=True,
         tooltip="Rain samples per texel or corner (docs/maps.md)",
     )
-    seed: int = option(0, label="Seed", whole=True, ui=False, tooltip="Cycles seed of the rain bake")
+    seed: int = option(0, label="Seed", whole=True, ui=False, estimate=True, tooltip="Cycles seed of the rain bake")
     sky: str = option(
         "sun",
         label="Sky",
         choices=("sun", "world"),
         ui=False,
+        estimate=True,
         tooltip="The rain cone as a sun lamp or a world texture (docs/maps.md)",
     )
 

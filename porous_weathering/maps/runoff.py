@@ -19,7 +19,7 @@ import numpy as np
 from mathutils import Vector
 from mathutils.bvhtree import BVHTree
 
-from ..blender import mesh_arrays
+from ..blender import mesh_arrays, scratch_scene
 from ..common import imageio
 from ..common.options import check, option
 from ..contracts import map_attribute
@@ -91,24 +91,22 @@ class RunoffSettings:
 
 @dataclass(frozen=True)
 class _Mesh:
-    """An object's evaluated mesh in world space, as triangles."""
+    """An object's mesh as the render sees it, in world space, as triangles wound so that their
+    normals point out of the object as rendered (a mirroring transform reverses the winding)."""
 
     vertices: np.ndarray  #: (V, 3)
     triangles: np.ndarray  #: (T, 3) vertex indices
     corners: np.ndarray  #: (T, 3) face-corner (loop) indices
     border: np.ndarray  #: (T, 3) bool: the edge facing each corner is on the mesh's border
+    uvs: np.ndarray | None  #: (T, 3, 2) the UV map the bake reads and writes through, if any
 
 
-def _world_mesh(obj):
-    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    mesh = evaluated.to_mesh()
-    try:
-        return _triangles_of(mesh, np.array(evaluated.matrix_world, dtype=np.float64))
-    finally:
-        evaluated.to_mesh_clear()
+def _world_mesh(seen, uv_map=None):
+    """The ``_Mesh`` of ``seen`` (``scratch_scene.rendered``), with the UVs of ``uv_map``."""
+    return _triangles_of(seen.mesh, seen.matrix_world, uv_map)
 
 
-def _triangles_of(mesh, matrix):
+def _triangles_of(mesh, matrix, uv_map=None):
     mesh.calc_loop_triangles()
     count = len(mesh.loop_triangles)
     triangles = np.empty(count * 3, np.int32)
@@ -135,20 +133,20 @@ def _triangles_of(mesh, matrix):
             (along[:, 1] == loop_vertices[start]) & (along[:, 0] == triangles[:, (k + 2) % 3])
         )
         border[:, k] = follows & (uses[edge] == 1)
-    return _Mesh(vertices, triangles, corners, border)
+    if np.linalg.det(matrix[:3, :3]) < 0:  # mirrored: swap two corners (and the edges facing them)
+        triangles, corners, border = (array[:, [0, 2, 1]] for array in (triangles, corners, border))
+    uvs = lightmap.corner_uvs(mesh, uv_map)[corners] if uv_map is not None else None
+    return _Mesh(vertices, triangles, corners, border, uvs)
 
 
-def spacing_for(
-    obj: bpy.types.Object, target: str, resolution: int | None = None, uv_map: str | None = None, world=None
-) -> float:
-    """The sampling of the flow, in scene units (see the module's docstring)."""
+def spacing_for(obj: bpy.types.Object, world: _Mesh, target: str, resolution: int | None = None) -> float:
+    """The sampling of the flow over ``world``, ``obj``'s mesh (with its UVs for an image), in
+    scene units (see the module's docstring)."""
     size = edges.object_size(obj)
     if target == "image":
-        world = world or _world_mesh(obj)
         a, b, c = (world.vertices[world.triangles[:, k]] for k in range(3))
         area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()
-        uvs = lightmap.corner_uvs(obj.data, uv_map)[world.corners]
-        du, dv = uvs[:, 1] - uvs[:, 0], uvs[:, 2] - uvs[:, 0]
+        du, dv = world.uvs[:, 1] - world.uvs[:, 0], world.uvs[:, 2] - world.uvs[:, 0]
         uv_area = 0.5 * np.abs(du[:, 0] * dv[:, 1] - du[:, 1] * dv[:, 0]).sum()
         texel = math.sqrt(area / max(uv_area, 1e-12)) / resolution
         return TEXELS_PER_NODE * texel
@@ -156,31 +154,26 @@ def spacing_for(
     return float(np.clip(median, size / ATTRIBUTE_FINEST, size / ATTRIBUTE_COARSEST))
 
 
-def _lander(obj):
-    """Where rays (world space) first meet the object: a ray cast on a BVH of its evaluated
-    mesh, which Blender builds in the object's own space."""
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    matrix = np.array(obj.matrix_world, dtype=np.float64)
-    inverse = np.linalg.inv(matrix)
+def _lander(world):
+    """Where rays (world space) first meet the surface ``world``: a ray cast on a BVH of it."""
+    tree = BVHTree.FromPolygons(world.vertices.tolist(), world.triangles.tolist(), all_triangles=True)
 
     def land(origins, direction):
-        tree = BVHTree.FromObject(obj, depsgraph)
         hits = np.full((len(origins), 3), np.nan)
-        local_origins = origins @ inverse[:3, :3].T + inverse[:3, 3]
-        towards = Vector(inverse[:3, :3] @ np.asarray(direction, float))
-        for index, origin in enumerate(local_origins):
+        towards = Vector(np.asarray(direction, float))
+        for index, origin in enumerate(origins):
             location = tree.ray_cast(Vector(origin), towards)[0]
             if location is not None:
-                hits[index] = matrix[:3, :3] @ np.array(location) + matrix[:3, 3]
+                hits[index] = np.array(location)
         return hits
 
     return land
 
 
 def flow(obj: bpy.types.Object, world, rain_at, spacing: float, settings: RunoffSettings, rain_settings) -> tuple:
-    """(surface, flux, L) of ``obj`` (its evaluated mesh in world space: ``world``): the run-off
-    flux Q of its surface's nodes under the rain ``rain_at(triangles, weights) -> E`` (at points
-    given as barycentric weights of triangles)."""
+    """(surface, flux, L) of ``obj`` (its mesh as rendered, in world space: ``world``): the
+    run-off flux Q of its surface's nodes under the rain ``rain_at(triangles, weights) -> E`` (at
+    points given as barycentric weights of triangles)."""
     surface = runoff_flow.sample_surface(world.vertices, world.triangles, spacing, world.border, rain_at)
     runoff_length, absorption_length = settings.lengths(edges.object_size(obj))
     fall = -np.asarray(rain_settings.towards_rain(), float)
@@ -190,34 +183,35 @@ def flow(obj: bpy.types.Object, world, rain_at, spacing: float, settings: Runoff
         absorption_length=absorption_length,
         drip_angle=settings.drip_angle,
         fall=fall,
-        land=_lander(obj),
+        land=_lander(world),
     )
     return surface, result, runoff_length
 
 
 def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
-    """R at every face corner of ``obj``, from its rain attribute."""
+    """R at every face corner of ``obj``, from its rain attribute (the bake refuses an attribute
+    target whose modifiers change the corners, so the mesh as rendered has the mesh's corners)."""
     mesh = obj.data
     if RAIN_ATTRIBUTE not in mesh.color_attributes:
         raise ValueError(f"object '{obj.name}' has no rain map ({RAIN_ATTRIBUTE}): bake it with the run-off")
     rain = np.empty(len(mesh.loops) * 4, np.float32)
     mesh.color_attributes[RAIN_ATTRIBUTE].data.foreach_get("color", rain)
     rain = rain.reshape(-1, 4)[:, 0].astype(np.float64)
-    world = _world_mesh(obj)
-    corner_rain = rain[world.corners]
-    spacing = spacing_for(obj, "attribute")
-    surface, result, runoff_length = flow(
-        obj,
-        world,
-        lambda tri, w: (corner_rain[tri] * w).sum(1),
-        spacing,
-        options.runoff_settings,
-        options.rain_settings,
-    )
-    # read at the vertices, and apart at the corners whose normals differ from their vertex's
-    # (sharp edges, flat shading): a smooth scan's corners share their vertex's value
-    vertex_of = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
-    corner_normals = _corner_normals(mesh, obj)
+    with scratch_scene.rendered(obj) as seen:
+        world = _world_mesh(seen)
+        corner_rain = rain[world.corners]
+        surface, result, runoff_length = flow(
+            obj,
+            world,
+            lambda tri, w: (corner_rain[tri] * w).sum(1),
+            spacing_for(obj, world, "attribute"),
+            options.runoff_settings,
+            options.rain_settings,
+        )
+        # read at the vertices, and apart at the corners whose normals differ from their vertex's
+        # (sharp edges, flat shading): a smooth scan's corners share their vertex's value
+        vertex_of = mesh_arrays.attribute(seen.mesh, ".corner_vert", np.int32)
+        corner_normals = _corner_normals(seen)
     vertex_normals = np.zeros_like(world.vertices)
     np.add.at(vertex_normals, vertex_of, corner_normals)
     vertex_normals /= np.maximum(np.linalg.norm(vertex_normals, axis=1), 1e-300)[:, None]
@@ -227,15 +221,18 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
     return runoff_flow.runoff_map(flux, runoff_length)
 
 
-def _corner_normals(mesh, obj):
-    normals = np.empty(len(mesh.loops) * 3, np.float32)
-    mesh.corner_normals.foreach_get("vector", normals)
-    normals = normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(np.array(obj.matrix_world)[:3, :3])
+def _corner_normals(seen):
+    """The world-space unit normals of ``seen``'s corners (normals transform by the inverse
+    transpose, which keeps them outwards under a mirror)."""
+    normals = np.empty(len(seen.mesh.loops) * 3, np.float32)
+    seen.mesh.corner_normals.foreach_get("vector", normals)
+    normals = normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(seen.matrix_world[:3, :3])
     return normals / np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
 
 
 def bake_runoff_image(obj: bpy.types.Object, uv_map: str, options, margin: int) -> np.ndarray:
-    """R on ``uv_map`` at the bake's resolution, from the rain map baked for ``obj``."""
+    """R on ``uv_map`` at the bake's resolution, from the rain map baked for ``obj``; both read
+    through the UVs of the mesh the render sees (modifiers applied)."""
     rain_path = imageio.image_path(options.out_dir, obj.name, "rain")
     try:
         rain_image = imageio.read_image(rain_path)[0][..., 0].astype(np.float64)
@@ -243,15 +240,15 @@ def bake_runoff_image(obj: bpy.types.Object, uv_map: str, options, margin: int) 
         raise ValueError(
             f"object '{obj.name}': no rain map to run off ({rain_path}): bake it with the run-off"
         ) from error
-    world = _world_mesh(obj)
-    corner_uvs = lightmap.corner_uvs(obj.data, uv_map)[world.corners]  # (T, 3, 2)
+    with scratch_scene.rendered(obj) as seen:
+        world = _world_mesh(seen, uv_map)
     size = rain_image.shape[0]
 
     def rain_at(tri, weights):
-        uv = (corner_uvs[tri] * weights[..., None]).sum(1)
+        uv = (world.uvs[tri] * weights[..., None]).sum(1)
         return _bilinear(rain_image, uv, size)
 
-    spacing = spacing_for(obj, "image", options.resolution, uv_map, world)
+    spacing = spacing_for(obj, world, "image", options.resolution)
     surface, result, runoff_length = flow(obj, world, rain_at, spacing, options.runoff_settings, options.rain_settings)
     positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, options.resolution)
     values = np.zeros((options.resolution, options.resolution), np.float32)

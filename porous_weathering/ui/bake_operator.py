@@ -77,8 +77,8 @@ class BakeMapsOperator(SteppedOperator):
         super()._finish(context, result)
         if context.workspace is not None:
             context.workspace.status_text_set(None)
-        if result == {"FINISHED"} and self.target == "image":
-            bake.link_images(self._objects, self._options)
+        if self.target == "image":  # what was baked before an error or Esc is linked too
+            bake.link_outcomes(self._outcomes)
         return result
 
 

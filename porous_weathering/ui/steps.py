@@ -31,8 +31,8 @@ class SteppedOperator:
             step = self._next_step()
         except StopIteration:
             return self._finish(context, {"FINISHED"})
-        except (ValueError, OSError, RuntimeError) as error:
-            self.report({"ERROR"}, str(error))
+        except Exception as error:
+            self._report_error(error)
             return self._finish(context, {"CANCELLED"})
         self._show(context, step)
         return {"RUNNING_MODAL"}
@@ -43,9 +43,17 @@ class SteppedOperator:
                 self._show(context, self._next_step())
         except StopIteration:
             return {"FINISHED"}
-        except (ValueError, OSError, RuntimeError) as error:
-            self.report({"ERROR"}, str(error))
+        except Exception as error:
+            self._report_error(error)
             return {"CANCELLED"}
+
+    def _report_error(self, error):
+        """An error of a step, in one line; one that is not a refusal or a failure the step
+        expects is a bug, said as one (what the steps before it made is kept all the same)."""
+        if isinstance(error, (ValueError, OSError, RuntimeError)):
+            self.report({"ERROR"}, str(error))
+        else:
+            self.report({"ERROR"}, f"{type(error).__name__}: {error} (a bug: please report it)")
 
     def _next_step(self):
         return next(self._steps)
