@@ -18,10 +18,11 @@ import pytest
 
 import porous_weathering as pw
 from bad_meshes import cube, data_counts
+from helpers import corner_values
 from porous_weathering.common import imageio
 from porous_weathering.core import model
 from porous_weathering.core.model import PorousInputWarning
-from porous_weathering.maps import bake, edges, rain
+from porous_weathering.maps import bake, edges, rain, runoff
 from porous_weathering.samples import studio
 
 NAN = math.nan
@@ -154,6 +155,29 @@ def test_bake_resolution_range(resolution, accepted):
 def test_bake_options_refuse_bad_numbers_up_front(options):
     with pytest.raises(ValueError, match="radius|resolution"):
         bake.BakeOptions(**options)
+
+
+@pytest.mark.parametrize("target", ["image", "attribute"])
+def test_runoff_with_an_absorption_length_near_the_largest_float_is_the_runoff_without_absorption(
+    fresh_scene, tmp_path, target
+):
+    obj = cube(fresh_scene)
+    maps = {}
+    for absorption in (1e308, math.inf):
+        options = bake.BakeOptions(
+            maps=("rain", "runoff"),
+            target=target,
+            resolution=16,
+            out_dir=str(tmp_path / str(absorption)),
+            rain_settings=rain.RainSettings(samples=2),
+            runoff_settings=runoff.RunoffSettings(absorption_length=absorption),
+        )
+        [_, outcome] = bake.bake_maps([obj], options)
+        maps[absorption] = (
+            corner_values(obj, outcome.where) if target == "attribute" else imageio.read_image(outcome.where)[0]
+        )
+    assert np.isfinite(maps[1e308]).all() and maps[1e308].max() > 0.0  # was NaN almost everywhere
+    np.testing.assert_allclose(maps[1e308], maps[math.inf], atol=1e-6)
 
 
 @pytest.mark.parametrize("radius", [0.0, -0.1, NAN, math.inf])
