@@ -13,6 +13,7 @@ import shutil
 import signal
 import subprocess
 import sys
+from dataclasses import replace
 
 import bpy
 
@@ -21,9 +22,10 @@ import pytest
 
 import porous_weathering
 from bad_meshes import cube, snapshot
+from helpers import corner_values
 from porous_weathering import ui
 from porous_weathering.common import imageio
-from porous_weathering.maps import bake, lightmap, rain
+from porous_weathering.maps import bake, edges, lightmap, rain, runoff
 from porous_weathering.samples import studio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -85,6 +87,53 @@ def test_cancelled_attribute_bake_keeps_the_previous_attribute(fresh_scene):
     assert snapshot(stones) == before
     assert np.array_equal([c.color[0] for c in mesh.color_attributes[rain.RAIN_ATTRIBUTE].data], previous[0])
     assert mesh[f"{rain.RAIN_ATTRIBUTE}_inputs"] == previous[1]
+
+
+@pytest.mark.parametrize("target", ["image", "attribute"])
+def test_a_map_with_nan_or_inf_is_refused_and_the_old_map_kept(fresh_scene, tmp_path, monkeypatch, target):
+    """A bug that makes NaN or inf (as an absorption length of 1e308 once did) is reported, never stored."""
+    stone = cube(fresh_scene, name="Stone")
+    out = tmp_path / "maps"
+    options = bake.BakeOptions(maps=("rain", "runoff"), target=target, out_dir=str(out), **FAST)
+    bake.bake_maps([stone], options)
+    mesh = stone.data
+    before = snapshot([stone])
+    previous = (
+        sorted((p.name, p.read_bytes()) for p in out.iterdir())
+        if target == "image"
+        else (
+            corner_values(stone, runoff.RUNOFF_ATTRIBUTE),
+            mesh[f"{runoff.RUNOFF_ATTRIBUTE}_inputs"],
+        )
+    )
+
+    def broken(bake_function):
+        def bake_with_a_bug(*args):
+            values = bake_function(*args)
+            values.flat[:2] = np.nan, np.inf
+            return values
+
+        return bake_with_a_bug
+
+    monkeypatch.setattr(runoff, "bake_runoff_image", broken(runoff.bake_runoff_image))
+    monkeypatch.setattr(runoff, "bake_runoff_corners", broken(runoff.bake_runoff_corners))
+    changed = replace(options, runoff_settings=runoff.RunoffSettings(drip_angle=40.0))
+    with pytest.raises(imageio.NonFiniteMap, match=r"^object 'Stone', run-off map: .*2 of \d+ values are not finite"):
+        bake.bake_maps([stone], changed)
+    assert snapshot([stone]) == before
+    if target == "image":
+        assert sorted((p.name, p.read_bytes()) for p in out.iterdir()) == previous  # no temporary file either
+    else:
+        assert np.array_equal(corner_values(stone, runoff.RUNOFF_ATTRIBUTE), previous[0])
+        assert mesh[f"{runoff.RUNOFF_ATTRIBUTE}_inputs"] == previous[1]
+
+
+def test_an_edge_mask_with_nan_is_refused_and_the_old_attribute_kept(fresh_scene):
+    stone = cube(fresh_scene, name="Stone")
+    edges.write_edge_attribute(stone, np.full(len(stone.data.vertices), 0.25))
+    with pytest.raises(imageio.NonFiniteMap, match="colour attribute 'pw_edges': 1 of 8 values are not finite"):
+        edges.write_edge_attribute(stone, [np.nan] + [0.5] * 7)  # was stored as 0
+    assert np.array_equal(corner_values(stone, edges.EDGE_ATTRIBUTE), np.full(24, 0.25, np.float32))
 
 
 def test_cancel_before_any_map_removes_the_new_lightmap(fresh_scene, tmp_path):

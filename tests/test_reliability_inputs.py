@@ -18,10 +18,13 @@ import pytest
 
 import porous_weathering as pw
 from bad_meshes import cube, data_counts
+from helpers import corner_values, run_cli
+from porous_weathering import weathering
 from porous_weathering.common import imageio
 from porous_weathering.core import model
 from porous_weathering.core.model import PorousInputWarning
-from porous_weathering.maps import bake, edges, rain
+from porous_weathering.maps import bake, edges, rain, runoff
+from porous_weathering.publish import export
 from porous_weathering.samples import studio
 
 NAN = math.nan
@@ -154,6 +157,29 @@ def test_bake_resolution_range(resolution, accepted):
 def test_bake_options_refuse_bad_numbers_up_front(options):
     with pytest.raises(ValueError, match="radius|resolution"):
         bake.BakeOptions(**options)
+
+
+@pytest.mark.parametrize("target", ["image", "attribute"])
+def test_runoff_with_an_absorption_length_near_the_largest_float_is_the_runoff_without_absorption(
+    fresh_scene, tmp_path, target
+):
+    obj = cube(fresh_scene)
+    maps = {}
+    for absorption in (1e308, math.inf):
+        options = bake.BakeOptions(
+            maps=("rain", "runoff"),
+            target=target,
+            resolution=16,
+            out_dir=str(tmp_path / str(absorption)),
+            rain_settings=rain.RainSettings(samples=2),
+            runoff_settings=runoff.RunoffSettings(absorption_length=absorption),
+        )
+        [_, outcome] = bake.bake_maps([obj], options)
+        maps[absorption] = (
+            corner_values(obj, outcome.where) if target == "attribute" else imageio.read_image(outcome.where)[0]
+        )
+    assert np.isfinite(maps[1e308]).all() and maps[1e308].max() > 0.0  # was NaN almost everywhere
+    np.testing.assert_allclose(maps[1e308], maps[math.inf], atol=1e-6)
 
 
 @pytest.mark.parametrize("radius", [0.0, -0.1, NAN, math.inf])
@@ -305,3 +331,89 @@ def test_bad_efflorescence_photograph_raises_oserror_with_openimageio_reason(bad
         efflorescence_map.photo_map(bad_images[kind])
     reason = str(failure.value).split(f"{bad_images[kind]}: ", 1)[1]
     assert reason.strip(), "OpenImageIO's reason is missing"
+
+
+# --- the API's small promises -------------------------------------------------------------------
+
+
+def weathered_material():
+    return weathering.make_weathered_material("Weathered", environment=None)
+
+
+#: (call, the argument its one-line ValueError names): a string, an array or a list where a
+#: number or a name is expected (each was a TypeError, or taken as a number).
+WRONG_TYPES = {
+    "years '10'": (lambda: weathering.age_for_years("10", 2), "years"),
+    "years array": (lambda: weathering.age_for_years(np.array([1, 2]), 2), "years"),
+    "concentration list": (lambda: weathering.age_for_years(10, [2]), "elemental_carbon"),
+    "environment list": (lambda: weathering.make_weathered_material("W", environment=["URBAN"]), "environment"),
+    "time '0.5'": (lambda: weathering.make_weathered_material("W", time="0.5"), "time"),
+    "ks '0.1'": (lambda: pw.make_porous_material("M", ks="0.1"), "ks"),
+    "porosity array": (lambda: pw.make_porous_material("M", porosity=np.array([0.1, 0.2])), "porosity"),
+    "start '0'": (lambda: weathering.animate_weathering(weathered_material(), 1, 9, start="0"), "start"),
+    "input list": (
+        lambda: weathering.animate_weathering(weathered_material(), 1, 9, input_name=["time"]),
+        "weathering input",
+    ),
+    "frame '9'": (lambda: weathering.animate_years(weathered_material(), 1, "9", 10, 2), "frame_end"),
+    "rain cone '10'": (lambda: rain.RainSettings(cone="10"), "cone"),
+}
+
+
+@pytest.mark.parametrize("case", WRONG_TYPES)
+def test_a_string_array_or_list_for_a_number_or_name_is_a_one_line_value_error(fresh_scene, case):
+    call, argument = WRONG_TYPES[case]
+    with pytest.raises(ValueError, match=argument) as refusal:
+        call()
+    assert "\n" not in str(refusal.value)
+    assert not any(material.animation_data or material.node_tree.animation_data for material in bpy.data.materials)
+
+
+def test_animate_weathering_refuses_a_one_frame_range_as_animate_years_does(fresh_scene):
+    material = weathered_material()
+    with pytest.raises(ValueError, match="frame range 5-5: the last frame must come after the first"):
+        weathering.animate_weathering(material, 5, 5)  # was two keyframes on one frame
+    assert material.node_tree.animation_data is None
+
+
+def test_years_whose_dose_overflows_keyframe_the_fully_weathered_state(fresh_scene):
+    material = weathered_material()
+    studio.add_plane(fresh_scene).data.materials.append(material)  # animated as the scene's frame changes
+    weathering.animate_years(material, 1, 3, 1e308, 1e308)  # was a ValueError after two keyframes
+    time = material.node_tree.nodes["Porous"].inputs["Time"]
+    for frame, age in ((2, 1.0), (3, 1.0), (1, 0.0)):
+        fresh_scene.frame_set(frame)
+        assert time.default_value == age
+
+
+def test_keyframe_aging_refuses_a_one_frame_range_as_keyframe_years_does(registered, fresh_scene):
+    plane = studio.add_plane(fresh_scene)
+    plane.data.materials.append(weathered_material())
+    bpy.context.view_layer.objects.active = plane
+    fresh_scene.frame_start = fresh_scene.frame_end = 7
+    for years in (0.0, 10.0):
+        with pytest.raises(RuntimeError, match="the last frame must come after the first"):
+            bpy.ops.porous_weathering.keyframe_aging(years=years)
+    assert plane.active_material.node_tree.animation_data is None
+
+
+def test_the_bake_operators_blend_relative_folder(registered, fresh_scene, tmp_path):
+    plane = studio.add_plane(fresh_scene)
+    plane.select_set(True)
+    with pytest.raises(RuntimeError, match="'//maps' is beside the .blend .*not saved yet: save it first"):
+        bpy.ops.porous_weathering.bake_maps(maps={"edges"}, resolution=16, out_dir="//maps")
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "wall.blend"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # was Blender's RuntimeWarning about the "//" prefix
+        assert bpy.ops.porous_weathering.bake_maps(maps={"edges"}, resolution=16, out_dir="//maps") == {"FINISHED"}
+    assert os.listdir(tmp_path / "maps") == ["Plane.edges.exr"]
+
+
+@pytest.mark.parametrize("ages", [",", "0", "1e-400"])
+def test_export_ages_that_leave_no_weathered_state_are_refused_before_any_work(tmp_path, ages):
+    result = run_cli("export", "--ages", ages, "--out", tmp_path / "out", tmp_path / "missing.blend")
+    assert result.returncode == 2  # was 0, the clean state alone written
+    assert result.stderr.startswith("error: ages must hold an age in (0, 1]") and result.stderr.count("\n") == 1
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(ValueError, match=r"ages must hold an age in \(0, 1\]"):
+        export.ExportOptions(ages=export.parse_ages(ages))

@@ -2,6 +2,8 @@
 
 import numpy as np
 
+from ..common import imageio
+
 
 def attribute(mesh, name, dtype, width=1):
     """The values of ``mesh``'s attribute ``name`` (e.g. "position", ".corner_vert") as an
@@ -49,7 +51,10 @@ def grey_rgba(values):
 
 
 def write_corner_attribute(mesh, name, values):
-    """Replace the colour attribute ``name`` of ``mesh`` by grey per-corner ``values``."""
+    """Replace the colour attribute ``name`` of ``mesh`` by grey per-corner ``values``; the old
+    one is kept when they are not all finite (``imageio.NonFiniteMap``)."""
+    imageio.check_finite(values, f"colour attribute '{name}'")
+    colours = grey_rgba(values)
     if name in mesh.color_attributes:
         mesh.color_attributes.remove(mesh.color_attributes[name])
-    mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", grey_rgba(values))
+    mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", colours)

@@ -54,6 +54,19 @@ def _name_max(folder):
         return 255
 
 
+class NonFiniteMap(RuntimeError):
+    """A map about to be stored holds NaN or an infinity: a bug in the maths that made it, never
+    written (a map's values are in [0, 1])."""
+
+
+def check_finite(values: np.ndarray, where: str) -> None:
+    """NonFiniteMap, one line naming ``where`` the map was to go, unless every value is finite.
+    Checked before any clipping: np.clip keeps NaN."""
+    bad = np.count_nonzero(~np.isfinite(values))
+    if bad:
+        raise NonFiniteMap(f"{where}: {bad} of {np.size(values)} values are not finite (a bug): nothing was written")
+
+
 #: file extension -> (OpenImageIO pixel type name, header attributes)
 FORMATS = {
     ".exr": {"float": ("float", {"compression": "zip"}), "half": ("half", {"compression": "zip"})},
@@ -72,7 +85,8 @@ def write_image(
     """Write ``pixels`` to ``path`` (.exr: "float" or "half"; .png: "uint16"), atomically.
 
     PNG values are clipped to [0, 1] and quantised to 1/65535; EXR keeps them as they are.
-    Raises OSError naming the file when the folder is missing or not writable.
+    Raises OSError naming the file when the folder is missing or not writable, and NonFiniteMap
+    for NaN or infinite pixels (nothing written).
     """
     import OpenImageIO as oiio
 
@@ -86,6 +100,7 @@ def write_image(
     type_name, attributes = FORMATS[extension][pixel_type]
 
     pixels = np.asarray(pixels, dtype=np.float32)
+    check_finite(pixels, path)
     if pixels.ndim == 2:
         pixels = pixels[..., np.newaxis]
     if extension == ".png":

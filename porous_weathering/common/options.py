@@ -9,11 +9,12 @@ here: ``operator_properties`` takes the ``bpy.props`` module as an argument.
 
 import argparse
 import math
-import numbers
 import os
 from collections.abc import Callable
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any
+
+from ..core.arguments import real_number
 
 
 @dataclass(frozen=True)
@@ -64,24 +65,12 @@ def check_value(name: str, opt: Option, value: Any) -> None:
         raise ValueError(f"{name} must be one of {', '.join(map(str, opt.choices))}, not {value!r}")
     if opt.low is None and opt.high is None and not opt.finite and not opt.whole:
         return
-    unit = f" {opt.unit}" if opt.unit else ""
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number{unit}, not {value!r}") from None
-    bad = math.isnan(number) or (opt.finite and math.isinf(number)) or (opt.whole and number != int(number))
+    number = real_number(name, value)
+    bad = math.isnan(number) or (opt.finite and math.isinf(number)) or (opt.whole and not number.is_integer())
     bad = bad or (opt.low is not None and (number <= opt.low if opt.low_open else number < opt.low))
     bad = bad or (opt.high is not None and number > opt.high)
     if bad:
         raise ValueError(f"{name} must be {describe_range(opt)}, not {value}")
-
-
-def whole_number(name: str, value: Any) -> int:
-    """``value`` as an int: an int or a numpy integer (not a bool, not a float such as 16.0);
-    else ValueError naming ``name``."""
-    if isinstance(value, numbers.Integral) and not isinstance(value, bool):
-        return int(value)
-    raise ValueError(f"{name} must be a whole number (an int), not {value!r}")
 
 
 def folder_path(name: str, value: Any) -> str:
@@ -211,7 +200,8 @@ def operator_properties(props: Any, items: list[Entry]) -> dict:
             length = {"subtype": "DISTANCE", "unit": "LENGTH"} if opt.unit == "scene units" else {}
             prop = props.FloatProperty(default=default, **bounds, **length, **common)
         else:
-            subtype = {"subtype": "DIR_PATH"} if opt.kind == "path" else {}
+            # a folder may be "//", the .blend's (Blender warns unless the property says so)
+            subtype = {"subtype": "DIR_PATH", "options": {"PATH_SUPPORTS_BLEND_RELATIVE"}} if opt.kind == "path" else {}
             prop = props.StringProperty(default=default or "", **subtype, **common)
         properties[entry.dest] = prop
     return properties

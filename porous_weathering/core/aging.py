@@ -8,6 +8,8 @@ for cleaning.  The model's grey area darkens linearly in t, so t is the loss ove
 
 import math
 
+from .arguments import choice, real_number
+
 #: Reflectance loss of a sheltered surface at t = 1 (Pio et al. 1998: 30% calls for cleaning).
 LOSS_AT_FULL_AGE = 0.30
 
@@ -26,11 +28,9 @@ def reflectance_loss(dose_ratio: float, law: str = "sqrt") -> float:
     dose of t = 1: "sqrt", 0.3 sqrt(ratio) (Beloin & Haynie 1975; Pio et al. 1998), or
     "exponential", 1 - 0.7^ratio (R = R0 exp(-k dose), the form Grossi & Brimblecombe review),
     both 30% at ratio 1."""
-    if law == "sqrt":
+    if choice("soiling law", law, LAWS) == "sqrt":
         return LOSS_AT_FULL_AGE * math.sqrt(dose_ratio)
-    if law == "exponential":
-        return 1.0 - (1.0 - LOSS_AT_FULL_AGE) ** dose_ratio
-    raise ValueError(f"unknown soiling law {law!r}: choose one of {', '.join(LAWS)}")
+    return 1.0 - (1.0 - LOSS_AT_FULL_AGE) ** dose_ratio
 
 
 def age_for_years(years: float, elemental_carbon: float, law: str = "sqrt") -> float:
@@ -38,11 +38,11 @@ def age_for_years(years: float, elemental_carbon: float, law: str = "sqrt") -> f
     soiling ``law`` of rain-sheltered surfaces ("sqrt" or "exponential"): the reflectance loss
     over the 30% of t = 1, capped at 1 (the model's fully weathered state; the stone goes on
     darkening).  ValueError for negative years, a concentration not above 0 or an unknown law."""
-    if not (math.isfinite(years) and years >= 0.0):
+    if not (math.isfinite(real_number("years", years)) and years >= 0.0):
         raise ValueError(f"years must be a number >= 0, not {years!r}")
-    if not (math.isfinite(elemental_carbon) and elemental_carbon > 0.0):
+    if not (math.isfinite(real_number("elemental_carbon", elemental_carbon)) and elemental_carbon > 0.0):
         raise ValueError(f"elemental_carbon must be a concentration > 0 µg/m³, not {elemental_carbon!r}")
-    ratio = years * elemental_carbon / (REFERENCE_YEARS * REFERENCE_ELEMENTAL_CARBON)
+    ratio = years * elemental_carbon / (REFERENCE_YEARS * REFERENCE_ELEMENTAL_CARBON)  # inf past 1e308: t = 1
     return min(reflectance_loss(ratio, law) / LOSS_AT_FULL_AGE, 1.0)
 
 

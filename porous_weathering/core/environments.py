@@ -11,6 +11,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 from . import modes as weathering_modes
+from .arguments import choice
 from .modes.soiling import CRUST_DEFAULT, POLLUTION_COLOR
 
 #: The environment a heritage team in a city gets: the panel's and make_weathered_material's default.
@@ -86,10 +87,7 @@ ENVIRONMENTS = {
 
 def get(name: str) -> Environment:
     """The environment ``name`` (a key of ENVIRONMENTS); ValueError naming the known ones."""
-    try:
-        return ENVIRONMENTS[name]
-    except KeyError:
-        raise ValueError(f"unknown environment {name!r}: choose one of {', '.join(ENVIRONMENTS)} or None") from None
+    return ENVIRONMENTS[choice("environment", name, (*ENVIRONMENTS, None))]
 
 
 def weathering_inputs(name: str | None, modes: Iterable[str], crust: float = CRUST_DEFAULT) -> dict:

@@ -40,8 +40,11 @@ def _warn(message):
 def sanitize(name: str, value: ArrayLike, low: float = 0.0, high: float | None = None) -> np.ndarray:
     """``value`` as a float64 array with NaN replaced by ``low`` and clamped to [low, high].
 
-    Warns (PorousInputWarning) naming the input when anything had to change.
+    Warns (PorousInputWarning) naming the input when anything had to change; ValueError naming
+    it for what is no number or array of numbers (a string: "0.5" is not taken for 0.5).
     """
+    if np.asarray(value).dtype.kind not in "biuf":
+        raise ValueError(f"porous input '{name}' must be a number or an array of numbers, not {value!r}")
     value = np.asarray(value, dtype=np.float64)
     clean = np.nan_to_num(value, nan=low, posinf=LARGE if high is None else high, neginf=low)
     clean = np.clip(clean, low, high)

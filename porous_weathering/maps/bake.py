@@ -524,15 +524,20 @@ def _bake_one(obj, map_name, options, uv_map, inputs, dry_run, force):
     if dry_run:
         return Outcome(obj.name, map_name, "planned", where)
 
-    if options.target == "image":
-        pixels = np.clip(kind.bake_image(obj, uv_map, options, MARGIN), 0.0, 1.0)
-        if not force:  # the file as it is now: another run may have written it meanwhile
-            refuse_overwrite(where, made)
-        settings = _settings_json(options, map_name)
-        metadata = {HASH_KEY: inputs, UV_MAP_KEY: uv_map, SETTINGS_KEY: settings, **made.header()}
-        imageio.write_image(where, pixels, metadata=metadata)
-    else:
-        kind.bake_attribute(obj, options)
+    try:  # NaN or an infinity in a map is a bug: refused, the old map kept
+        if options.target == "image":
+            pixels = kind.bake_image(obj, uv_map, options, MARGIN)
+            imageio.check_finite(pixels, where)  # before the clip, which keeps NaN and makes inf 1
+            if not force:  # the file as it is now: another run may have written it meanwhile
+                refuse_overwrite(where, made)
+            settings = _settings_json(options, map_name)
+            metadata = {HASH_KEY: inputs, UV_MAP_KEY: uv_map, SETTINGS_KEY: settings, **made.header()}
+            imageio.write_image(where, np.clip(pixels, 0.0, 1.0), metadata=metadata)
+        else:
+            kind.bake_attribute(obj, options)
+    except imageio.NonFiniteMap as error:
+        raise imageio.NonFiniteMap(f"object '{obj.name}', {kind.label.lower()} map: {error}") from None
+    if options.target == "attribute":
         _clamp_attribute(mesh.color_attributes[where])
         mesh[f"{where}_inputs"] = inputs
         mesh[f"{where}_source"] = made.source

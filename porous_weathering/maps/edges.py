@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..blender import mesh_arrays, scratch_scene
+from ..common import imageio
 from ..common.options import check, option
 from ..contracts import map_attribute
 from . import scan_checks
@@ -198,7 +199,8 @@ def _settings_mask(values, radius, settings):
 
 def write_edge_attribute(obj: bpy.types.Object, mask: ArrayLike, name: str = EDGE_ATTRIBUTE) -> None:
     """Store ``mask`` (one value per vertex of ``obj``'s mesh) as the grey colour attribute
-    ``name`` (FLOAT_COLOR, per point), replacing any old one only once the new one is whole."""
+    ``name`` (FLOAT_COLOR, per point), replacing any old one only once the new one is whole;
+    NaN or infinite values are a bug (``imageio.NonFiniteMap``): the old one stays."""
     if obj.type != "MESH":
         raise ValueError(
             f"object '{obj.name}' is not a mesh (its type is {obj.type}): an edge attribute needs mesh vertices"
@@ -209,7 +211,8 @@ def write_edge_attribute(obj: bpy.types.Object, mask: ArrayLike, name: str = EDG
             f"object '{obj.name}': {mask.shape[0] if mask.ndim else 0} mask values for "
             f"{len(obj.data.vertices)} mesh vertices (modifiers that add vertices must be applied first)"
         )
-    colours = mesh_arrays.grey_rgba(np.clip(np.nan_to_num(mask), 0.0, 1.0))
+    imageio.check_finite(mask, f"colour attribute '{name}'")
+    colours = mesh_arrays.grey_rgba(np.clip(mask, 0.0, 1.0))
     attributes = obj.data.color_attributes
     staging_name = f"{name} (new)"
     staging = attributes.new(staging_name, "FLOAT_COLOR", "POINT")

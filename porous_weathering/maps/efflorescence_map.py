@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..common import imageio
-from ..common.options import whole_number
+from ..core.arguments import whole_number
 from ..core.modes.efflorescence import EFFLORESCENCE_MAP
 
 if TYPE_CHECKING:

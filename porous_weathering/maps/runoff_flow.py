@@ -515,13 +515,9 @@ def route(
     # where water leaves (a border, a drip, the lowest node) a node's width is taken as a cell's
     length = np.where(length > 0, length, surface.areas / spacing)
 
-    # across a node, dV/ds = E w - V / l: V_out = V_in q + E a (l / s)(1 - q), q = exp(-s / l)
+    # across a node, dV/ds = E w - V / l: V_out = V_in q + E a (1 - q) / x, q = exp(-x), x = s / l
     landed = rain * surface.areas
-    if np.isfinite(absorption_length):
-        keep = np.exp(-length / absorption_length)
-        gain = landed * (absorption_length / length) * -np.expm1(-length / absorption_length)
-    else:
-        keep, gain = np.ones(count), landed
+    keep, gain = np.exp(-length / absorption_length), landed * _landed_share_leaving(length / absorption_length)
 
     # drips: a drip node's water lands on the node nearest where its fall meets the surface
     fall = np.asarray(fall, float) / np.linalg.norm(fall)
@@ -543,6 +539,15 @@ def route(
     carried_sum, area_sum = _neighbourhood_sum(surface, np.stack([carried, surface.areas]))
     flux = carried_sum / area_sum
     return Flow(flux, float(landed.sum()), float(absorbed.sum()), float(outflow[ends].sum()), absorbed)
+
+
+def _landed_share_leaving(x: np.ndarray) -> np.ndarray:
+    """(1 - exp(-x)) / x, x = s / l: the share of the rain landing on a node that leaves it,
+    finite for every l > 0: 1 at x = 0 (l = inf, or so long that s / l underflows), where the
+    form (l / s)(1 - exp(-s / l)) would overflow to inf x 0 = NaN."""
+    x = np.asarray(x, float)
+    positive = x > 0.0
+    return np.where(positive, -np.expm1(-x) / np.where(positive, x, 1.0), 1.0)
 
 
 def _accumulate(count, edge_src, edge_dst, edge_share, keep, gain):

@@ -151,6 +151,11 @@ class ExportOptions:
             if not isinstance(age, numbers.Real) or isinstance(age, bool) or not 0.0 <= age <= 1.0:  # NaN fails
                 raise ValueError(f"ages must be numbers in [0, 1], not {age!r}")
         object.__setattr__(self, "ages", tuple(sorted(set(map(float, ages)))))
+        if not any(self.ages):  # the clean state alone: nothing weathered to publish
+            raise ValueError(
+                f"ages must hold an age in (0, 1], a weathered state besides the clean one, not "
+                f"{format_ages(self.ages) or 'none'} (an age below 1e-308 reads as 0)"
+            )
         if not isinstance(self.size, numbers.Integral) or isinstance(self.size, bool):  # numpy's are Integral
             raise ValueError(f"size must be a whole number of texels (an int), not {self.size!r}")
         object.__setattr__(self, "size", int(self.size))
@@ -164,8 +169,6 @@ class ExportOptions:
         check(self)
         if self.size & (self.size - 1):
             raise ValueError(f"texture size must be a power of two (1024, 2048, 4096, ...), not {self.size}")
-        if self.wet and not any(self.ages):
-            raise ValueError("the wet variant shows the oldest age in the rain: give an age above 0")
         object.__setattr__(self, "notes", paradata.json_notes(self.notes))
 
 

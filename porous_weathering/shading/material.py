@@ -10,6 +10,7 @@ import numpy as np
 from ..blender import compat
 from ..contracts import GROUP_NODE, KEY_LIGHT_PROPERTY, LIGHT_MODE_PROPERTY
 from ..core import model
+from ..core.arguments import real_number
 from ..core.shader_math import Graph
 from . import nodes
 
@@ -77,7 +78,10 @@ def make_base_material(
 def porous_parameters(
     base_color: ColorSource, ks: float, roughness: float, porosity: float, pore_depth_ratio: float
 ) -> tuple[bpy.types.Image | np.ndarray, dict[str, float]]:
-    """Validated (base colour or image, {group input: value}), as model.py clamps them."""
+    """Validated (base colour or image, {group input: value}), as model.py clamps them;
+    ValueError naming a parameter that is not a number."""
+    ks, roughness = real_number("ks", ks), real_number("roughness", roughness)
+    porosity, pore_depth_ratio = real_number("porosity", porosity), real_number("pore_depth_ratio", pore_depth_ratio)
     if isinstance(base_color, (str, os.PathLike)):
         base_color = load_image(base_color)
     if isinstance(base_color, bpy.types.Image):

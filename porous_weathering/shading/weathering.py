@@ -1,6 +1,7 @@
 """Weathered materials (docs/model.md §4): the porous material plus soiling, wet surfaces and
 efflorescence, composed from only the modes a material uses, aged by one time input."""
 
+import math
 import os
 import warnings
 from collections.abc import Sequence
@@ -16,6 +17,7 @@ from ..contracts import GROUP_NODE, LIGHT_MODE_PROPERTY, MODES_PROPERTY, socket_
 from ..core import environments, model
 from ..core import modes as weathering_modes
 from ..core.aging import age_for_years  # noqa: F401  (public: docs/api.md, porous_weathering.weathering)
+from ..core.arguments import choice, real_number
 from ..core.shader_math import Graph
 from . import material, nodes
 
@@ -69,7 +71,9 @@ def make_weathered_material(
     }
     state = model.weathering_state(modes, {**weathering, **constants})
     if weathering_modes.has_water_lobe(modes):
-        values["Water Roughness"] = float(model.sanitize("water_roughness", water_roughness, 0.0, 1.0))
+        values["Water Roughness"] = float(
+            model.sanitize("water_roughness", real_number("water_roughness", water_roughness), 0.0, 1.0)
+        )
     new = compat.new_material(name)
     try:
         group_node = material._replace_with_group(new, nodes.weathered_group(modes, light_mode))
@@ -111,14 +115,30 @@ def animate_weathering(
     """Keyframe a weathering input from ``start`` at ``frame_start`` to ``end`` at ``frame_end``.
 
     The default is the aging animation (time 0 -> 1); ``input_name="wet_level"`` with
-    start 1, end 0 dries a wet material.
+    start 1, end 0 dries a wet material.  ValueError for an empty frame range, an unknown input
+    or what is not a number, before any keyframe.
     """
-    group_node = material_.node_tree.nodes[GROUP_NODE]
-    socket = group_node.inputs[socket_name(input_name)]
-    item = weathering_modes.inputs()[input_name]
-    low, high = item.low, item.high
-    for frame, value in ((frame_start, start), (frame_end, end)):
-        socket.default_value = float(model.sanitize(input_name, value, low, high))
+    _check_frame_range(frame_start, frame_end)
+    item = weathering_modes.inputs()[choice("weathering input", input_name, weathering_modes.inputs())]
+    values = [
+        float(model.sanitize(input_name, real_number(name, value), item.low, item.high))
+        for name, value in (("start", start), ("end", end))
+    ]
+    _keyframe(material_, input_name, zip((frame_start, frame_end), values))
+
+
+def _check_frame_range(frame_start, frame_end):
+    """ValueError unless the frames are finite numbers and the last comes after the first (an
+    animation needs two frames)."""
+    first, last = real_number("frame_start", frame_start), real_number("frame_end", frame_end)
+    if not (math.isfinite(first) and math.isfinite(last) and last > first):
+        raise ValueError(f"frame range {frame_start}-{frame_end}: the last frame must come after the first")
+
+
+def _keyframe(material_, input_name, frames_and_values):
+    socket = material_.node_tree.nodes[GROUP_NODE].inputs[socket_name(input_name)]
+    for frame, value in frames_and_values:
+        socket.default_value = value
         socket.keyframe_insert("default_value", frame=frame)
 
 
@@ -139,21 +159,18 @@ def animate_years(
     at ``elemental_carbon`` µg/m³: t follows ``age_for_years`` (the square root of the dose by
     default, not a straight line), one keyframe per frame up to YEAR_KEYFRAMES of them.
     ValueError for an empty frame range or bad years, concentration or law, before any keyframe."""
-    if frame_end <= frame_start:
-        raise ValueError(f"frame range {frame_start}-{frame_end}: the last frame must come after the first")
-    age_for_years(years, elemental_carbon, law)  # checks the arguments before any keyframe
+    _check_frame_range(frame_start, frame_end)
+    age_for_years(years, elemental_carbon, law)  # checks the arguments
     frames = sorted(
         {
             round(frame)
-            for frame in np.linspace(frame_start, frame_end, min(frame_end - frame_start + 1, YEAR_KEYFRAMES))
+            for frame in np.linspace(frame_start, frame_end, min(int(frame_end - frame_start) + 1, YEAR_KEYFRAMES))
         }
     )
-    socket = material_.node_tree.nodes[GROUP_NODE].inputs[socket_name("time")]
-    for frame in frames:
-        socket.default_value = age_for_years(
-            years * (frame - frame_start) / (frame_end - frame_start), elemental_carbon, law
-        )
-        socket.keyframe_insert("default_value", frame=frame)
+    # every age before the first keyframe; the share of the range first: years x frames overflows
+    span = frame_end - frame_start
+    ages = [age_for_years(years * ((frame - frame_start) / span), elemental_carbon, law) for frame in frames]
+    _keyframe(material_, "time", zip(frames, ages))
 
 
 def mask_source(mask: str, value: MaskValue) -> float | str | bpy.types.Image:

@@ -12,7 +12,7 @@ import bpy
 from ..common import options
 from ..maps import bake
 from ..maps import registry as maps
-from .steps import SteppedOperator
+from .steps import SteppedOperator, absolute_folder
 
 
 class BakeMapsOperator(SteppedOperator):
@@ -36,7 +36,8 @@ class BakeMapsOperator(SteppedOperator):
         try:
             values = options.operator_values(self, bake.option_entries())
             values["maps"] = tuple(name for name in maps.names() if name in self.maps)
-            values["out_dir"] = bpy.path.abspath(self.out_dir)
+            # attribute maps need no folder: an unsaved .blend bakes them
+            values["out_dir"] = absolute_folder(self.out_dir) if self.target == "image" else self.out_dir
             chosen = bake.options_from_values(values)
             objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
             self._steps = bake.iter_bake(objects, chosen)  # refuses bad objects or folders here

@@ -6,7 +6,7 @@ import bpy
 
 from ..common import options
 from ..publish import export
-from .steps import SteppedOperator
+from .steps import SteppedOperator, absolute_folder
 
 
 class ExportVariantsOperator(SteppedOperator):
@@ -33,7 +33,7 @@ class ExportVariantsOperator(SteppedOperator):
         try:
             values = options.operator_values(self, export.option_entries())
             values["ages"] = export.parse_ages(values["ages"])
-            values["out_dir"] = bpy.path.abspath(values["out_dir"])
+            values["out_dir"] = absolute_folder(values["out_dir"])
             chosen = export.ExportOptions(**values)
             objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
             self._steps = export.iter_export(objects, chosen)  # refuses bad objects or folders here

@@ -296,17 +296,17 @@ class PW_OT_keyframe_aging(bpy.types.Operator):
 
     def execute(self, context):
         scene = context.scene
-        if self.years == 0.0:
-            weathering.animate_weathering(active_material(context), scene.frame_start, scene.frame_end)
-            return {"FINISHED"}
         try:
-            weathering.animate_years(
-                active_material(context),
-                scene.frame_start,
-                scene.frame_end,
-                self.years,
-                scene.porous_weathering.elemental_carbon(),
-            )
+            if self.years == 0.0:
+                weathering.animate_weathering(active_material(context), scene.frame_start, scene.frame_end)
+            else:
+                weathering.animate_years(
+                    active_material(context),
+                    scene.frame_start,
+                    scene.frame_end,
+                    self.years,
+                    scene.porous_weathering.elemental_carbon(),
+                )
         except ValueError as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}

@@ -5,6 +5,17 @@ steps), or to its end where there is no event loop (background, no window)."""
 import bpy
 
 
+def absolute_folder(path: str) -> str:
+    """An operator's folder as the file system knows it: "//" is the .blend's folder (the
+    defaults "//maps/", "//export/"); ValueError, one line, when the .blend is not saved yet."""
+    if path.startswith("//") and not bpy.data.filepath:
+        raise ValueError(
+            f"the folder {path!r} is beside the .blend ('//'), which is not saved yet: save it first, "
+            "or choose an absolute folder"
+        )
+    return bpy.path.abspath(path)
+
+
 class SteppedOperator:
     """Mixin: ``start`` runs ``self._steps``; subclasses say what a step shows (``_show``) and
     what Esc reports (``_cancelled_message``), and may wrap ``_next_step`` and ``_finish``."""
