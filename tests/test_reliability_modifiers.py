@@ -236,3 +236,31 @@ def test_the_bake_operator_links_the_maps_it_wrote_before_an_error(fresh_scene, 
         bpy.ops.porous_weathering.bake_maps(maps={"rain", "edges"}, out_dir=str(tmp_path), resolution=16, samples=2)
     assert obj.get(map_image_property("rain")) in bpy.data.images
     assert obj.get(map_image_property("edges")) is None
+
+
+def test_everything_at_once_bakes_every_map_and_a_stray_vertex_changes_nothing(fresh_scene, tmp_path):
+    """A mirrored box with Subdivision, Bevel, Array and Solidify, loose vertices and edges, and a
+    stray vertex far away (as scans carry): every map on both targets' terms, finite, in [0, 1],
+    and the image maps those of the same object without the stray vertex."""
+    objects = []
+    for name, stray in (("Stray", True), ("Tidy", False)):
+        obj = box(fresh_scene, name, scale=(-1.0, 1.0, 1.0))
+        solid = bmesh.new()
+        solid.from_mesh(obj.data)
+        loose = [solid.verts.new(point) for point in ((0.9, 0.0, 1.5), (0.9, 0.2, 1.5))]
+        solid.edges.new(loose)
+        if stray:
+            solid.verts.new((-1e5, -1e5, -1e5))
+        solid.to_mesh(obj.data)
+        solid.free()
+        for modifier in ("Subdivision Surface", "Bevel", "Array", "Solidify"):
+            MODIFIERS[modifier](obj)
+        objects.append(obj)
+    bpy.context.view_layer.update()
+    outcomes = bake_images(objects, tmp_path, alone())
+    assert all(outcome.status == "written" for outcome in outcomes)
+    for obj in objects:
+        for map_name in maps.names():
+            pixels = imageio.read_image(imageio.image_path(tmp_path, obj.name, map_name))[0]
+            assert np.isfinite(pixels).all() and pixels.min() >= 0.0 and pixels.max() <= 1.0, map_name
+    assert_agree(*objects, tmp_path)

@@ -561,28 +561,23 @@ class _Digests:
     """Per-object geometry digests of one bake run (occluders are shared between targets)."""
 
     def __init__(self):
-        self.depsgraph = bpy.context.evaluated_depsgraph_get()
         self._cache = {}
 
     def __call__(self, obj):
         if obj.name not in self._cache:
-            self._cache[obj.name] = _geometry_digest(obj.evaluated_get(self.depsgraph))
+            with scratch_scene.rendered(obj) as seen:
+                self._cache[obj.name] = _geometry_digest(seen.mesh, seen.matrix_world)
         return self._cache[obj.name]
 
 
-def _geometry_digest(evaluated):
-    """sha256 of the evaluated mesh: world-space vertex positions and face corners."""
-    mesh = evaluated.to_mesh()
-    try:
-        positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-        mesh.vertices.foreach_get("co", positions)
-        corners = np.empty(len(mesh.loops), dtype=np.int32)
-        mesh.loops.foreach_get("vertex_index", corners)
-        sizes = np.empty(len(mesh.polygons), dtype=np.int32)
-        mesh.polygons.foreach_get("loop_total", sizes)
-    finally:
-        evaluated.to_mesh_clear()
-    matrix = np.array(evaluated.matrix_world, dtype=np.float64)
+def _geometry_digest(mesh, matrix):
+    """sha256 of a mesh as rendered: world-space vertex positions and face corners."""
+    positions = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", positions)
+    corners = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", corners)
+    sizes = np.empty(len(mesh.polygons), dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", sizes)
     world = positions.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]
     digest = hashlib.sha256()
     for array in (world.astype(np.float32), corners, sizes):
