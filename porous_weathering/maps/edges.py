@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 from ..blender import mesh_arrays, scratch_scene
 from ..common.options import check, option
 from ..contracts import map_attribute
-from . import scan_checks
+from . import lightmap, scan_checks
 from .curvature import (  # noqa: F401  (public: docs/api.md, the ``edges`` module)
     BLOCK,
     CHANNELS,
@@ -48,6 +48,7 @@ from .curvature import (  # noqa: F401  (public: docs/api.md, the ``edges`` modu
     smooth_over_radius,
     unit,
 )
+from .lightmap_check import surface_points
 
 #: The colour attribute that carries the curvature mask C (per point, grey).
 EDGE_ATTRIBUTE = map_attribute("edges")
@@ -58,7 +59,7 @@ EDGE_ATTRIBUTE = map_attribute("edges")
 #: (docs/maps.md).  Coarser meshes (a façade's large faces) are read at every texel.
 VERTEX_SPACING = 0.25
 
-#: Default smoothing radius, as a fraction of the object's bounding-box diagonal (docs/maps.md:
+#: Default smoothing radius, as a fraction of the object's size (``object_size``; docs/maps.md:
 #: measured on the bundled samples and the scan-like bust).
 DEFAULT_EDGE_SCALE = 0.01
 
@@ -90,7 +91,8 @@ class EdgeSettings:
         high=1.0,
         low_open=True,
         metavar="F",
-        tooltip="Edge radius as a fraction of the object's bounding-box diagonal, when no Edge Radius is given",
+        tooltip="Edge radius as a fraction of the object's size (the bounding-box diagonal of its faces), "
+        "when no Edge Radius is given",
     )
     cavity_weight: float = option(
         DEFAULT_CAVITY_WEIGHT,
@@ -118,13 +120,32 @@ class EdgeSettings:
 # --- the radius --------------------------------------------------------------------------------
 
 
-def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None) -> float:
-    """The diagonal of ``obj``'s evaluated bounding box, in world units (it turns with the
-    object, so a rotation does not change it)."""
+def surface_box(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None) -> np.ndarray | None:
+    """The (low, high) corners (2, 3), in ``obj``'s own space, of the box around its surface:
+    the points its evaluated mesh's faces of non-zero area use (``surface_points``), so that
+    loose vertices and edges and collapsed faces (a scan's stray point) play no part; None when
+    it has no face of non-zero area."""
     depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     evaluated = obj.evaluated_get(depsgraph)
-    corners = np.array(evaluated.bound_box, dtype=np.float64)
-    return float(np.linalg.norm(np.array(evaluated.matrix_world)[:3, :3] @ (corners[6] - corners[0])))
+    mesh = evaluated.to_mesh()
+    try:
+        points = surface_points(
+            mesh_arrays.attribute(mesh, "position", np.float32, 3), lightmap.triangle_corners(mesh)[1]
+        )
+    finally:
+        evaluated.to_mesh_clear()
+    return np.stack([points.min(axis=0), points.max(axis=0)]) if len(points) else None
+
+
+def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None) -> float:
+    """The object's size, from which every default that scales with it is taken: the diagonal
+    of ``surface_box``, in world units (it turns with the object, so a rotation does not change
+    it); 0 when it has no face of non-zero area."""
+    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+    box = surface_box(obj, depsgraph)
+    if box is None:
+        return 0.0
+    return float(np.linalg.norm(np.array(obj.evaluated_get(depsgraph).matrix_world)[:3, :3] @ (box[1] - box[0])))
 
 
 def effective_radius(
