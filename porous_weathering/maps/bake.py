@@ -37,7 +37,7 @@ from ..common import atomic, imageio
 from ..common.imageio import HASH_KEY, MAP_KEY, OBJECT_KEY, SOURCE_KEY, UV_MAP_KEY, image_path  # noqa: F401  (public: docs/api.md)
 from ..common.options import Entry, check, check_value, declared, entries, folder_path, option, to_argv
 from ..contracts import map_image_property
-from . import lightmap, scan_checks
+from . import edges, lightmap, scan_checks
 from . import registry as maps
 from .provenance import OverwriteRefused, Provenance, refuse_overwrite  # noqa: F401  (public: docs/api.md)
 
@@ -260,6 +260,8 @@ def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | 
                 f"object '{obj.name}': its modifiers ({', '.join(m.name for m in obj.modifiers)}) leave no face: "
                 "nothing to bake on; change or disable them"
             )
+        if edges.surface_box(obj) is None:  # every default length is a fraction of the surface's size
+            raise ValueError(f"object '{obj.name}' has no face of non-zero area: nothing to bake on")
         library = obj.library or obj.data.library
         if library is not None:  # UV maps and attributes added to library data are lost on save
             raise ValueError(
