@@ -341,10 +341,31 @@ def _grown(chosen, vertices, polygons, count, rings):
 # --- the child process ------------------------------------------------------------------------
 
 
+#: PR_SET_PDEATHSIG (linux/prctl.h): the signal a process gets when its parent dies.
+_PR_SET_PDEATHSIG = 1
+
+
+def end_with_parent(parent: int) -> None:
+    """Have the kernel kill this process as soon as its ``parent`` (its pid) dies, however it
+    dies (SIGKILL too), on Linux (PR_SET_PDEATHSIG): even while xatlas' C code holds the GIL,
+    where ``main``'s thread that watches stdin cannot run (elsewhere that thread is all there
+    is). The kernel tells when the thread that started this process ends: the bake's unwrap
+    runs on the thread that started it."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # it died before the kernel was asked to tell
+        os._exit(1)
+
+
 def main() -> None:
-    """The child process: the job on stdin (its length, then an npz), progress and errors on
-    stderr, the result (an npz) on stdout. It checks the job's candidate UV maps in order and
-    picks the first that passes, or makes a lightmap."""
+    """The child process of the parent whose pid is its one argument: the job on stdin (its
+    length, then an npz), progress and errors on stderr, the result (an npz) on stdout. It
+    checks the job's candidate UV maps in order and picks the first that passes, or makes a
+    lightmap."""
+    end_with_parent(int(sys.argv[1]))
     size = int.from_bytes(sys.stdin.buffer.read(8), "little")
     job = np.load(io.BytesIO(sys.stdin.buffer.read(size)))
     threading.Thread(target=lambda: (os.read(0, 1), os._exit(1)), daemon=True).start()  # the caller died
