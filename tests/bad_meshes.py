@@ -74,6 +74,11 @@ def zero_area_faces(scene, _tmp):
     return mesh_object(scene, "Slivers", vertices, faces=[(0, 1, 2, 3), (4, 5, 6), (7, 8, 9)])
 
 
+def only_zero_area_face(scene, _tmp):
+    """One triangle whose corners lie on a line: faces, but no surface."""
+    return mesh_object(scene, "Sliver", [(0, 0, 0), (1, 0, 0), (2, 0, 0)], faces=[(0, 1, 2)])
+
+
 def non_manifold_edges(scene, _tmp):
     """Three quads sharing one edge (a fin), plus an open boundary everywhere else."""
     vertices = [(0, 0, 0), (0, 1, 0), (1, 0, 0), (1, 1, 0), (-1, 0, 0), (-1, 1, 0), (0, 0, 1), (0, 1, 1)]
@@ -195,6 +200,7 @@ def linked_object(scene, tmp):
 BUILDERS = {
     "no faces": no_faces,
     "zero-area faces": zero_area_faces,
+    "only a zero-area face": only_zero_area_face,
     "non-manifold edges": non_manifold_edges,
     "loose vertices": loose_vertices,
     "n-gons": ngons,
