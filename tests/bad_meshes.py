@@ -100,6 +100,16 @@ def loose_vertices(scene, _tmp):
     return obj
 
 
+def noisy_grid(scene, name="Noisy", quads=99):
+    """A unit square of ``quads``² quads, its heights random (a rough scan's patch): 19,602
+    triangles, which xatlas charts for about 20 s on 2 cores."""
+    rng = np.random.default_rng(1)
+    x, y = (axis.ravel() for axis in np.meshgrid(np.linspace(0, 1, quads + 1), np.linspace(0, 1, quads + 1)))
+    corner = np.arange((quads + 1) ** 2).reshape(quads + 1, quads + 1)[:-1, :-1].ravel()
+    faces = np.stack([corner, corner + 1, corner + quads + 2, corner + quads + 1], axis=1)
+    return mesh_object(scene, name, np.stack([x, y, 0.02 * rng.standard_normal(x.size)], axis=1), faces=faces)
+
+
 def ngons(scene, _tmp):
     """An octagonal prism: two 8-sided caps and quads."""
     angles = np.linspace(0, 2 * np.pi, 9)[:-1]
