@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from bad_meshes import BUILDERS, cube, data_counts, mesh_object, snapshot
+from helpers import run_cli
 from porous_weathering.blender import mesh_arrays
 from porous_weathering.common import imageio
 from porous_weathering.maps import bake, edges, lightmap, rain
@@ -110,6 +111,20 @@ def test_bad_mesh_works_or_is_refused_leaving_nothing(fresh_scene, registered, t
     assert f"'{obj.name}'" in str(refusal.value) and REFUSED[case, operation] in str(refusal.value)
     assert snapshot([obj]) == before
     assert not out_dir.exists() or not os.listdir(out_dir)
+
+
+@pytest.mark.parametrize("target", ["image", "attribute"])
+def test_the_command_refuses_a_mesh_without_surface_in_one_line(fresh_scene, tmp_path, target):
+    """Before any map, as for a mesh without faces: exit 1 (the file failed), one line."""
+    BUILDERS["only a zero-area face"](fresh_scene, tmp_path)
+    blend = tmp_path / "sliver.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    result = run_cli("bake", blend, "--target", target, "--save", "--out", tmp_path / "maps", "--samples", 2)
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert [line for line in result.stderr.splitlines() if line.startswith("error")] == [
+        f"error: {blend}: object 'Sliver' has no face of non-zero area: nothing to bake on"
+    ]
+    assert not (tmp_path / "maps").exists() or not os.listdir(tmp_path / "maps")
 
 
 def face_means(obj, values):
