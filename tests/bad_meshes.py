@@ -74,6 +74,11 @@ def zero_area_faces(scene, _tmp):
     return mesh_object(scene, "Slivers", vertices, faces=[(0, 1, 2, 3), (4, 5, 6), (7, 8, 9)])
 
 
+def only_zero_area_face(scene, _tmp):
+    """One triangle whose corners lie on a line: faces, but no surface."""
+    return mesh_object(scene, "Sliver", [(0, 0, 0), (1, 0, 0), (2, 0, 0)], faces=[(0, 1, 2)])
+
+
 def non_manifold_edges(scene, _tmp):
     """Three quads sharing one edge (a fin), plus an open boundary everywhere else."""
     vertices = [(0, 0, 0), (0, 1, 0), (1, 0, 0), (1, 1, 0), (-1, 0, 0), (-1, 1, 0), (0, 0, 1), (0, 1, 1)]
@@ -93,6 +98,16 @@ def loose_vertices(scene, _tmp):
     mesh.edges[-1].vertices = (first + 1, first + 2)
     mesh.update()
     return obj
+
+
+def noisy_grid(scene, name="Noisy", quads=99):
+    """A unit square of ``quads``² quads, its heights random (a rough scan's patch): 19,602
+    triangles, which xatlas charts for about 20 s on 2 cores."""
+    rng = np.random.default_rng(1)
+    x, y = (axis.ravel() for axis in np.meshgrid(np.linspace(0, 1, quads + 1), np.linspace(0, 1, quads + 1)))
+    corner = np.arange((quads + 1) ** 2).reshape(quads + 1, quads + 1)[:-1, :-1].ravel()
+    faces = np.stack([corner, corner + 1, corner + quads + 2, corner + quads + 1], axis=1)
+    return mesh_object(scene, name, np.stack([x, y, 0.02 * rng.standard_normal(x.size)], axis=1), faces=faces)
 
 
 def ngons(scene, _tmp):
@@ -195,6 +210,7 @@ def linked_object(scene, tmp):
 BUILDERS = {
     "no faces": no_faces,
     "zero-area faces": zero_area_faces,
+    "only a zero-area face": only_zero_area_face,
     "non-manifold edges": non_manifold_edges,
     "loose vertices": loose_vertices,
     "n-gons": ngons,

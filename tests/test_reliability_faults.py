@@ -7,12 +7,14 @@ an operator run from Python pushes none there (its UNDO flag only acts with a wi
 these tests push a step before and after each operation themselves, as the UI does.
 """
 
+import contextlib
 import os
 import pathlib
 import shutil
 import signal
 import subprocess
 import sys
+import time
 from dataclasses import replace
 
 import bpy
@@ -21,7 +23,7 @@ import numpy as np
 import pytest
 
 import porous_weathering
-from bad_meshes import cube, snapshot
+from bad_meshes import cube, noisy_grid, snapshot
 from helpers import corner_values
 from porous_weathering import ui
 from porous_weathering.common import imageio
@@ -161,6 +163,7 @@ import bpy
 from porous_weathering import bake, rain
 from porous_weathering.common import imageio
 blend, out, mode = sys.argv[1:4]
+progress = None
 bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False, use_scripts=False)
 if mode == "kill-in-cycles":
     original = rain._bake
@@ -174,13 +177,17 @@ elif mode == "kill-before-rename":
         print("TEMPORARY WRITTEN", flush=True)
         time.sleep(120)
     imageio.os.replace = stalled
+elif mode == "kill-in-unwrap":
+    def progress(fraction, message):
+        if "lightmap: charts" in message:
+            print("UNWRAPPING", flush=True)
 elif mode == "disk-full":
     signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a full disk: writes fail with EFBIG, not a signal
     resource.setrlimit(resource.RLIMIT_FSIZE, (64, resource.RLIM_INFINITY))
 options = bake.BakeOptions(maps=("rain",), out_dir=out, resolution=64,
                            rain_settings=rain.RainSettings(samples=2, cone=40))
 try:
-    bake.bake_maps([bpy.data.objects["Stone 0"]], options)
+    bake.bake_maps([bpy.data.objects["Stone 0"]], options, progress=progress)
 except OSError as error:
     print("ERROR", error, flush=True)
     sys.exit(3)
@@ -235,6 +242,59 @@ def test_killed_bake_leaves_the_previous_map_whole(baked, mode, signal_line):
     # killed between writing and renaming, the whole new map is left as a hidden temporary file
     assert all(name.startswith(".pw_") and name.endswith(".exr") for name in leftovers)
     assert len(leftovers) == (mode == "kill-before-rename")
+
+
+def unwrap_processes(parent):
+    """The pids of the unwrap's child processes (maps/lightmap_child.py) of ``parent``."""
+    found = []
+    for stat in pathlib.Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            command = (stat.parent / "cmdline").read_bytes()
+        except OSError:  # ended meanwhile
+            continue
+        if int(fields[1]) == parent and b"lightmap_child.py" in command:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def running(pid):
+    """Whether ``pid`` runs (a zombie waiting for its reaper does not)."""
+    try:
+        return pathlib.Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_killed_bake_takes_its_unwrap_process_with_it(fresh_scene, tmp_path):
+    """SIGKILL while xatlas charts (its C code holds the GIL, so the child's thread that watches
+    stdin cannot run): the child ends within seconds, not when xatlas is done."""
+    noisy_grid(fresh_scene, "Stone 0")
+    blend = tmp_path / "scan.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend), copy=True)
+    child = start_child(blend, tmp_path / "maps", "kill-in-unwrap")
+    unwraps = []
+    try:
+        lines = iter(child.stdout.readline, "")
+        assert any(line.strip() == "UNWRAPPING" for line in lines), child.stderr.read()
+        unwraps = unwrap_processes(child.pid)
+        time.sleep(1.0)  # into xatlas' charting
+        assert all(running(pid) for pid in unwraps) and len(unwraps) == 1
+        child.send_signal(signal.SIGKILL)
+        child.wait(timeout=60)
+        deadline = time.monotonic() + 5.0
+        while any(running(pid) for pid in unwraps) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not any(running(pid) for pid in unwraps)
+    finally:
+        for pid in unwraps:  # no orphan left behind by a failure
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, signal.SIGKILL)
+        child.kill()
+        child.wait(timeout=60)
+        child.stdout.close()
+        child.stderr.close()
 
 
 def test_full_disk_fails_clearly_and_keeps_the_previous_map(baked):

@@ -1,28 +1,32 @@
 """Bad meshes through everything that takes objects: the add-material operator and the map
-bakes (image and attribute targets, rain and edges). Each case either works, giving whole,
+bakes (image and attribute targets, rain, edges and run-off). Each case either works, giving whole,
 finite maps, or is refused with a message naming the object, leaving every datablock, UV map,
 attribute, material slot and output folder as it was (tests/bad_meshes.py builds the cases)."""
 
 import os
+import time
 
 import bpy
 
 import numpy as np
 import pytest
 
-from bad_meshes import BUILDERS, cube, data_counts, snapshot
+from bad_meshes import BUILDERS, cube, data_counts, mesh_object, snapshot
+from helpers import run_cli
 from porous_weathering.blender import mesh_arrays
 from porous_weathering.common import imageio
-from porous_weathering.maps import bake, edges, rain
+from porous_weathering.maps import bake, edges, lightmap, rain
 from porous_weathering.samples import studio
 
 FAST_RAIN = rain.RainSettings(samples=2)
-MAPS = ("rain", "edges")
+MAPS = ("rain", "edges", "runoff")
 
 #: (case, operation) -> what the refusal must say besides the object's name.
 REFUSED = {
     ("no faces", "image"): "without faces",
     ("no faces", "attribute"): "without faces",
+    ("only a zero-area face", "image"): "no face of non-zero area",
+    ("only a zero-area face", "attribute"): "no face of non-zero area",
     ("curve", "image"): "type is CURVE",
     ("curve", "attribute"): "type is CURVE",
     ("text", "image"): "type is FONT",
@@ -76,7 +80,7 @@ def assert_whole(operation, obj, made):
             values = pixels
         else:
             values = attribute_values(obj.data, outcome.where)
-            assert len(values) == len(obj.data.loops if outcome.map == "rain" else obj.data.vertices)
+            assert len(values) == len(obj.data.vertices if outcome.map == "edges" else obj.data.loops)
         assert np.isfinite(values).all() and values.min() >= 0.0 and values.max() <= 1.05
 
 
@@ -94,6 +98,20 @@ def test_bad_mesh_works_or_is_refused_leaving_nothing(fresh_scene, registered, t
     assert f"'{obj.name}'" in str(refusal.value) and REFUSED[case, operation] in str(refusal.value)
     assert snapshot([obj]) == before
     assert not out_dir.exists() or not os.listdir(out_dir)
+
+
+@pytest.mark.parametrize("target", ["image", "attribute"])
+def test_the_command_refuses_a_mesh_without_surface_in_one_line(fresh_scene, tmp_path, target):
+    """Before any map, as for a mesh without faces: exit 1 (the file failed), one line."""
+    BUILDERS["only a zero-area face"](fresh_scene, tmp_path)
+    blend = tmp_path / "sliver.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    result = run_cli("bake", blend, "--target", target, "--save", "--out", tmp_path / "maps", "--samples", 2)
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert [line for line in result.stderr.splitlines() if line.startswith("error")] == [
+        f"error: {blend}: object 'Sliver' has no face of non-zero area: nothing to bake on"
+    ]
+    assert not (tmp_path / "maps").exists() or not os.listdir(tmp_path / "maps")
 
 
 def face_means(obj, values):
@@ -201,3 +219,82 @@ def test_refusal_of_a_linked_object_names_its_library(fresh_scene, registered, t
         with pytest.raises(RuntimeError, match=f"'{obj.name}'.*library stones.blend"):
             bpy.ops.porous_weathering.add_porous_material()
         assert snapshot([obj]) == before
+
+
+# --- stray points and far-apart faces ------------------------------------------------------------
+
+#: Where a scan's stray point lies: far from the object, on every axis.
+STRAY = (-1e5, -1e5, -1e5)
+
+
+def within(steps, seconds):
+    """The value a generator returns, driving it for at most ``seconds`` (it is closed then:
+    an unwrap's child process is stopped), else the test fails."""
+    deadline = time.monotonic() + seconds
+    try:
+        while True:
+            next(steps)
+            assert time.monotonic() < deadline, f"still running after {seconds} s"
+    except StopIteration as done:
+        return done.value
+    finally:
+        steps.close()
+
+
+def baked_maps(obj, options):
+    """{map: its values} of ``obj`` once ``options`` are baked (within a minute)."""
+    outcomes = [step.outcome for step in within(_steps(obj, options), 60) if step.outcome is not None]
+    if options.target == "image":
+        return {o.map: imageio.read_image(o.where)[0] for o in outcomes}
+    return {o.map: attribute_values(obj.data, o.where) for o in outcomes}
+
+
+def _steps(obj, options):
+    """The bake's steps as a generator that returns them all."""
+    steps = []
+    for step in bake.iter_bake([obj], options):
+        steps.append(step)
+        yield step
+    return steps
+
+
+@pytest.mark.parametrize("target", ["image", "attribute"])
+def test_a_stray_vertex_changes_no_map_and_no_time(fresh_scene, tmp_path, target):
+    """A tilted plane's maps (the unwrap, rain, edges, run-off), then the same with one loose
+    vertex far away: the defaults scale with the faces, and the unwrap sees only their points."""
+    options = bake.BakeOptions(target=target, resolution=32, out_dir=str(tmp_path), rain_settings=FAST_RAIN)
+    obj = studio.add_plane(fresh_scene, "Tilted", size=1.0)
+    obj.rotation_euler = (0.5, 0.0, 0.0)
+    while obj.data.uv_layers:  # a scan's: the image bake unwraps it
+        obj.data.uv_layers.remove(obj.data.uv_layers[0])
+    bpy.context.view_layer.update()
+    size = edges.object_size(obj)
+    clean = baked_maps(obj, options)
+    if target == "image":
+        obj.data.uv_layers.remove(obj.data.uv_layers[lightmap.LIGHTMAP_UV])  # unwrapped again
+    obj.data.vertices.add(1)
+    obj.data.vertices[-1].co = STRAY
+    obj.data.update()
+    bpy.context.view_layer.update()
+    started = time.monotonic()
+    stray = baked_maps(obj, options)
+    assert time.monotonic() - started < 30
+    assert clean["runoff"].max() > 0.9
+    for name, values in clean.items():
+        assert np.allclose(stray[name][: len(values)], values, atol=1e-6), name
+    assert edges.object_size(obj) == size
+
+
+def test_faces_a_million_sizes_apart_get_a_lightmap_in_bounded_time(fresh_scene):
+    """Two unit cubes 10^6 apart in one mesh: xatlas (float32) charted them into zero-area UVs,
+    and its packing of those never ended."""
+    corners = np.array([(x, y, z) for x in (0, 1) for y in (0, 1) for z in (0, 1)], float)
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    obj = mesh_object(
+        fresh_scene,
+        "Far Apart",
+        np.concatenate([corners, corners + 1e6]),
+        faces=quads + [tuple(np.add(q, 8)) for q in quads],
+    )
+    made = within(lightmap.iter_lightmap(obj.data, 32), 30)
+    assert made.name == lightmap.LIGHTMAP_UV and made.report.ok

@@ -46,7 +46,7 @@ from ..common.imageio import (  # noqa: F401  (public: docs/api.md)
 )
 from ..common.options import Entry, check, check_value, declared, entries, folder_path, option, to_argv
 from ..contracts import map_image_property
-from . import lightmap, scan_checks
+from . import edges, lightmap, scan_checks
 from . import registry as maps
 from .provenance import ForeignInput, OverwriteRefused, Provenance, refuse_overwrite  # noqa: F401  (public: docs/api.md)
 
@@ -269,6 +269,8 @@ def check_targets(objects: Sequence["bpy.types.Object"], options: BakeOptions | 
                 f"object '{obj.name}': its modifiers ({', '.join(m.name for m in obj.modifiers)}) leave no face: "
                 "nothing to bake on; change or disable them"
             )
+        if edges.surface_box(obj) is None:  # every default length is a fraction of the surface's size
+            raise ValueError(f"object '{obj.name}' has no face of non-zero area: nothing to bake on")
         library = obj.library or obj.data.library
         if library is not None:  # UV maps and attributes added to library data are lost on save
             raise ValueError(

@@ -118,8 +118,6 @@ def mesh_surface(
     points = local @ matrix_world[:3, :3].T + matrix_world[:3, 3]
     if not np.isfinite(points).all():
         raise ValueError(f"object '{name}' has vertices at non-finite positions")
-    if np.ptp(points, axis=0).max() / radius >= 2**20:  # the grid's cells could not be numbered
-        raise _too_small(name, radius)
     spacing = SAMPLE_SPACING * radius
     loop_vertex, loop_edge, edge_vertices = corner_verts, corner_edges, edge_verts
     loop_bounds = np.append(loop_starts, len(loop_vertex))
@@ -127,6 +125,13 @@ def mesh_surface(
     side = 0.5 if np.linalg.det(matrix_world[:3, :3]) >= 0 else -0.5
     faces = _face_sums(points, loop_vertex, loop_edge, loop_bounds, side, len(edge_vertices), spacing)
     area_vectors, centres, area, normals, first_face, last_face, fanned = faces
+    # the surface: the vertices of faces of non-zero area (not loose vertices, which carry nothing)
+    on_surface = np.zeros(len(points), dtype=bool)
+    on_surface[loop_vertex[np.repeat(np.linalg.norm(area_vectors, axis=1) > 0, np.diff(loop_bounds))]] = True
+    if not on_surface.any():
+        raise ValueError(f"object '{name}' has no face of non-zero area to measure curvature on")
+    if np.ptp(points[on_surface], axis=0).max() / radius >= 2**20:  # the grid's cells could not be numbered
+        raise _too_small(name, radius)
     edge_uses = np.bincount(loop_edge, minlength=len(edge_vertices))
     if encloses_negative_volume(edge_uses, centres, area_vectors):
         area_vectors, normals = -area_vectors, -normals  # inside out: renders shade it from outside
@@ -160,7 +165,8 @@ def mesh_surface(
             added.append(
                 _edge_samples(edge_vertices[edges[long]], middle, integrated[long], ratio[block][long], vertices)
             )
-    return Surface(vertices, Samples.joined([vertices, *added]))
+    on_faces = Samples(*(getattr(vertices, name)[on_surface] for name in Samples.__annotations__))
+    return Surface(vertices, Samples.joined([on_faces, *added]))
 
 
 def unit(vectors: np.ndarray) -> np.ndarray:
@@ -346,6 +352,14 @@ def smooth_over_radius(
     """
     points = np.asarray(points, dtype=np.float64)
     normals = np.asarray(normals, dtype=np.float64)
+    # only the points within two radii of the sources' box can get a weight: the others (a
+    # loose vertex far away) would only stretch the grid
+    low, high = sources.points.min(axis=0) - 2 * radius, sources.points.max(axis=0) + 2 * radius
+    near = np.all((points >= low) & (points <= high), axis=1)
+    if not near.all():
+        values = np.zeros(len(points), dtype=np.float32)
+        values[near] = smooth_over_radius(sources, points[near], normals[near], radius, shifts)
+        return values
     numerator = np.zeros(len(points))
     denominator = np.zeros(len(points))
     for shift in shifts:

@@ -19,6 +19,7 @@ the attribute.
 """
 
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
 import bpy
@@ -30,7 +31,7 @@ from ..blender import mesh_arrays, scratch_scene
 from ..common import imageio
 from ..common.options import check, option
 from ..contracts import map_attribute
-from . import scan_checks
+from . import lightmap, scan_checks
 from .curvature import (  # noqa: F401  (public: docs/api.md, the ``edges`` module)
     BLOCK,
     CHANNELS,
@@ -49,6 +50,7 @@ from .curvature import (  # noqa: F401  (public: docs/api.md, the ``edges`` modu
     smooth_over_radius,
     unit,
 )
+from .lightmap_check import surface_points
 
 #: The colour attribute that carries the curvature mask C (per point, grey).
 EDGE_ATTRIBUTE = map_attribute("edges")
@@ -59,7 +61,7 @@ EDGE_ATTRIBUTE = map_attribute("edges")
 #: (docs/maps.md).  Coarser meshes (a façade's large faces) are read at every texel.
 VERTEX_SPACING = 0.25
 
-#: Default smoothing radius, as a fraction of the object's bounding-box diagonal (docs/maps.md:
+#: Default smoothing radius, as a fraction of the object's size (``object_size``; docs/maps.md:
 #: measured on the bundled samples and the scan-like bust).
 DEFAULT_EDGE_SCALE = 0.01
 
@@ -91,7 +93,8 @@ class EdgeSettings:
         high=1.0,
         low_open=True,
         metavar="F",
-        tooltip="Edge radius as a fraction of the object's bounding-box diagonal, when no Edge Radius is given",
+        tooltip="Edge radius as a fraction of the object's size (the bounding-box diagonal of its faces), "
+        "when no Edge Radius is given",
     )
     cavity_weight: float = option(
         DEFAULT_CAVITY_WEIGHT,
@@ -119,13 +122,42 @@ class EdgeSettings:
 # --- the radius --------------------------------------------------------------------------------
 
 
-def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None) -> float:
-    """The diagonal of ``obj``'s evaluated bounding box, in world units (it turns with the
-    object, so a rotation does not change it)."""
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
+@contextmanager
+def evaluated_mesh(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None):
+    """(mesh, matrix_world) of ``obj`` evaluated in ``depsgraph``, or, without one (the bake's
+    way), as the render sees it (``scratch_scene.rendered``: modifiers at their render settings)."""
+    if depsgraph is None:
+        with scratch_scene.rendered(obj) as seen:
+            yield seen.mesh, seen.matrix_world
+        return
     evaluated = obj.evaluated_get(depsgraph)
-    corners = np.array(evaluated.bound_box, dtype=np.float64)
-    return float(np.linalg.norm(np.array(evaluated.matrix_world)[:3, :3] @ (corners[6] - corners[0])))
+    mesh = evaluated.to_mesh()
+    try:
+        yield mesh, np.array(evaluated.matrix_world, dtype=np.float64)
+    finally:
+        evaluated.to_mesh_clear()
+
+
+def surface_box(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None) -> np.ndarray | None:
+    """The (low, high) corners (2, 3), in ``obj``'s own space, of the box around its surface:
+    the points its evaluated mesh's (``evaluated_mesh``) faces of non-zero area use
+    (``surface_points``), so that loose vertices and edges and collapsed faces (a scan's stray
+    point) play no part; None when it has no face of non-zero area."""
+    with evaluated_mesh(obj, depsgraph) as (mesh, _):
+        points = surface_points(
+            mesh_arrays.attribute(mesh, "position", np.float32, 3), lightmap.triangle_corners(mesh)[1]
+        )
+    return np.stack([points.min(axis=0), points.max(axis=0)]) if len(points) else None
+
+
+def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None) -> float:
+    """The object's size, from which every default that scales with it is taken: the diagonal
+    of ``surface_box``, in world units (it turns with the object, so a rotation does not change
+    it); 0 when it has no face of non-zero area."""
+    box = surface_box(obj, depsgraph)
+    if box is None:
+        return 0.0
+    return float(np.linalg.norm(np.array(obj.matrix_world)[:3, :3] @ (box[1] - box[0])))
 
 
 def effective_radius(
@@ -145,19 +177,16 @@ def effective_radius(
 
 
 def surface(obj: bpy.types.Object, radius: float, depsgraph: bpy.types.Depsgraph | None = None) -> Surface:
-    """The ``Surface`` of ``obj``'s evaluated mesh (modifiers applied) for smoothing ``radius``."""
+    """The ``Surface`` of ``obj``'s evaluated mesh (``evaluated_mesh``: modifiers applied) for
+    smoothing ``radius``."""
     if not np.isfinite(radius) or radius <= 0:
         raise ValueError(f"curvature radius must be a positive number of scene units, not {radius}")
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
-    evaluated = obj.evaluated_get(depsgraph)
-    mesh = evaluated.to_mesh() if obj.type in scratch_scene.GEOMETRY_TYPES else None
-    try:
-        if mesh is None or not mesh.polygons:
+    if obj.type not in scratch_scene.GEOMETRY_TYPES:
+        raise ValueError(f"object '{obj.name}' has no faces to measure curvature on")
+    with evaluated_mesh(obj, depsgraph) as (mesh, matrix_world):
+        if not mesh.polygons:
             raise ValueError(f"object '{obj.name}' has no faces to measure curvature on")
-        return _surface(mesh, np.array(evaluated.matrix_world), radius, obj.name)
-    finally:
-        if mesh is not None:
-            evaluated.to_mesh_clear()
+        return _surface(mesh, matrix_world, radius, obj.name)
 
 
 def _surface(mesh, matrix_world, radius, name):
@@ -238,7 +267,6 @@ def write_curvature_attribute(
     settings = settings or EdgeSettings()
     if radius is not None:
         settings = replace(settings, radius=radius)
-    depsgraph = depsgraph or bpy.context.evaluated_depsgraph_get()
     smoothing = effective_radius(obj, settings, depsgraph)
     mask = _settings_mask(curvature(obj, smoothing, depsgraph), smoothing, settings)
     write_edge_attribute(obj, mask)
@@ -275,9 +303,8 @@ def edge_mask_image(
         raise ValueError(f"object '{obj.name}' has no faces to bake an edge mask on")
     if uv_map_name not in obj.data.uv_layers:
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map_name}'")
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    radius = effective_radius(obj, settings, depsgraph)
-    found = surface(obj, radius, depsgraph)
+    radius = effective_radius(obj, settings)
+    found = surface(obj, radius)
     if not obj.modifiers and _median_edge(obj) <= VERTEX_SPACING * radius:
         at_vertices = smooth_over_radius(found.sources, found.vertices.points, found.vertices.normals, radius)
         values, islands = scratch_scene.bake_point_values(obj, uv_map_name, resolution, at_vertices)

@@ -168,7 +168,7 @@ def iter_lightmap(
     )
     # No files: pipes work where a disk is full or file sizes are limited, and leave nothing behind.
     process = subprocess.Popen(
-        [sys.executable, "-P", os.path.abspath(lightmap_child.__file__)],
+        [sys.executable, "-P", os.path.abspath(lightmap_child.__file__), str(os.getpid())],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -181,7 +181,7 @@ def iter_lightmap(
         reader.start()
         try:
             process.stdin.write(len(job.getbuffer()).to_bytes(8, "little") + job.getbuffer())
-            process.stdin.flush()  # and kept open: the child ends when it closes (this process died)
+            process.stdin.flush()  # and kept open: the child ends when it closes (``end_with_parent``)
         except BrokenPipeError:  # the child died first: its last words say why
             pass
         fraction, stage, errors, started = 0.0, "starting", [], time.monotonic()

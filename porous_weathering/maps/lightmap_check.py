@@ -6,6 +6,9 @@ A UV map can hold a bake at a resolution when ``check_uvs`` passes it: every cor
 ``padding`` texels from those of every other island; and at most 0.1% of the triangles get
 under 1% of their fair (area-proportional) share of the map's texels.
 
+It also says which points of a mesh make its surface (``surface_points``), from which the
+object's size, the run-off's grid and the unwrap's placing are measured.
+
 Pure numpy, and no import of this package: the unwrap's child process (``lightmap_child``)
 loads this file by its path.
 """
@@ -39,6 +42,16 @@ def triangle_areas(triangles: np.ndarray) -> np.ndarray:
     if triangles.shape[-1] == 2:
         return 0.5 * np.abs(_cross(u, v))
     return 0.5 * np.linalg.norm(np.cross(u, v), axis=1)
+
+
+def surface_points(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """The points of ``positions`` (V, 3) that the ``triangles`` (T, 3) of non-zero area use, as
+    float64 (n, 3): the surface, without loose vertices, the ends of loose edges or collapsed
+    faces (a scan's stray point far away must not change the object's size)."""
+    positions = np.asarray(positions, dtype=np.float64)
+    triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    solid = triangle_areas(positions[triangles]) > 0
+    return positions[np.unique(triangles[solid])]
 
 
 def _cross(u, v):

@@ -26,7 +26,15 @@ from dataclasses import asdict
 import numpy as np
 
 if __package__:
-    from .lightmap_check import LightmapReport, check_uvs, connected_components, inspect_uvs, rasterise, triangle_areas
+    from .lightmap_check import (
+        LightmapReport,
+        check_uvs,
+        connected_components,
+        inspect_uvs,
+        rasterise,
+        surface_points,
+        triangle_areas,
+    )
 else:  # the child process: the lightmap check beside this file, without the package (and bpy)
     import importlib.util
 
@@ -36,12 +44,13 @@ else:  # the child process: the lightmap check beside this file, without the pac
     _check = importlib.util.module_from_spec(_spec)
     sys.modules[_spec.name] = _check
     _spec.loader.exec_module(_check)
-    LightmapReport, check_uvs, connected_components, inspect_uvs, rasterise, triangle_areas = (
+    LightmapReport, check_uvs, connected_components, inspect_uvs, rasterise, surface_points, triangle_areas = (
         _check.LightmapReport,
         _check.check_uvs,
         _check.connected_components,
         _check.inspect_uvs,
         _check.rasterise,
+        _check.surface_points,
         _check.triangle_areas,
     )
 
@@ -62,6 +71,10 @@ CULPRIT_RINGS = 4
 #: the bake, so that the texel centres of the bake are unlikely to find one the search missed.
 FOLD_SAMPLING = 1.0
 
+#: UVs (in the units of ``normalised``: a mean triangle has an area of 1) farther out than this
+#: lose their detail to xatlas' float32 (steps of 1/128 there, a step of 8 at 10^6).
+FAR_UV = 2.0**16
+
 AXES = np.array([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)], dtype=np.float64)
 
 Progress = Callable[[float, str], None]
@@ -74,9 +87,13 @@ PROGRESS_TAG, ERROR_TAG = "PW-PROGRESS", "PW-ERROR"
 
 
 def normalised(positions: np.ndarray, vertices: np.ndarray) -> np.ndarray:
-    """``positions`` centred on their bounding box and scaled to a mean triangle area of 1."""
+    """``positions`` centred on the bounding box of the surface (``surface_points``: not on a
+    stray point, whose distance xatlas' float32 would take the faces' detail from) and scaled
+    to a mean triangle area of 1."""
     positions = np.asarray(positions, dtype=np.float64)
-    centred = positions - (positions.min(axis=0) + positions.max(axis=0)) / 2
+    surface = surface_points(positions, vertices)
+    centre = (surface.min(axis=0) + surface.max(axis=0)) / 2 if len(surface) else np.zeros(3)
+    centred = positions - centre
     mean_area = triangle_areas(centred[vertices]).mean() if len(vertices) else 0.0
     return centred / np.sqrt(mean_area) if mean_area > 0 else centred
 
@@ -142,8 +159,12 @@ def xatlas_charts(
     atlas.generate()
     _, keys, atlas_uvs = atlas[0]
     keys, uvs = keys.astype(np.int64), atlas_uvs[keys].astype(np.float64)
+    # xatlas works in float32: faces a million of their sizes apart can come back collapsed (or
+    # not finite); their polygons go alone, on their own planes, below
+    uv_areas, areas = triangle_areas(uvs), triangle_areas(points[vertices])
+    collapsed = ~(uv_areas > 0) & (areas > 0) | ~np.isfinite(uvs).all(axis=(1, 2))
     # its charts at the scale of the mesh, so that they and any polygon on its own plane agree
-    uvs *= np.sqrt(triangle_areas(points[vertices]).sum() / max(triangle_areas(uvs).sum(), 1e-300))
+    uvs *= np.sqrt(areas[~collapsed].sum() / max(uv_areas[~collapsed].sum(), 1e-300))
     # a polygon is cut where one of its vertices has two keys: sort its corners by (polygon, vertex)
     polygon, vertex, key = np.repeat(polygons, 3), vertices.ravel(), keys.ravel()
     order = np.lexsort((vertex, polygon))
@@ -151,6 +172,7 @@ def xatlas_charts(
     same_corner = (polygon[1:] == polygon[:-1]) & (vertex[1:] == vertex[:-1])
     cut = np.zeros(len(normals), dtype=bool)
     cut[polygon[1:][same_corner & (key[1:] != key[:-1])]] = True
+    cut[polygons[collapsed]] = True
     return _alone(keys, uvs, points, vertices, polygons, normals, cut)
 
 
@@ -227,6 +249,12 @@ def pack(uvs: np.ndarray, triangles: np.ndarray, chart: np.ndarray, resolution: 
     ``make_lightmap`` checks them."""
     import xatlas
 
+    if not np.isfinite(uvs).all():  # xatlas would never finish
+        raise LightmapError("the charts' UVs are not finite numbers (does the mesh have vertices at inf or NaN?)")
+    # a chart lying far out is packed from its own corner: xatlas reads float32
+    low = np.full((int(chart.max()) + 1, 2), np.inf)
+    np.minimum.at(low, chart, uvs)
+    uvs = uvs - np.where(np.abs(low) > FAR_UV, low, 0.0)[chart]
     points = np.concatenate([uvs, chart.reshape(-1, 1)], axis=1)
 
     charts = xatlas.ChartOptions()
@@ -267,7 +295,9 @@ def make_lightmap(
     then LightmapError says what is still wrong. ``progress(fraction, stage)``."""
     progress = progress or (lambda fraction, stage: None)
     progress(0.0, "charts")
-    points = normalised(positions, vertices)
+    used, vertices = np.unique(vertices, return_inverse=True)  # loose vertices play no part
+    vertices = vertices.reshape(-1, 3)
+    points = normalised(np.asarray(positions)[used], vertices)
     areas = triangle_areas(points[vertices])
     normals = polygon_normals(points, vertices, polygons)
     charts = xatlas_charts if len(vertices) <= XATLAS_CHARTS else cube_charts
@@ -311,10 +341,31 @@ def _grown(chosen, vertices, polygons, count, rings):
 # --- the child process ------------------------------------------------------------------------
 
 
+#: PR_SET_PDEATHSIG (linux/prctl.h): the signal a process gets when its parent dies.
+_PR_SET_PDEATHSIG = 1
+
+
+def end_with_parent(parent: int) -> None:
+    """Have the kernel kill this process as soon as its ``parent`` (its pid) dies, however it
+    dies (SIGKILL too), on Linux (PR_SET_PDEATHSIG): even while xatlas' C code holds the GIL,
+    where ``main``'s thread that watches stdin cannot run (elsewhere that thread is all there
+    is). The kernel tells when the thread that started this process ends: the bake's unwrap
+    runs on the thread that started it."""
+    if sys.platform.startswith("linux"):
+        import ctypes
+        import signal
+
+        ctypes.CDLL(None, use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+    if os.getppid() != parent:  # it died before the kernel was asked to tell
+        os._exit(1)
+
+
 def main() -> None:
-    """The child process: the job on stdin (its length, then an npz), progress and errors on
-    stderr, the result (an npz) on stdout. It checks the job's candidate UV maps in order and
-    picks the first that passes, or makes a lightmap."""
+    """The child process of the parent whose pid is its one argument: the job on stdin (its
+    length, then an npz), progress and errors on stderr, the result (an npz) on stdout. It
+    checks the job's candidate UV maps in order and picks the first that passes, or makes a
+    lightmap."""
+    end_with_parent(int(sys.argv[1]))
     size = int.from_bytes(sys.stdin.buffer.read(8), "little")
     job = np.load(io.BytesIO(sys.stdin.buffer.read(size)))
     threading.Thread(target=lambda: (os.read(0, 1), os._exit(1)), daemon=True).start()  # the caller died

@@ -30,7 +30,7 @@ from ..blender.scratch_scene import aim_sun
 from ..common.options import check, option
 from ..contracts import map_attribute
 from ..core.shader_math import Graph, dot
-from . import lightmap
+from . import edges, lightmap
 
 #: The colour attribute a rain bake writes (per face corner).
 RAIN_ATTRIBUTE = map_attribute("rain")
@@ -306,15 +306,20 @@ def _bake_scene(target, occluders, settings):
 
 
 def unit_placing(target: bpy.types.Object) -> np.ndarray:
-    """The transform (4 x 4, float64) that centres ``target``'s bounding box on the origin and
-    scales its diagonal to 1. E depends on directions only, but Cycles offsets its rays by fixed
-    distances: the same smooth scan in millimetres and in metres, baked per corner, had 3% of
-    its corners more than 1e-3 apart at 16 samples; at one size none (docs/scans.md)."""
+    """The transform (4 x 4, float64) that centres the bounding box of ``target``'s surface
+    (``edges.surface_box``: its faces, not a stray point) on the origin and scales its diagonal
+    to 1. E depends on directions only, but Cycles offsets its rays by fixed distances: the
+    same smooth scan in millimetres and in metres, baked per corner, had 3% of its corners more
+    than 1e-3 apart at 16 samples; at one size none (docs/scans.md)."""
     matrix = np.array(target.matrix_world, dtype=np.float64)
-    corners = np.array(target.bound_box, dtype=np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
+    placing = np.eye(4)
+    box = edges.surface_box(target)
+    if box is None:
+        return placing
+    corners = np.array([[box[i, 0], box[j, 1], box[k, 2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
+    corners = corners @ matrix[:3, :3].T + matrix[:3, 3]
     low, high = corners.min(axis=0), corners.max(axis=0)
     size = np.linalg.norm(high - low)
-    placing = np.eye(4)
     if size > 0:
         placing[:3, :3] /= size
         placing[:3, 3] = -(low + high) / (2 * size)

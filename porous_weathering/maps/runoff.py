@@ -4,7 +4,7 @@ runs, from the rain map and the geometry.
 The flow is computed on a sampling of the surface (``runoff_flow``, numpy) as fine as the map
 needs, not on the mesh's faces: for an image, a node about every ``TEXELS_PER_NODE`` texels;
 for a colour attribute, the mesh's median edge kept between ``size / ATTRIBUTE_FINEST`` and
-``size / ATTRIBUTE_COARSEST`` (size: the bounding-box diagonal), so one quad and a fine grid, a
+``size / ATTRIBUTE_COARSEST`` (size: ``edges.object_size``), so one quad and a fine grid, a
 millimetre and a metre object, get the same R at the same points. It reads the rain map of the
 same bake (or the one baked before for the object), drops fall along the rain's mean direction
 (its wind's lean) and land where that line meets the object (a BVH ray cast).
@@ -27,7 +27,7 @@ from . import edges, lightmap, runoff_flow
 from .rain import RAIN_ATTRIBUTE
 
 RUNOFF_ATTRIBUTE = map_attribute("runoff")
-#: Unset lengths, as fractions of the object's size (its bounding-box diagonal): L, the run that
+#: Unset lengths, as fractions of the object's size (``edges.object_size``): L, the run that
 #: gives R = 0.63 under full rain, and l, over which the stone absorbs all but 1/e of a flow.
 RUNOFF_LENGTH_FRACTION = 0.05
 ABSORPTION_LENGTH_FRACTION = 0.25
@@ -215,7 +215,10 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
     vertex_normals = np.zeros_like(world.vertices)
     np.add.at(vertex_normals, vertex_of, corner_normals)
     vertex_normals /= np.maximum(np.linalg.norm(vertex_normals, axis=1), 1e-300)[:, None]
-    flux = runoff_flow.interpolate(surface, result.flux, world.vertices, vertex_normals)[vertex_of]
+    flux = np.zeros(len(world.vertices))
+    used = np.unique(vertex_of)  # loose vertices have no corner to read at
+    flux[used] = runoff_flow.interpolate(surface, result.flux, world.vertices[used], vertex_normals[used])
+    flux = flux[vertex_of]
     apart = np.einsum("ij,ij->i", corner_normals, vertex_normals[vertex_of]) < 0.999
     flux[apart] = runoff_flow.interpolate(surface, result.flux, world.vertices[vertex_of[apart]], corner_normals[apart])
     return runoff_flow.runoff_map(flux, runoff_length)

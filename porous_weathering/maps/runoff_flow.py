@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .lightmap_check import surface_points
+
 #: Normal directions a cell is split by (+x, -x, +y, -y, +z, -z): opposite faces stay apart.
 _DIRECTIONS = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], float)
 #: Neighbours whose normals are further apart than this (a cosine) are two sides of a thin wall.
@@ -148,7 +150,7 @@ def sample_surface(
     coords, normals, each, repeats, _, sampled = _triangle_samples(vertices, triangles, spacing, per_point)
     point_border = sampled.pop(0) > 0 if border_edges is not None else None
     point_values = sampled.pop(0) if values_at is not None else None
-    origin = vertices.min(0) - spacing * _GRID_OFFSET
+    origin = surface_points(vertices, triangles).min(0) - spacing * _GRID_OFFSET  # not below a loose vertex
     voxel = []
     for d in range(3):  # np.floor((coords[d] - origin[d]) / spacing), with fewer temporaries
         scaled = coords[d] - origin[d]
@@ -356,6 +358,9 @@ def nearest_nodes(surface: Surface, points: np.ndarray, normals: np.ndarray | No
     if not len(points):
         return np.zeros(0, np.int64)
     queries, nodes = _cells_around(surface.cells, surface.voxels_of(points))
+    best = np.full(len(points), -1)
+    if not len(queries):  # every point far from the surface
+        return best
     distance = np.linalg.norm(surface.positions[nodes] - points[queries], axis=1)
     if normals is not None:
         normals = np.broadcast_to(np.asarray(normals, float), points.shape)
@@ -363,7 +368,6 @@ def nearest_nodes(surface: Surface, points: np.ndarray, normals: np.ndarray | No
         distance = np.where(facing, distance, np.inf)
     order = np.lexsort((distance, queries))
     first = np.concatenate([[True], queries[order][1:] != queries[order][:-1]])
-    best = np.full(len(points), -1)
     chosen = order[first]
     found = np.isfinite(distance[chosen])
     best[queries[chosen][found]] = nodes[chosen][found]
