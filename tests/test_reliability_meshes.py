@@ -102,16 +102,23 @@ def test_bad_mesh_works_or_is_refused_leaving_nothing(fresh_scene, registered, t
 
 @pytest.mark.parametrize("target", ["image", "attribute"])
 def test_the_command_refuses_a_mesh_without_surface_in_one_line(fresh_scene, tmp_path, target):
-    """Before any map, as for a mesh without faces: exit 1 (the file failed), one line."""
+    """Named, it is refused before any work, as any object that cannot be baked: exit 2 (bad
+    input), one line; unnamed, it is left out with a warning, as a mesh without faces is."""
     BUILDERS["only a zero-area face"](fresh_scene, tmp_path)
+    studio.add_plane(fresh_scene)
     blend = tmp_path / "sliver.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    result = run_cli("bake", blend, "--target", target, "--save", "--out", tmp_path / "maps", "--samples", 2)
-    assert result.returncode == 1 and "Traceback" not in result.stderr
+    words = ["--target", target, "--save", "--out", tmp_path / "maps", "--samples", 2, "--resolution", 16]
+    result = run_cli("bake", blend, "--objects", "Sliver", "Plane", *words)
+    assert result.returncode == 2 and "Traceback" not in result.stderr
     assert [line for line in result.stderr.splitlines() if line.startswith("error")] == [
         f"error: {blend}: object 'Sliver' has no face of non-zero area: nothing to bake on"
     ]
     assert not (tmp_path / "maps").exists() or not os.listdir(tmp_path / "maps")
+    unnamed = run_cli("bake", blend, *words)
+    assert unnamed.returncode == 0, unnamed.stderr
+    assert "warning: object 'Sliver' is left out: its mesh has no face of non-zero area" in unnamed.stderr
+    assert "Sliver." not in unnamed.stdout and "Plane." in unnamed.stdout
 
 
 def face_means(obj, values):

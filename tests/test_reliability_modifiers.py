@@ -29,8 +29,11 @@ RAIN = rain.RainSettings(samples=64)
 
 
 def _array(obj):
+    """Two copies 1.6 m apart (a constant offset: a relative one would follow a stray vertex)."""
     modifier = obj.modifiers.new("Array", "ARRAY")
-    modifier.relative_offset_displace = (1.6, 0.0, 0.0)
+    modifier.use_relative_offset = False
+    modifier.use_constant_offset = True
+    modifier.constant_offset_displace = (1.6, 0.0, 0.0)
 
 
 def _displace(obj):

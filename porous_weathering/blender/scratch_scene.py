@@ -174,6 +174,8 @@ def rendered(obj: bpy.types.Object, modifiers: int | None = None) -> Iterator[Re
     with Ledger() as made:
         scene = made.add(bpy.data.scenes.new("PW Render Mesh"))
         copy = placed_copy(obj, scene, None, ledger=made)
+        # where the object stands now: its matrix_world is stale until its scene is evaluated
+        copy.matrix_world = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).matrix_world.copy()
         for index, modifier in enumerate(copy.modifiers):
             modifier.show_viewport = modifier.show_render and (modifiers is None or index < modifiers)
             if hasattr(modifier, "render_levels"):  # Subdivision Surface, Multiresolution

@@ -8,6 +8,7 @@ import warnings
 import bpy
 
 from ..maps.bake import has_faces
+from ..maps.edges import surface_box
 
 
 def add_arguments(parser: argparse.ArgumentParser, *, objects_help: str, collection_help: str) -> None:
@@ -45,13 +46,16 @@ def chosen_objects(args: argparse.Namespace) -> list["bpy.types.Object"]:
 
 def without_faceless(objects: list["bpy.types.Object"]) -> list["bpy.types.Object"]:
     """``objects`` without the meshes that have no face (none, or none left after their
-    modifiers: ``bake.has_faces``), each left out with a warning; ValueError when none is left."""
+    modifiers: ``bake.has_faces``) or none of non-zero area (``edges.surface_box``), each left
+    out with a warning; ValueError when none is left."""
     kept = []
     for obj in objects:
-        if has_faces(obj):
-            kept.append(obj)
-        else:
+        if not has_faces(obj):
             warnings.warn(f"object '{obj.name}' is left out: its mesh has no faces (after its modifiers)", stacklevel=2)
+        elif surface_box(obj) is None:
+            warnings.warn(f"object '{obj.name}' is left out: its mesh has no face of non-zero area", stacklevel=2)
+        else:
+            kept.append(obj)
     if not kept:
         raise ValueError(f"no mesh object with faces: {', '.join(repr(obj.name) for obj in objects)} have none")
     return kept

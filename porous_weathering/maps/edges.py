@@ -144,9 +144,11 @@ def surface_box(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = N
     (``surface_points``), so that loose vertices and edges and collapsed faces (a scan's stray
     point) play no part; None when it has no face of non-zero area."""
     with evaluated_mesh(obj, depsgraph) as (mesh, _):
-        points = surface_points(
-            mesh_arrays.attribute(mesh, "position", np.float32, 3), lightmap.triangle_corners(mesh)[1]
-        )
+        return _box_of_faces(mesh)
+
+
+def _box_of_faces(mesh):
+    points = surface_points(mesh_arrays.attribute(mesh, "position", np.float32, 3), lightmap.triangle_corners(mesh)[1])
     return np.stack([points.min(axis=0), points.max(axis=0)]) if len(points) else None
 
 
@@ -154,10 +156,9 @@ def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = N
     """The object's size, from which every default that scales with it is taken: the diagonal
     of ``surface_box``, in world units (it turns with the object, so a rotation does not change
     it); 0 when it has no face of non-zero area."""
-    box = surface_box(obj, depsgraph)
-    if box is None:
-        return 0.0
-    return float(np.linalg.norm(np.array(obj.matrix_world)[:3, :3] @ (box[1] - box[0])))
+    with evaluated_mesh(obj, depsgraph) as (mesh, matrix_world):
+        box = _box_of_faces(mesh)
+    return 0.0 if box is None else float(np.linalg.norm(matrix_world[:3, :3] @ (box[1] - box[0])))
 
 
 def effective_radius(
