@@ -11,6 +11,7 @@ renders against it pixel by pixel (Cycles CPU, fixed seed, tiny images).
 """
 
 import pathlib
+import warnings
 
 import bpy
 
@@ -22,6 +23,7 @@ from helpers import MaskedPlane, assert_matches
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.core.backends import NumpyOps
+from porous_weathering.samples import studio
 from porous_weathering.shading import nodes
 from porous_weathering.shading.presets import PRESETS
 
@@ -327,3 +329,26 @@ def test_docs_give_each_stones_structure(key):
     assert cells[1] == ", ".join(layer_text(texture) for texture in s.textures)
     colour = ", ".join(f"{c:g}" for c in s.colour)
     assert cells[2:6] == [f"{s.porosity:g}", f"{s.pore_depth:g}", f"{s.roughness:g}", colour]
+
+
+def test_preset_materials_have_their_stone(fresh_scene):
+    assert STONE_NODE in pw.make_preset_material("BRICK").node_tree.nodes
+    assert STONE_NODE not in pw.make_preset_material("BRICK", name="Flat", variation=0.0).node_tree.nodes
+
+
+@pytest.mark.parametrize(("size", "unit", "warned"), [(300.0, 1.0, True), (300.0, 0.001, False), (2.0, 1.0, False)])
+def test_make_and_the_bake_warn_of_an_implausible_unit(fresh_scene, size, unit, warned):
+    from porous_weathering.maps import linking, scan_checks
+
+    fresh_scene.unit_settings.scale_length = unit
+    obj = studio.add_plane(fresh_scene, size=size)
+    bpy.context.view_layer.update()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        new = linking.weathered_material_for(obj, (), preset="LIMESTONE")
+    assert STONE_NODE in new.node_tree.nodes  # Make gives the preset's stone
+    made = [str(w.message) for w in caught if "Unit Scale" in str(w.message)]
+    baked = [message for message in scan_checks.problems(obj, rain=False) if "Unit Scale" in message]
+    assert len(made) == len(baked) == int(warned)
+    if warned:
+        assert "0.001 if it is modelled in millimetres" in made[0] and made[0] == baked[0]
