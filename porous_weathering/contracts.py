@@ -19,6 +19,10 @@ LIGHT_MODE_PROPERTY = "pw_light_mode"
 MODES_PROPERTY = "pw_modes"
 PRESET_PROPERTY = "pw_preset"
 KEY_LIGHT_PROPERTY = "pw_key_light"
+#: The name (and label) of the node of a material's stone structure (docs/model.md §8), and the
+#: material property naming its stone (a preset key).
+STONE_NODE = "Stone"
+STONE_PROPERTY = "pw_stone"
 #: Node-group property: the builder version a group was built by (groups of another are rebuilt).
 BUILD_VERSION_PROPERTY = "pw_build_version"
 

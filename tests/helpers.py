@@ -277,8 +277,10 @@ def bust_mesh(triangles=20_000, scan_noise=True):
 
 def add_bust(triangles=20_000, name="Bust", *, scale=1.0, rotation=(0.0, 0.0, 0.0), scan_noise=True):
     """The bust of ``bust_mesh(triangles, scan_noise)``, scaled from millimetres by ``scale`` and
-    rotated by the Euler angles ``rotation``, as a new object ``name`` in the scene."""
+    rotated by the Euler angles ``rotation``, as a new object ``name`` in the scene, whose unit
+    scale says so (0.001 / ``scale`` metres per unit: a scan's unit, docs/model.md §8.4)."""
     vertices, faces = bust_mesh(triangles, scan_noise)
+    bpy.context.scene.unit_settings.scale_length = 0.001 / scale
     obj = SCAN.add_to_scene(name, vertices * scale, faces)
     obj.rotation_euler = rotation
     bpy.context.view_layer.update()

@@ -133,7 +133,7 @@ def test_srgb_and_hex_input_mean_the_same_colours():
         (((80, 1, 9), (62, 1, 6), (35, 1)), {}, "three finite numbers"),
         (((80, 1, 9), (62, 1, 6), (35, 1, 4)), dict(space="xyz"), "space"),
         (((0.8, 0.7, 0.6), (0.5, 0.5, 255), (0.2, 0.2, 0.2)), dict(space="srgb"), "0-255"),
-        (((80, 1, 9), (62, 1, 6), (35, 1, 4)), dict(preset="GRANITE"), "unknown preset"),
+        (((80, 1, 9), (62, 1, 6), (35, 1, 4)), dict(preset="BASALT"), "unknown preset"),
         (("#D6CDB", "#9C958A", "#4A4744"), {}, "#RRGGBB"),
     ],
 )

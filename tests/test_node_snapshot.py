@@ -1,8 +1,9 @@
 """The node groups are the same maths, node for node, as their snapshot.
 
-Every group the package builds is one case: the porous group in each light mode and the
-weathered group of every non-empty set of registered weathering modes in each light mode, read
-from the registries (``modes.names()``, ``nodes.LIGHT_MODES``), so a new mode or light mode is
+Every group the package builds is one case: the porous group in each light mode, the
+weathered group of every non-empty set of registered weathering modes in each light mode (with
+and without the receptivity of a stone's structure) and the group of every preset's stone, read
+from the registries (``modes.names()``, ``nodes.LIGHT_MODES``, ``presets.PRESETS``), so a new mode or light mode is
 covered by construction. ``group_data`` turns a group into plain data (its interface, its
 properties and its nodes: type, settings, constants and links) that syrupy compares with
 tests/__snapshots__/test_node_snapshot.ambr; one snapshot serves Blender 4.5 and 5.2. If a group
@@ -20,6 +21,7 @@ import pytest
 
 from helpers import weathered_mode_sets
 from porous_weathering.shading import nodes
+from porous_weathering.shading.presets import PRESETS
 
 # --- a node group as plain data -------------------------------------------------------------
 
@@ -150,3 +152,15 @@ def test_porous_group_matches_its_snapshot(light_mode, snapshot):
 @pytest.mark.parametrize("modes", weathered_mode_sets(), ids="+".join)
 def test_weathered_group_matches_its_snapshot(modes, light_mode, snapshot):
     assert group_data(nodes.weathered_group(modes, light_mode)) == snapshot
+
+
+@pytest.mark.parametrize("light_mode", nodes.LIGHT_MODES)
+@pytest.mark.parametrize("modes", weathered_mode_sets(), ids="+".join)
+def test_receptive_weathered_group_matches_its_snapshot(modes, light_mode, snapshot):
+    """The group of a material with a stone's structure (docs/model.md §8.3)."""
+    assert group_data(nodes.weathered_group(modes, light_mode, receptive=True)) == snapshot
+
+
+@pytest.mark.parametrize("key", [key for key, preset in PRESETS.items() if preset.structure is not None])
+def test_stone_group_matches_its_snapshot(key, snapshot):
+    assert group_data(nodes.stone_group(key, PRESETS[key].structure)) == snapshot

@@ -237,6 +237,8 @@ def weathered_coefficients(
     n_dot_l: ArrayLike | None,
     n_dot_v: ArrayLike,
     modes: Iterable[str] | None = None,
+    *,
+    receptivity: ArrayLike | None = None,
     **state: ArrayLike,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k_d, k_s, k_water): the weights of the diffuse lobe, the glossy lobe (roughness m)
@@ -247,7 +249,8 @@ def weathered_coefficients(
     those left out).  At time 0 the result is porous_coefficients() exactly, with k_water = 0.
     Pore-filling modes apply first (carbon, salt, water), then the wet darkening, the grey
     deposit over them and the black crust over everything; ``crust=0, wet_darkening=0`` give
-    the paper's equations exactly (docs/model.md §6).
+    the paper's equations exactly (docs/model.md §6).  ``receptivity`` (docs/model.md §8.3; None:
+    without the stone's structure, as r = 1) makes each point's pores fill r times as fast.
     """
     modes = weathering_modes(_modes.names() if modes is None else modes)
     state = weathering_state(modes, state)
@@ -266,5 +269,6 @@ def weathered_coefficients(
         clamp_cosine("n_dot_v", n_dot_v),
         modes,
         state,
+        None if receptivity is None else sanitize("receptivity", receptivity),
     )
     return kd_w, ks_w, np.zeros_like(kd_w) + (0.0 if water_w is None else water_w)

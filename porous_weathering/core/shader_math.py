@@ -9,6 +9,8 @@ constants cost no nodes.  Nodes are laid out in columns by their depth in the gr
 import math
 
 SCALAR, VECTOR = "SCALAR", "VECTOR"
+#: Nodes whose outputs change from point to point: the shading geometry and the texture coordinates.
+VARYING_SOURCES = ("ShaderNodeNewGeometry", "ShaderNodeTexCoord")
 _COLUMN_WIDTH, _ROW_HEIGHT = 220, 180
 
 
@@ -29,7 +31,7 @@ class Graph:
             setattr(node, key, value)
         items = inputs.items() if isinstance(inputs, dict) else enumerate(inputs)
         depths = [0]
-        varying = bl_idname == "ShaderNodeNewGeometry"
+        varying = bl_idname in VARYING_SOURCES
         for key, value in items:
             depths.append(self.connect(value, node.inputs[key]))
             varying = varying or self.varies(value)

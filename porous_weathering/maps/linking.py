@@ -4,19 +4,20 @@ colour attribute), the maps some weathering modes still lack, and the weathered 
 mask inputs read them (each map connected to the inputs it feeds, ``Input.map``). The panel's
 Make button is a thin wrapper over ``weathered_material_for``.
 
-May import: bpy, ``core``, ``common``, ``blender``, ``shading`` and ``maps.registry``.
+May import: bpy, ``core``, ``common``, ``blender``, ``shading``, ``maps.registry`` and ``maps.scan_checks``.
 """
 
+import warnings
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 import bpy
 
 from ..contracts import map_image_property
-from ..core import environments
+from ..core import environments, model, stones
 from ..core import modes as weathering_modes
 from ..shading import material, presets, weathering
-from . import registry
+from . import registry, scan_checks
 
 #: The base colour of a material made from the object's own material when it has no image.
 DEFAULT_BASE_COLOR = (0.8, 0.8, 0.8)
@@ -87,6 +88,7 @@ def weathered_material_for(
     values: Mapping[str, Any] | None = None,
     environment: str | None = environments.DEFAULT_ENVIRONMENT,
     stone: Mapping[str, Any] | None = None,
+    variation: float = stones.DEFAULT_VARIATION,
 ) -> "bpy.types.Material":
     """A new material for ``obj``: porous, weathered by ``modes`` (none: porous only) with the
     weathering input ``values``, every mask input read from the map of ``obj`` that feeds it
@@ -94,7 +96,9 @@ def weathered_material_for(
     ``presets.PRESETS``), or, with None, from ``obj``'s own material: its base colour and
     roughness images are kept. ``environment`` sets the site's inputs ``values`` leave out;
     ``stone`` replaces material keywords (a measured ``base_color``: ``presets.from_colorimetry``).
-    ValueError on a bad input (see ``make_weathered_material``)."""
+    A preset's material has its stone's structure at ``variation`` (docs/model.md §8); an object
+    whose size is implausible at the scene's unit scale gets a PorousInputWarning saying how to
+    set the unit (§8.4). ValueError on a bad input (see ``make_weathered_material``)."""
     if preset is None:
         textures = material.principled_textures(obj.active_material)
         params = {"base_color": textures.get("Base Color", DEFAULT_BASE_COLOR)}
@@ -102,7 +106,7 @@ def weathered_material_for(
     else:
         chosen = presets.PRESETS[preset]
         textures = {}
-        params = chosen.material_params()
+        params = {**chosen.material_params(), "stone": preset, "variation": variation}
         name = f"{obj.name} {chosen.label}"
     params.update(stone or {})
     if modes:
@@ -119,4 +123,7 @@ def weathered_material_for(
         new = material.make_porous_material(name, key_light=key_light, **params)
     if "Roughness" in textures:
         material.connect_roughness_image(new, textures["Roughness"])
+    problem = scan_checks.unit_problem(obj)
+    if problem:
+        warnings.warn(problem, model.PorousInputWarning, stacklevel=2)
     return new

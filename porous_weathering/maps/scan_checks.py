@@ -21,6 +21,7 @@ import warnings
 import numpy as np
 
 from ..blender import mesh_arrays
+from ..core import stones
 
 
 class ScanWarning(UserWarning):
@@ -49,7 +50,7 @@ _SIDES = {"+X": (0, 1), "-X": (0, -1), "+Y": (1, 1), "-Y": (1, -1)}
 
 def problems(obj, rain: bool = True) -> list[str]:
     """The warnings for mesh object ``obj`` (the up axis only when ``rain`` is baked)."""
-    found = []
+    found = [message for message in (unit_problem(obj),) if message]
     if rain:
         found += [message for message in (_up_axis(obj),) if message]
     if looks_faceted(obj.data):
@@ -60,6 +61,15 @@ def problems(obj, rain: bool = True) -> list[str]:
             "surface is curved (docs/scans.md)"
         )
     return found
+
+
+def unit_problem(obj) -> str | None:
+    """The warning when ``obj``'s size is implausible for a stone object at its scene's unit
+    scale (docs/model.md §8.4: ``stones.plausible_size``), else None."""
+    scenes = getattr(obj, "users_scene", ())
+    scale = float(scenes[0].unit_settings.scale_length) if scenes else 1.0
+    advice = stones.plausible_size(float(max(obj.dimensions)), scale)
+    return f"object '{obj.name}' {advice}" if advice else None
 
 
 def warn(obj, rain: bool = True) -> None:

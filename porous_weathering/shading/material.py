@@ -8,9 +8,9 @@ import bpy
 import numpy as np
 
 from ..blender import compat
-from ..contracts import GROUP_NODE, KEY_LIGHT_PROPERTY, LIGHT_MODE_PROPERTY
-from ..core import model
-from ..core.arguments import real_number
+from ..contracts import GROUP_NODE, KEY_LIGHT_PROPERTY, LIGHT_MODE_PROPERTY, STONE_NODE, STONE_PROPERTY
+from ..core import model, stones
+from ..core.arguments import choice, real_number
 from ..core.shader_math import Graph
 from . import nodes
 
@@ -30,16 +30,24 @@ def make_porous_material(
     porosity: float = 0.2,
     pore_depth_ratio: float = 2.0,
     key_light: "bpy.types.Object | str | None" = None,
+    stone: str | None = None,
+    variation: float = stones.DEFAULT_VARIATION,
 ) -> "bpy.types.Material":
     """A new material that renders the porous BRDF post-process (docs/model.md §2) in EEVEE and Cycles.
 
     ``base_color`` is k_d: an RGB(A) colour, a ``bpy.types.Image`` or an image file path.
     ``ks`` is k_s, ``roughness`` m, ``porosity`` alpha, ``pore_depth_ratio`` s_p.
     ``key_light`` is a light object (or its name) for the key-light mode; ``None`` gives the
-    ambient mode.  Out-of-range or NaN numbers are clamped with a ``PorousInputWarning``;
-    a key light that is not a light raises ``ValueError`` before anything is created.
+    ambient mode.  ``stone`` (a preset key, e.g. "LIMESTONE") gives the material that stone's
+    structure (docs/model.md §8): k_d, alpha, s_p and m vary from point to point around the values
+    given, by ``variation`` in [0, 1] (1: as the stone shows it), at physical sizes in the scene's
+    unit (``unit_settings.scale_length`` when the material is made); ``stone=None`` or
+    ``variation=0`` builds the uniform material.  Out-of-range or NaN numbers are clamped with a
+    ``PorousInputWarning``; a key light that is not a light, or an unknown stone, raises
+    ``ValueError`` before anything is created.
     """
     base_color, values = porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio)
+    structure = stone_structure(stone, variation)
     light = resolve_key_light(key_light)
     light_mode = LIGHT_MODE_OF_TYPE[light.data.type] if light else nodes.AMBIENT
     material = compat.new_material(name)
@@ -50,6 +58,8 @@ def make_porous_material(
         for input_socket, value in values.items():
             group_node.inputs[input_socket].default_value = value
         _connect_base_color(graph, group_node, base_color)
+        if structure:
+            connect_stone(graph, group_node, stone, *structure, base_color)
         if light:
             wire_key_light(graph, group_node, light)
     except Exception:
@@ -57,6 +67,52 @@ def make_porous_material(
         raise
     material[LIGHT_MODE_PROPERTY] = light_mode
     return material
+
+
+def stone_structure(stone: str | None, variation: float) -> "tuple[stones.Stone, float] | None":
+    """(the stone's structure, variation) for ``stone`` (a preset key) and ``variation``, or None
+    when the material is uniform (no stone, variation 0, or a preset without a structure);
+    ValueError naming an unknown stone or a variation that is not a number."""
+    from .presets import PRESETS
+
+    variation = float(model.sanitize("variation", real_number("variation", variation), 0.0, 1.0))
+    if stone is None:
+        return None
+    preset = PRESETS[choice("stone", stone, PRESETS)]
+    if preset.structure is None or variation == 0.0:
+        return None
+    return preset.structure, variation
+
+
+def metres_per_unit(scene: "bpy.types.Scene | None" = None) -> float:
+    """The scene's length unit in metres (Scene > Units > Unit Scale): what the structure's physical
+    sizes are read in (docs/model.md §8.2)."""
+    scene = scene or bpy.context.scene
+    return float(scene.unit_settings.scale_length) if scene is not None else 1.0
+
+
+def connect_stone(graph, group_node, key, structure, variation, base_color):
+    """The stone group of ``key`` between the material's values and ``group_node``: it takes the
+    base colour (or image), porosity, pore depth and roughness set on ``group_node`` as its means
+    and feeds their per-point values (and, to a receptive weathered group, the receptivity)."""
+    from . import nodes as _nodes
+
+    node = graph.node("ShaderNodeGroup", depth=1, node_tree=_nodes.stone_group(key, structure))
+    node.name = node.label = STONE_NODE
+    inputs = group_node.inputs
+    for socket in ("Porosity", "Pore Depth Ratio", "Roughness"):
+        node.inputs[socket].default_value = inputs[socket].default_value
+    if isinstance(base_color, bpy.types.Image):
+        graph.connect(inputs["Base Color"].links[0].from_socket, node.inputs["Base Color"])
+    else:
+        node.inputs["Base Color"].default_value = inputs["Base Color"].default_value
+    node.inputs["Variation"].default_value = variation
+    node.inputs["Metres Per Unit"].default_value = metres_per_unit()
+    for socket in ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", _nodes.RECEPTIVITY):
+        if socket in inputs:
+            graph.connect(node.outputs[socket], inputs[socket])
+    group_node.id_data[STONE_PROPERTY] = key
+    return node
 
 
 def make_base_material(
@@ -238,7 +294,9 @@ def make_porous_from_material(source: "bpy.types.Material", name: str | None = N
 
 
 def connect_roughness_image(material: bpy.types.Material, image: bpy.types.Image) -> None:
-    """Drive the porous group's roughness m of ``material`` by ``image``."""
+    """Drive the porous group's roughness m of ``material`` by ``image`` (with a stone: the mean
+    roughness its structure varies around)."""
     graph = Graph(material.node_tree)
     roughness = graph.node("ShaderNodeTexImage", depth=1, image=image)
-    graph.connect(roughness.outputs["Color"], material.node_tree.nodes[GROUP_NODE].inputs["Roughness"])
+    target = material.node_tree.nodes.get(STONE_NODE) or material.node_tree.nodes[GROUP_NODE]
+    graph.connect(roughness.outputs["Color"], target.inputs["Roughness"])

@@ -8,15 +8,19 @@ is built with only the inputs and nodes its light mode and modes need, and is re
 group of the same name and build version is already in the file.
 """
 
+import math
+
 import bpy
 
 from ..contracts import BUILD_VERSION_PROPERTY
 from ..core import modes as weathering_modes
-from ..core import porous
+from ..core import porous, stones
 from ..core.backends import NODE_OPS
 from ..core.shader_math import Graph, dot, normalize
 
-#: Bumped whenever the maths or the interface of a group changes, so old files rebuild.
+#: Bumped whenever the maths or the interface of a group changes, so old files rebuild.  (The
+#: stone groups and the receptive weathered groups of docs/model.md §8 came new in build 7, which
+#: left every other group as it was.)
 BUILD_VERSION = 7
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
@@ -187,23 +191,44 @@ def weathering_inputs(modes):
     return inputs
 
 
-def weathered_group_name(modes, light_mode):
-    return f"PW Weathered {'+'.join(mode.title() for mode in modes)} ({light_mode.title()})"
+def weathered_group_name(modes, light_mode, receptive=False):
+    receptive = " Receptive" if receptive else ""
+    return f"PW Weathered {'+'.join(mode.title() for mode in modes)}{receptive} ({light_mode.title()})"
 
 
-def weathered_group(modes, light_mode):
-    """The group for ``modes`` (only their nodes) in ``light_mode``; no modes: the porous group."""
+#: The input of a receptive weathered group: the stone's receptivity r (docs/model.md §8.3).
+RECEPTIVITY = "Receptivity"
+RECEPTIVITY_INPUT = {
+    RECEPTIVITY: (
+        "NodeSocketFloat",
+        1.0,
+        0.0,
+        10.0,
+        "Receptivity r from the stone's structure: this point's pores fill r times as fast (1: the stone's mean)",
+    )
+}
+
+
+def weathered_group(modes, light_mode, receptive=False):
+    """The group for ``modes`` (only their nodes) in ``light_mode``; no modes: the porous group.
+    ``receptive``: with the Receptivity input of a stone's structure (docs/model.md §8.3), which
+    only materials with a stone have."""
     modes = weathering_modes.checked(modes)
     if not modes:
         return porous_group(light_mode)
-    name = weathered_group_name(modes, light_mode)
+    name = weathered_group_name(modes, light_mode, receptive)
     outputs = {**OUTPUTS, **(WATER_OUTPUT if weathering_modes.has_water_lobe(modes) else {})}
     return _reuse(name) or _build(
         name,
         lambda graph, inputs: weathered_bsdf(graph, inputs, light_mode, modes),
-        {**PORE_INPUTS, **_light_input(light_mode), **weathering_inputs(modes)},
+        {
+            **PORE_INPUTS,
+            **_light_input(light_mode),
+            **weathering_inputs(modes),
+            **(RECEPTIVITY_INPUT if receptive else {}),
+        },
         outputs,
-        varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask},
+        varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY},
     )
 
 
@@ -223,6 +248,7 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         n_dot_v,
         modes,
         state,
+        inputs.get(RECEPTIVITY),
     )
     bsdf = diffuse_plus_glossy(graph, kd_w, ks_w, roughness)
     results = {"BSDF": bsdf, "Diffuse Weight": kd_w, "Specular Weight": ks_w}
@@ -233,3 +259,103 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         results["BSDF"] = graph.node("ShaderNodeAddShader", [bsdf, water.outputs[0]]).outputs[0]
         results["Water Weight"] = water_w
     return results
+
+
+# --- the stone's own structure (docs/model.md §8) -----------------------------------------------
+
+#: The stone group's inputs: the material's own values (the means) and the structure's settings.
+STONE_INPUTS = {
+    "Base Color": PORE_INPUTS["Base Color"][:4] + ("Mean diffuse albedo k_d of the stone",),
+    "Porosity": PORE_INPUTS["Porosity"][:4] + ("Mean porosity alpha",),
+    "Pore Depth Ratio": PORE_INPUTS["Pore Depth Ratio"][:4] + ("Mean pore depth ratio s_p",),
+    "Roughness": PORE_INPUTS["Roughness"][:4] + ("Mean roughness m",),
+    "Variation": (
+        "NodeSocketFloat",
+        stones.DEFAULT_VARIATION,
+        0.0,
+        1.0,
+        "How much of the stone's structure shows: 0 is the uniform material, 1 the stone as it shows it",
+    ),
+    "Metres Per Unit": (
+        "NodeSocketFloat",
+        1.0,
+        1e-9,
+        1e9,
+        "The scene's unit scale (Scene > Units > Unit Scale): the structure's sizes are in metres",
+    ),
+}
+STONE_OUTPUTS = {
+    "Base Color": ("NodeSocketColor", "k_d at this point"),
+    "Porosity": ("NodeSocketFloat", "alpha at this point"),
+    "Pore Depth Ratio": ("NodeSocketFloat", "s_p at this point"),
+    "Roughness": ("NodeSocketFloat", "m at this point"),
+    RECEPTIVITY: ("NodeSocketFloat", "r: how much faster than the mean this point's pores fill"),
+    "Porosity Field": ("NodeSocketFloat", "z_p in [-1, 1], the porosity field"),
+    "Colour Field": ("NodeSocketFloat", "z_c in [-1, 1], the colour field"),
+}
+
+
+def stone_group_name(key):
+    return f"PW Stone {key.title()}"
+
+
+def stone_group(key, stone):
+    """The node group of the stone ``key`` (a preset key) whose structure is ``stone``
+    (``stones.Stone``), built on first use: its textures at their physical sizes, in the
+    object's coordinates times the metres per unit, and the maths of ``core/stones.py``."""
+    name = stone_group_name(key)
+    body = lambda graph, inputs: stone_body(graph, inputs, stone)  # noqa: E731
+    return _reuse(name) or _build(name, body, STONE_INPUTS, STONE_OUTPUTS)
+
+
+def stone_body(graph, inputs, stone):
+    coordinates = graph.node("ShaderNodeTexCoord", depth=0)
+    metres = graph.wrap(coordinates.outputs["Object"]) * inputs["Metres Per Unit"]
+    values = [texture_value(graph, metres, texture) for texture in stone.textures]
+    z_p, z_c = stones.fields(NODE_OPS, stone, values)
+    variation = inputs["Variation"]
+    kd, alpha, sp, m = stones.point_parameters(
+        NODE_OPS,
+        stone,
+        inputs["Base Color"],
+        inputs["Porosity"],
+        inputs["Pore Depth Ratio"],
+        inputs["Roughness"],
+        z_p,
+        z_c,
+        variation,
+    )
+    return {
+        "Base Color": kd,
+        "Porosity": alpha,
+        "Pore Depth Ratio": sp,
+        "Roughness": m,
+        RECEPTIVITY: stones.receptivity(NODE_OPS, stone, z_p, variation),
+        "Porosity Field": z_p,
+        "Colour Field": z_c,
+    }
+
+
+def texture_value(graph, metres, texture):
+    """The value (mean 1/2, in [0, 1]) of one layer's Blender texture at ``metres``."""
+    common = {"Vector": metres, "Scale": texture.scale}
+    if texture.kind == stones.NOISE:
+        node = graph.node(
+            "ShaderNodeTexNoise",
+            {**common, "Detail": texture.detail, "Roughness": 0.5, "Distortion": texture.distortion},
+            noise_dimensions="3D",
+        )
+        return graph.wrap(node.outputs[0])  # "Fac" (4.5) / "Factor" (5.x)
+    if texture.kind == stones.WAVE:
+        node = graph.node(
+            "ShaderNodeTexWave",
+            # the phase puts the object's origin mid-way between a light and a dark band (value 1/2)
+            {**common, "Distortion": texture.distortion, "Detail": texture.detail, "Phase Offset": math.pi / 2},
+            wave_type="BANDS",
+            bands_direction=texture.direction,
+            wave_profile="SIN",
+        )
+        return graph.wrap(node.outputs[1])  # "Fac" (4.5) / "Factor" (5.x)
+    node = graph.node("ShaderNodeTexVoronoi", common, voronoi_dimensions="3D", feature="F1", distance="EUCLIDEAN")
+    red = graph.node("ShaderNodeSeparateColor", {"Color": node.outputs["Color"]})  # each cell's own random value
+    return graph.wrap(red.outputs["Red"])

@@ -1,4 +1,4 @@
-"""Porous material presets: building stones, brick, terracotta, plaster and concrete.
+"""Porous material presets: building stones (granite among them), brick, terracotta, plaster and concrete.
 
 Porosity alpha is picked inside the open-porosity range that handbooks give for each
 material; the pore aspect s_p, the colour k_d, k_s and the roughness m are this project's
@@ -14,6 +14,7 @@ from ..contracts import PRESET_PROPERTY
 from ..core import colorimetry
 from ..core import modes as weathering_modes
 from ..core.environments import DEFAULT_ENVIRONMENT, ENVIRONMENTS, Environment  # noqa: F401  (public: docs/api.md)
+from ..core.stones import CELLS, DEFAULT_VARIATION, NOISE, WAVE, Stone, Texture
 
 if TYPE_CHECKING:
     import bpy
@@ -31,6 +32,9 @@ class Preset:
     description: str
     #: Panel weathering inputs this stone sets ({"crust": 0.75}); the others keep the API defaults.
     weathering: dict = field(default_factory=dict)
+    #: The stone's own structure (docs/model.md §8): grain, bedding, veins or speckle at their
+    #: physical sizes, and how they move k_d, alpha, s_p and m; None: a uniform material.
+    structure: Stone | None = None
 
     def panel_weathering(self) -> dict:
         """{input: value} of every weathering input the panel shows: this stone's, else the default."""
@@ -66,6 +70,18 @@ PRESETS = {
         0.7,
         "Buff quartz sandstone: medium porosity, grainy and matt",
         weathering=dict(crust=0.75),
+        structure=Stone(
+            (
+                Texture(CELLS, 0.0005, 0.35, 0.25),  # sand grains, ~0.5 mm
+                Texture(WAVE, 0.04, 0.45, 0.55, detail=2.0, distortion=1.5, direction="Z"),  # bedding, cm
+                Texture(NOISE, 0.15, 0.2, 0.2, detail=3.0),  # cementation patches, dm
+            ),
+            porosity=0.3,
+            roughness=0.15,
+            pore_depth=0.15,
+            colour=(-0.10, -0.16, -0.24),
+            description="Quartz grains, cross-bedded laminae a few cm apart, patchy cement",
+        ),
     ),
     "LIMESTONE": Preset(
         "Limestone",
@@ -76,6 +92,18 @@ PRESETS = {
         0.04,
         0.6,
         "Pale oolitic building limestone; soft stones such as Lecce or Caen are more porous",
+        structure=Stone(
+            (
+                Texture(CELLS, 0.001, 0.3, 0.15),  # ooids, ~1 mm
+                Texture(WAVE, 0.12, 0.35, 0.45, detail=2.0, distortion=1.0, direction="Z"),  # bedding, dm
+                Texture(NOISE, 0.08, 0.35, 0.4, detail=3.0),  # patches, cm-dm
+            ),
+            porosity=0.3,
+            roughness=0.15,
+            pore_depth=0.15,
+            colour=(-0.06, -0.09, -0.15),
+            description="Ooids ~1 mm, bedding a decimetre apart, softer porous patches",
+        ),
     ),
     "MARBLE": Preset(
         "Marble",
@@ -87,6 +115,39 @@ PRESETS = {
         0.2,
         "Honed white marble: almost no open pores, slightly glossy",
         weathering=dict(crust=0.9),
+        structure=Stone(
+            (
+                Texture(CELLS, 0.002, 0.5, 0.2),  # calcite crystals, ~2 mm
+                Texture(WAVE, 0.15, 0.5, 0.8, detail=4.0, distortion=6.0, direction="DIAGONAL"),  # veins
+            ),
+            porosity=0.2,
+            roughness=0.1,
+            pore_depth=0.1,
+            colour=(-0.08, -0.08, -0.07),  # near-white: at most k_d + k_s = 1
+            description="Calcite crystals ~2 mm and grey veins wandering across",
+        ),
+    ),
+    "GRANITE": Preset(
+        "Granite",
+        0.01,
+        (0.004, 0.015),
+        1.0,
+        "#9C9893",
+        0.06,
+        0.5,
+        "Grey granite, sawn or flamed: very little open porosity in microcracks between its crystals",
+        weathering=dict(crust=0.75),
+        structure=Stone(
+            (
+                Texture(CELLS, 0.004, 0.4, 0.85),  # feldspar, quartz and mica crystals, ~4 mm
+                Texture(NOISE, 0.1, 0.6, 0.15, detail=2.0),  # weathered patches
+            ),
+            porosity=0.3,
+            roughness=0.1,
+            pore_depth=0.1,
+            colour=(-0.65, -0.66, -0.67),
+            description="Interlocking crystals a few mm across: dark mica, grey quartz, pale feldspar",
+        ),
     ),
     "BRICK": Preset(
         "Fired-Clay Brick",
@@ -98,6 +159,18 @@ PRESETS = {
         0.8,
         "Red fired-clay brick: highly porous, deep capillary pores",
         weathering=dict(crust=0.6),
+        structure=Stone(
+            (
+                Texture(CELLS, 0.0015, 0.3, 0.2),  # grog and sand, ~1.5 mm
+                Texture(NOISE, 0.1, 0.5, 0.6, detail=2.0),  # firing patches, dm
+                Texture(NOISE, 0.01, 0.2, 0.2, detail=2.0),  # mottling, cm
+            ),
+            porosity=0.25,
+            roughness=0.1,
+            pore_depth=0.1,
+            colour=(-0.22, -0.28, -0.30),
+            description="Grog specks, darker and lighter firing patches",
+        ),
     ),
     "TERRACOTTA": Preset(
         "Terracotta",
@@ -109,6 +182,17 @@ PRESETS = {
         0.6,
         "Unglazed terracotta: finer and smoother than brick",
         weathering=dict(crust=0.65),
+        structure=Stone(
+            (
+                Texture(CELLS, 0.001, 0.3, 0.2),  # fine grog, ~1 mm
+                Texture(NOISE, 0.06, 0.7, 0.6, detail=2.0),  # firing patches
+            ),
+            porosity=0.2,
+            roughness=0.1,
+            pore_depth=0.1,
+            colour=(-0.15, -0.20, -0.22),
+            description="Fine grog and soft firing patches",
+        ),
     ),
     "PLASTER": Preset(
         "Lime Plaster",
@@ -119,6 +203,17 @@ PRESETS = {
         0.03,
         0.8,
         "Lime plaster or render: very porous, chalky white",
+        structure=Stone(
+            (
+                Texture(CELLS, 0.0008, 0.2, 0.1),  # lime and sand grains
+                Texture(NOISE, 0.05, 0.8, 0.7, detail=3.0),  # trowelling, carbonation patches
+            ),
+            porosity=0.25,
+            roughness=0.15,
+            pore_depth=0.1,
+            colour=(-0.05, -0.07, -0.10),
+            description="Sand grains in lime, trowelled patches",
+        ),
     ),
     "CONCRETE": Preset(
         "Concrete",
@@ -130,6 +225,17 @@ PRESETS = {
         0.7,
         "Ordinary Portland-cement concrete, grey and matt",
         weathering=dict(crust=0.7),
+        structure=Stone(
+            (
+                Texture(CELLS, 0.008, 0.5, 0.55),  # aggregate against paste, ~8 mm
+                Texture(NOISE, 0.2, 0.5, 0.35, detail=2.0),  # pour and curing patches
+            ),
+            porosity=0.3,
+            roughness=0.15,
+            pore_depth=0.15,
+            colour=(-0.18, -0.18, -0.17),
+            description="Aggregate in cement paste, patches from the pour",
+        ),
     ),
 }
 
@@ -150,12 +256,16 @@ def weathering_values(source: str, environment: str = DEFAULT_ENVIRONMENT) -> di
 
 
 def make_preset_material(
-    preset_name: str, name: str | None = None, key_light: "bpy.types.Object | str | None" = None
+    preset_name: str,
+    name: str | None = None,
+    key_light: "bpy.types.Object | str | None" = None,
+    variation: float = DEFAULT_VARIATION,
 ) -> "bpy.types.Material":
     """A new porous material (see ``make_porous_material``) with the values of a preset.
 
     ``preset_name`` is a key of PRESETS (e.g. "LIMESTONE"); ``name`` defaults to the
-    preset's label; ``key_light`` as in ``make_porous_material`` (None: ambient mode).
+    preset's label; ``key_light`` as in ``make_porous_material`` (None: ambient mode).  The
+    material has the preset's stone structure (docs/model.md §8) at ``variation`` (0: uniform).
     """
     from .material import make_porous_material
 
@@ -164,7 +274,9 @@ def make_preset_material(
     except KeyError:
         raise ValueError(f"unknown preset {preset_name!r}: choose one of {', '.join(PRESETS)}") from None
     params = preset.material_params()
-    material = make_porous_material(name or preset.label, **params, key_light=key_light)
+    material = make_porous_material(
+        name or preset.label, **params, key_light=key_light, stone=preset_name, variation=variation
+    )
     material.diffuse_color = params["base_color"]  # the viewport's solid-mode colour
     material[PRESET_PROPERTY] = preset_name
     return material

@@ -14,7 +14,7 @@ from ..blender import compat
 from ..common import imageio
 from ..common.imageio import UV_MAP_KEY
 from ..contracts import GROUP_NODE, LIGHT_MODE_PROPERTY, MODES_PROPERTY, socket_name
-from ..core import environments, model
+from ..core import environments, model, stones
 from ..core import modes as weathering_modes
 from ..core.aging import age_for_years  # noqa: F401  (public: docs/api.md, porous_weathering.weathering)
 from ..core.arguments import choice, real_number
@@ -41,6 +41,8 @@ def make_weathered_material(
     key_light: "bpy.types.Object | str | None" = None,
     water_roughness: float = nodes.WATER_ROUGHNESS,
     environment: str | None = environments.DEFAULT_ENVIRONMENT,
+    stone: str | None = None,
+    variation: float = stones.DEFAULT_VARIATION,
     **weathering: MaskValue | Sequence[float],
 ) -> "bpy.types.Material":
     """A new material: the porous BRDF (as make_porous_material) weathered by ``modes``.
@@ -56,12 +58,15 @@ def make_weathered_material(
     NaN or the missing-texture pink.  ``water_roughness`` is the water lobe's roughness.
     ``environment`` (a key of ``environments.ENVIRONMENTS``, default "URBAN") sets the site's inputs
     the modes use (deposit and pollution colours, crust, streaks, efflorescence level); the inputs
-    given explicitly win; None leaves the API defaults.
+    given explicitly win; None leaves the API defaults.  ``stone`` and ``variation`` give the
+    stone's structure as in make_porous_material, and through its receptivity every front follows
+    it (docs/model.md §8.3); ``stone=None`` or ``variation=0`` is the uniform material.
     """
     modes = model.weathering_modes(modes)
     weathering = {**environments.weathering_inputs(environment, modes), **weathering}
     masks = [item.name for item in weathering_modes.inputs().values() if item.mask]
     base_color, values = material.porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio)
+    structure = material.stone_structure(stone, variation)
     light = material.resolve_key_light(key_light)
     light_mode = material.LIGHT_MODE_OF_TYPE[light.data.type] if light else nodes.AMBIENT
     sources = {mask: mask_source(mask, weathering.pop(mask)) for mask in masks if mask in weathering}
@@ -76,7 +81,8 @@ def make_weathered_material(
         )
     new = compat.new_material(name)
     try:
-        group_node = material._replace_with_group(new, nodes.weathered_group(modes, light_mode))
+        group = nodes.weathered_group(modes, light_mode, receptive=structure is not None)
+        group_node = material._replace_with_group(new, group)
         graph = Graph(new.node_tree)
         for input_socket, value in values.items():
             group_node.inputs[input_socket].default_value = value
@@ -86,6 +92,8 @@ def make_weathered_material(
             if mask in state:
                 graph.connect(mask_socket(graph, source), group_node.inputs[socket_name(mask)])
         material._connect_base_color(graph, group_node, base_color)
+        if structure:
+            material.connect_stone(graph, group_node, stone, *structure, base_color)
         if light:
             material.wire_key_light(graph, group_node, light)
     except Exception:

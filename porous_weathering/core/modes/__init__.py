@@ -9,7 +9,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from .. import porous
-from . import efflorescence, soiling, wet
+from . import base, efflorescence, soiling, wet
 from .base import WATER_ROUGHNESS, Input, Layer, Mode, Point
 
 __all__ = [
@@ -100,11 +100,16 @@ def weathered_weights(
     n_dot_v: Any,
     modes: Iterable[str],
     state: Mapping[str, Any],
+    receptivity: Any = None,
 ) -> tuple[Any, Any, Any]:
     """(k_d, k_s, k_water or None): the weights of the diffuse lobe, the glossy lobe (roughness
     m) and the near-mirror water lobe of a point weathered by ``modes`` (already checked);
-    ``state`` holds every input they use.  At time 0 the weights are the porous ones exactly."""
+    ``state`` holds every input they use.  At time 0 the weights are the porous ones exactly.
+    ``receptivity`` (the stone's structure, docs/model.md §8.3; None: the model without it) scales
+    how fast the point's pores fill: every layer reads the local age min(r t, 1)."""
     state = {item.name: xp.clip(state[item.name], item.low, item.high) for item in inputs_of(modes)}
+    if receptivity is not None and "time" in state:
+        state["time"] = base.local_age(xp, state["time"], xp.maximum(receptivity, 0.0))
     kd, ks = porous.valid_albedo(xp, kd, ks)
     m = xp.maximum(m, 0.0)
     alpha = xp.clip(alpha, 0.0, 1.0)

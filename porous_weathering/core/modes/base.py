@@ -140,6 +140,14 @@ def fill_curve(xp, progress):
     return xp.smoothstep(0.0, 1.0, progress)
 
 
+def local_age(xp, time, receptivity):
+    """The age at a point of the stone's structure (docs/model.md §8.3): its pores fill
+    ``receptivity`` times as fast as the stone's mean, min(r t, 1), so that every front (carbon,
+    salt, water), the grey deposit, the streaks and the crust follow the stone's texture; t
+    itself, bit for bit, at r = 1."""
+    return xp.minimum(time * receptivity, 1.0)
+
+
 def pore_fill(xp, mask, time, level, width):
     """Fill fraction of the pores: a front sweeps the mask down from 1 as time grows
     (threshold 1 - level * time); behind it a point fills over ``width`` of mask, along the

@@ -1,0 +1,159 @@
+"""The stone's own structure (docs/model.md §8): each preset's grain, bedding, veins or speckle,
+at its physical size, and the maths that turns it into per-point k_d, alpha, s_p and m.
+
+A ``Stone`` is one record per preset key: its structure as a few ``Texture`` layers (each a
+Blender procedural texture kind with a physical feature size in metres) that make two zero-mean
+fields in [-1, 1], the porosity field z_p and the colour field z_c, and the amplitudes by which
+they move the parameters around the material's own values.  The maths (``texture_value``,
+``fields``, ``point_parameters``, ``receptivity``) is written once against a backend ``xp``
+(``backends.py``): numpy evaluates it on fields read from a render (the tests), the stone's
+node group builds it as nodes (``shading/nodes.py``).  What only a shader has, the procedural
+textures themselves, stays in ``shading/nodes.py``.
+
+``plausible_size`` holds the one rule of which object sizes are plausible in metres (the units
+warning of Make and the bake).
+"""
+
+import math
+from dataclasses import dataclass
+
+#: Texture kinds: Blender's Noise (patches, mottling), Wave bands (bedding, veins) and Voronoi
+#: cells, each cell its own random value (grains, crystals, aggregate).
+NOISE, WAVE, CELLS = "NOISE", "WAVE", "CELLS"
+
+#: Per kind, the factor that spreads a texture's value v (mean 1/2) into z = clip(gain (v - 1/2),
+#: -1, 1).  A Voronoi cell's random value and a sine band are uniform-like over [0, 1] (gain 2);
+#: Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is larger.  Each
+#: distribution is symmetric about 1/2, and the clip is symmetric, so z has mean 0.
+GAIN = {NOISE: 3.0, WAVE: 2.0, CELLS: 2.0}
+
+#: Blender's Wave texture (bands) has the phase 20 x (scale x coordinate): its period along the
+#: bands' direction is 2 pi / 20 / scale.  So a period P metres needs the scale 2 pi / (20 P).
+WAVE_PHASE_PER_UNIT = 20.0
+
+#: The receptivity's exponents: r = (alpha / alpha_mean)^a (m / m_mean)^b (docs/model.md §8.3).
+RECEPTIVITY_POROSITY_EXPONENT = 0.5
+RECEPTIVITY_ROUGHNESS_EXPONENT = 0.5
+
+#: The object sizes (largest bounding-box side, metres) a stone object plausibly has: a pebble to
+#: a cathedral.  Outside, the scene's unit is probably wrong (docs/model.md §8.4).
+PLAUSIBLE_SIZE = (0.01, 200.0)
+#: The unit scales offered to bring an implausible size back, metres per scene unit.
+UNIT_SCALES = {"millimetres": 0.001, "centimetres": 0.01, "metres": 1.0, "kilometres": 1000.0}
+
+
+@dataclass(frozen=True)
+class Texture:
+    """One layer of a stone's structure: a procedural texture at a physical size, and how much
+    of it goes into the porosity field and the colour field (each may be negative)."""
+
+    kind: str  #: NOISE, WAVE or CELLS
+    size: float  #: metres: a noise's feature size, a wave's period, a cell's diameter
+    porosity: float  #: weight in z_p
+    colour: float  #: weight in z_c
+    detail: float = 2.0  #: octaves of noise (NOISE), of the bands' distortion (WAVE)
+    distortion: float = 0.0  #: WAVE: how far the bands wander (veins); NOISE: domain distortion
+    #: WAVE: the bands' axis in object space, "Z" for horizontal bedding, "DIAGONAL" for veins.
+    direction: str = "Z"
+
+    @property
+    def scale(self) -> float:
+        """The Blender texture's Scale for this physical size, in texture units per metre."""
+        if self.kind == WAVE:
+            return 2.0 * math.pi / (WAVE_PHASE_PER_UNIT * self.size)
+        return 1.0 / self.size
+
+
+@dataclass(frozen=True)
+class Stone:
+    """A stone's structure and how it moves the material's parameters (docs/model.md §8).
+
+    ``porosity``, ``roughness`` and ``pore_depth`` are relative amplitudes at variation 1:
+    alpha = alpha_mean (1 + porosity z_p), and so on; all three rise together with z_p (more
+    porous is rougher and thirstier).  ``colour`` is the relative shift per RGB channel of k_d at
+    z_c = 1: k_d = k_d_mean (1 + colour z_c); a direction along the stone's own hue.
+    """
+
+    textures: tuple[Texture, ...]
+    porosity: float
+    roughness: float
+    pore_depth: float
+    colour: tuple[float, float, float]
+    description: str
+
+    def __post_init__(self):
+        for name in ("porosity", "colour"):
+            total = sum(abs(getattr(texture, name)) for texture in self.textures)
+            if total > 1.0 + 1e-9:
+                raise ValueError(f"a stone's {name} weights must add up to at most 1 (|z| <= 1), not {total}")
+        if not all(0.0 <= a < 1.0 for a in (self.porosity, self.roughness, self.pore_depth, *map(abs, self.colour))):
+            raise ValueError("a stone's relative amplitudes must lie in [0, 1), so no parameter changes sign")
+
+
+def texture_value(xp, value, kind):
+    """z of one layer: its texture's value v (mean 1/2) spread into [-1, 1], symmetric about 0."""
+    return xp.clip(GAIN[kind] * (value - 0.5), -1.0, 1.0)
+
+
+def fields(xp, stone, values):
+    """(z_p, z_c): the porosity and colour fields, sums of the layers' z (``values``: each
+    layer's texture value, in the order of ``stone.textures``) by their weights; in [-1, 1]."""
+    z_p, z_c = 0.0, 0.0
+    for texture, value in zip(stone.textures, values):
+        z = texture_value(xp, value, texture.kind)
+        if texture.porosity:
+            z_p = xp.multiply_add(z, texture.porosity, z_p)
+        if texture.colour:
+            z_c = xp.multiply_add(z, texture.colour, z_c)
+    return z_p, z_c
+
+
+def relative(xp, z, amplitude, variation):
+    """1 + amplitude x variation x z: the factor by which a field moves a parameter (mean 1)."""
+    return xp.multiply_add(z, amplitude * variation, 1.0)
+
+
+def point_parameters(xp, stone, kd, alpha, sp, m, z_p, z_c, variation):
+    """(k_d, alpha, s_p, m) at a point of fields (z_p, z_c), around the material's values
+    (k_d a colour): each linear in z, so its mean over a field of mean 0 is the material's
+    value; alpha, s_p and m clamped to the model's ranges (docs/model.md §1), k_d left to the
+    porous group's own clamp (k_d to [0, 1 - k_s]: the presets' amplitudes keep it inside).  k_d
+    moves along the stone's colour direction by a Mix of k_d and k_d (1 + colour) by z_c: k_d
+    itself at z_c = 0."""
+    variation = xp.clip(variation, 0.0, 1.0)
+    alpha = xp.clip(alpha * relative(xp, z_p, stone.porosity, variation), 0.0, 1.0)
+    sp = xp.maximum(sp * relative(xp, z_p, stone.pore_depth, variation), 0.0)
+    m = xp.clip(m * relative(xp, z_p, stone.roughness, variation), 0.0, 1.5)
+    kd = xp.mix(xp.channel(z_c * variation), kd, kd * tuple(1.0 + c for c in stone.colour))
+    return kd, alpha, sp, m
+
+
+def receptivity(xp, stone, z_p, variation):
+    """r = (alpha / alpha_mean)^a (m / m_mean)^b (docs/model.md §8.3): how much faster than the
+    stone's mean a point's pores fill; 1 where the stone is at its mean."""
+    variation = xp.clip(variation, 0.0, 1.0)
+    porous_part = xp.power(relative(xp, z_p, stone.porosity, variation), RECEPTIVITY_POROSITY_EXPONENT)
+    rough_part = xp.power(relative(xp, z_p, stone.roughness, variation), RECEPTIVITY_ROUGHNESS_EXPONENT)
+    return porous_part * rough_part
+
+
+def plausible_size(size: float, metres_per_unit: float) -> str | None:
+    """None when an object ``size`` scene units across is plausible for a stone object at
+    ``metres_per_unit``; else a one-line advice naming the unit scale that makes it plausible
+    (Scene > Units > Unit Scale)."""
+    low, high = PLAUSIBLE_SIZE
+    metres = size * metres_per_unit
+    if not (size > 0.0 and math.isfinite(metres)) or low <= metres <= high:
+        return None
+    fits = [
+        f"{scale:g} if it is modelled in {unit}" for unit, scale in UNIT_SCALES.items() if low <= size * scale <= high
+    ]
+    advice = "set Scene > Units > Unit Scale to its unit in metres" + (f" ({', '.join(fits)})" if fits else "")
+    return (
+        f"is {metres:.3g} m across at the scene's unit scale {metres_per_unit:g} m per unit, "
+        f"implausible for stone ({low:g}–{high:g} m): {advice}, then Make again"
+    )
+
+
+#: The variation the presets' materials and the panel's Make use: the stone as it shows itself.
+DEFAULT_VARIATION = 1.0

@@ -1,0 +1,354 @@
+"""The stone's own structure (docs/model.md §8): the maths in numpy, and the stone group's
+renders against it pixel by pixel (Cycles CPU, fixed seed, tiny images).
+
+- numpy: the per-point parameters keep the material's means, rise together with the porosity
+  field, are clamped; the receptivity is 1 at the mean and none (None) is r = 1 bit for bit.
+- render: the per-point k_d, alpha, s_p, m (and r, z_p, z_c) are read back from probe renders of
+  the material's own stone node; they are the numpy maths of the read fields, and the rendered
+  pixels are the model's (porous and weathered) at those parameters.
+- ``variation = 0`` and ``stone = None`` render bit for bit the same, with no stone node.
+- the same plane in millimetres (unit scale 0.001) and in metres has the same fields.
+"""
+
+import pathlib
+import warnings
+
+import bpy
+
+import numpy as np
+import pytest
+
+import porous_weathering as pw
+from helpers import MaskedPlane, assert_matches
+from porous_weathering.contracts import GROUP_NODE, STONE_NODE
+from porous_weathering.core import model, stones
+from porous_weathering.core.backends import NumpyOps
+from porous_weathering.samples import studio
+from porous_weathering.shading import nodes
+from porous_weathering.shading.presets import PRESETS
+
+XP = NumpyOps(colour=True)
+STRUCTURED = [key for key, preset in PRESETS.items() if preset.structure is not None]
+#: A stone of the test's own values (porous enough to show the structure), with limestone's structure.
+STONE = dict(base_color=(0.62, 0.55, 0.45), ks=0.08, roughness=0.6, porosity=0.3, pore_depth_ratio=2.5)
+KD = np.array(STONE["base_color"])
+
+
+def parameters(stone, z_p, z_c, variation=1.0, kd=KD):
+    s = STONE
+    return stones.point_parameters(
+        XP, stone, kd, s["porosity"], s["pore_depth_ratio"], s["roughness"], z_p, z_c, variation
+    )
+
+
+# --- the maths, in numpy ---------------------------------------------------------------------
+
+
+def test_every_preset_has_its_stone():
+    assert "GRANITE" in PRESETS
+    assert STRUCTURED == list(PRESETS)
+
+
+@pytest.mark.parametrize("key", STRUCTURED)
+def test_means_are_kept(key):
+    """Over a field symmetric about 0 the mean of each parameter is the material's value."""
+    stone = PRESETS[key].structure
+    z = np.linspace(-1.0, 1.0, 201)
+    kd, alpha, sp, m = parameters(stone, z, z[::-1])
+    s = STONE
+    assert alpha.mean() == pytest.approx(s["porosity"], rel=1e-12)
+    assert sp.mean() == pytest.approx(s["pore_depth_ratio"], rel=1e-12)
+    assert m.mean() == pytest.approx(s["roughness"], rel=1e-12)
+    assert kd.mean(axis=0) == pytest.approx(KD, rel=1e-12)
+
+
+@pytest.mark.parametrize("key", STRUCTURED)
+def test_porous_points_are_rougher_and_deeper(key):
+    stone = PRESETS[key].structure
+    z = np.linspace(-1.0, 1.0, 21)
+    _, alpha, sp, m = parameters(stone, z, np.zeros_like(z))
+    for values in (alpha, sp, m):
+        assert np.all(np.diff(values) > 0.0)
+    r = stones.receptivity(XP, stone, z, 1.0)
+    assert np.all(np.diff(r) > 0.0) and r[10] == 1.0
+
+
+@pytest.mark.parametrize("key", STRUCTURED)
+def test_variation_zero_is_the_material(key):
+    stone = PRESETS[key].structure
+    z = np.linspace(-1.0, 1.0, 11)
+    kd, alpha, sp, m = parameters(stone, z, z, variation=0.0)
+    s = STONE
+    assert np.all(alpha == s["porosity"]) and np.all(sp == s["pore_depth_ratio"]) and np.all(m == s["roughness"])
+    assert np.all(kd == KD)
+    assert np.all(stones.receptivity(XP, stone, z, 0.0) == 1.0)
+
+
+@pytest.mark.parametrize("key", STRUCTURED)
+def test_preset_stones_stay_in_range(key):
+    """No clamp acts on a preset's own values (so its means are kept) and k_d + k_s <= 1."""
+    preset = PRESETS[key]
+    kd0 = np.array(preset.linear_base_color()[:3])
+    z = np.array([-1.0, 1.0])
+    kd, alpha, sp, m = stones.point_parameters(
+        XP, preset.structure, kd0, preset.porosity, preset.pore_depth_ratio, preset.roughness, z, z, 1.0
+    )
+    assert np.all((alpha > 0) & (alpha < 1)) and np.all(sp > 0) and np.all((m > 0) & (m < 1.5))
+    assert np.all(kd > 0) and np.all(kd.max(axis=-1) + preset.ks <= 1.0)
+
+
+def test_parameters_are_clamped():
+    stone = PRESETS["LIMESTONE"].structure
+    kd, alpha, sp, m = stones.point_parameters(XP, stone, KD, 0.95, 2.0, 1.45, np.array([1.0]), np.array([1.0]), 5.0)
+    assert alpha[0] == 1.0 and m[0] == 1.5  # variation clamped to 1, alpha to 1, m to 1.5
+
+
+def test_fields_are_zero_mean_and_bounded():
+    stone = PRESETS["SANDSTONE"].structure
+    rng = np.random.default_rng(0)
+    values = [rng.uniform(-0.5, 1.5, 1000) for _ in stone.textures]
+    mirrored = [1.0 - v for v in values]  # a texture's values mirrored about 1/2
+    z_p, z_c = stones.fields(XP, stone, values)
+    z_p2, z_c2 = stones.fields(XP, stone, mirrored)
+    assert np.abs(z_p).max() <= 1.0 and np.abs(z_c).max() <= 1.0
+    assert np.allclose(z_p + z_p2, 0.0) and np.allclose(z_c + z_c2, 0.0)
+
+
+def test_a_stone_whose_weights_exceed_one_is_refused():
+    texture = stones.Texture(stones.NOISE, 0.1, 0.7, 0.0)
+    with pytest.raises(ValueError, match="porosity weights"):
+        stones.Stone((texture, texture), 0.2, 0.1, 0.1, (0.0, 0.0, 0.0), "too much")
+
+
+def test_no_receptivity_is_r_one_bit_for_bit():
+    modes = model.MODES
+    state = dict(time=0.6, rain_map=0.3, edge_map=0.7, efflorescence_map=0.65)
+    s = STONE
+    args = (s["base_color"], s["ks"], s["roughness"], s["porosity"], s["pore_depth_ratio"], 0.8, 0.9, modes)
+    plain = model.weathered_coefficients(*args, **state)
+    with_one = model.weathered_coefficients(*args, receptivity=1.0, **state)
+    for a, b in zip(plain, with_one):
+        assert np.array_equal(a, b)
+
+
+def test_receptive_points_weather_first():
+    """A point of higher r is further along every front at the same t."""
+    s = STONE
+    r = np.array([0.8, 1.0, 1.25])
+    kd_w, _, _ = model.weathered_coefficients(
+        s["base_color"], s["ks"], s["roughness"], s["porosity"], s["pore_depth_ratio"], None, 1.0,
+        ("soiling",), receptivity=r, time=0.5, rain_map=0.0, edge_map=0.5, crust=0.0,
+    )  # fmt: skip
+    assert np.all(np.diff(kd_w.sum(axis=-1)) < 0.0)  # darker where more receptive
+
+
+@pytest.mark.parametrize(
+    ("size", "scale", "advice"),
+    [
+        (300.0, 1.0, "0.001 if it is modelled in millimetres"),
+        (0.002, 1.0, "1000 if it is modelled in kilometres"),
+        (2.0, 0.001, "1 if it is modelled in metres"),
+        (0.3, 1.0, None),
+        (30.0, 1.0, None),
+    ],
+)
+def test_implausible_sizes_name_the_unit_scale(size, scale, advice):
+    message = stones.plausible_size(size, scale)
+    if advice is None:
+        assert message is None
+    else:
+        assert "Unit Scale" in message and advice in message
+
+
+# --- renders ---------------------------------------------------------------------------------
+
+
+def probe(plane, material, outputs):
+    """(H, W, 3) of the ``outputs`` of ``material``'s stone node (a colour output alone, or up to
+    three scalars), emitted by a copy of the material."""
+    copy = material.copy()
+    tree = copy.node_tree
+    stone = tree.nodes[STONE_NODE]
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    if len(outputs) == 1:
+        tree.links.new(stone.outputs[outputs[0]], emission.inputs["Color"])
+    else:
+        combine = tree.nodes.new("ShaderNodeCombineXYZ")
+        for index, name in enumerate(outputs):
+            tree.links.new(stone.outputs[name], combine.inputs[index])
+        tree.links.new(combine.outputs[0], emission.inputs["Color"])
+    output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
+    tree.links.new(emission.outputs[0], output.inputs["Surface"])
+    return plane.render(copy)[..., :3]
+
+
+def glossy_lobe(plane, material):
+    """A white GGX lobe whose roughness is the material's per-point m."""
+    copy = material.copy()
+    tree = copy.node_tree
+    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
+    glossy.distribution = "GGX"
+    glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    tree.links.new(tree.nodes[STONE_NODE].outputs["Roughness"], glossy.inputs["Roughness"])
+    output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
+    tree.links.new(glossy.outputs[0], output.inputs["Surface"])
+    return plane.render(copy)[..., :3]
+
+
+def read_back(plane, material):
+    """The per-pixel values the stone node gives: {kd, alpha, sp, m, r, z_p, z_c}."""
+    alpha, m, sp = np.moveaxis(probe(plane, material, ("Porosity", "Roughness", "Pore Depth Ratio")), -1, 0)
+    r, z_p, z_c = np.moveaxis(probe(plane, material, (nodes.RECEPTIVITY, "Porosity Field", "Colour Field")), -1, 0)
+    return dict(kd=probe(plane, material, ("Base Color",)), alpha=alpha, m=m, sp=sp, r=r, z_p=z_p, z_c=z_c)
+
+
+def cosines(plane):
+    towards = np.array(plane.sun.matrix_world.to_3x3().col[2])
+    return float(towards[2]), 1.0  # the plane faces +Z, the camera looks down -Z
+
+
+def test_stone_group_is_the_maths_per_pixel(fresh_scene):
+    """The fields read back give, through the numpy maths, the parameters read back; the fields
+    have mean near 0 over a 2 m plane (a bed face: horizontal, so its bedding is one band), and
+    the parameters vary."""
+    plane = MaskedPlane(fresh_scene, size=24)
+    material = pw.make_porous_material("Stone", **STONE, stone="LIMESTONE")
+    got = read_back(plane, material)
+    covered = plane.render(material)[..., 3] > 0.999
+    stone = PRESETS["LIMESTONE"].structure
+    kd, alpha, sp, m = parameters(stone, got["z_p"], got["z_c"])
+    for name, value in (("alpha", alpha), ("sp", sp), ("m", m), ("kd", kd)):
+        assert np.abs(got[name] - value)[covered].max() < 1e-5 * max(1.0, float(np.abs(value).max())), name
+    assert np.abs(got["r"] - stones.receptivity(XP, stone, got["z_p"], 1.0))[covered].max() < 1e-5
+    assert np.abs(got["z_p"][covered]).max() <= 1.0 and got["z_p"][covered].std() > 0.1
+    assert abs(got["z_p"][covered].mean()) < 0.15 and abs(got["z_c"][covered].mean()) < 0.15
+
+
+def test_porous_render_matches_the_model_per_pixel(fresh_scene):
+    plane = MaskedPlane(fresh_scene, size=24)
+    material = pw.make_porous_material("Stone", **STONE, stone="LIMESTONE", key_light=plane.sun)
+    got = read_back(plane, material)
+    image = plane.render(material)
+    diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
+    glossy = glossy_lobe(plane, material)
+    n_dot_l, n_dot_v = cosines(plane)
+    kd_poro, ks_poro = model.porous_coefficients(
+        got["kd"], STONE["ks"], got["m"], got["alpha"], got["sp"], n_dot_l, n_dot_v
+    )
+    expected = kd_poro * diffuse + ks_poro[..., None] * glossy
+    assert_matches(image, expected, image[..., 3] > 0.999)
+
+
+def test_weathered_fronts_follow_the_stone(fresh_scene):
+    """With the stone's receptivity the soiling front at t is where the model puts it, per pixel,
+    and it breaks up along the stone: some points are further along than others."""
+    plane = MaskedPlane(fresh_scene, size=24)
+    state = dict(time=0.5, rain_map=0.0, edge_map=0.55, crust=0.5)
+    material = pw.make_weathered_material(
+        "Weathered", modes=("soiling",), **STONE, stone="LIMESTONE", key_light=plane.sun, environment=None, **state
+    )
+    got = read_back(plane, material)
+    image = plane.render(material)
+    diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
+    glossy = glossy_lobe(plane, material)
+    n_dot_l, n_dot_v = cosines(plane)
+    kd_w, ks_w, _ = model.weathered_coefficients(
+        got["kd"], STONE["ks"], got["m"], got["alpha"], got["sp"], n_dot_l, n_dot_v, ("soiling",),
+        receptivity=got["r"], **state,
+    )  # fmt: skip
+    covered = image[..., 3] > 0.999
+    assert_matches(image, kd_w * diffuse + ks_w[..., None] * glossy, covered)
+    fill = model.pore_fill(0.55, np.minimum(0.5 * got["r"], 1.0), 1.0, 0.1)[covered]
+    assert fill.min() < 0.25 and fill.max() > 0.75  # the front runs through the stone's structure
+
+
+@pytest.mark.parametrize("weathered", [False, True], ids=["porous", "weathered"])
+def test_variation_zero_is_today_bit_for_bit(fresh_scene, weathered):
+    plane = MaskedPlane(fresh_scene, size=16)
+
+    def make(name, **extra):
+        if weathered:
+            return pw.make_weathered_material(
+                name, modes=("soiling", "wet"), **STONE, time=0.6, rain_map=0.4, edge_map=0.8, **extra
+            )
+        return pw.make_porous_material(name, **STONE, key_light=plane.sun, **extra)
+
+    today = make("Today")
+    zero = make("Zero", stone="LIMESTONE", variation=0.0)
+    assert STONE_NODE not in zero.node_tree.nodes
+    assert zero.node_tree.nodes[GROUP_NODE].node_tree is today.node_tree.nodes[GROUP_NODE].node_tree
+    assert np.array_equal(plane.render(today), plane.render(zero))
+    varied = make("Varied", stone="LIMESTONE")
+    assert not np.array_equal(plane.render(today), plane.render(varied))
+
+
+def test_millimetres_and_metres_give_the_same_stone(fresh_scene):
+    plane = MaskedPlane(fresh_scene, size=16)
+    fields = ("Porosity Field", "Colour Field")
+    in_metres = probe(plane, pw.make_porous_material("M", **STONE, stone="SANDSTONE"), fields)
+    fresh_scene.unit_settings.scale_length = 0.001
+    plane.plane.data.transform(np.diag([1000.0, 1000.0, 1000.0, 1.0]))
+    plane.plane.data.update()
+    camera = fresh_scene.camera
+    camera.data.ortho_scale *= 1000.0
+    camera.location.z *= 1000.0
+    camera.data.clip_end = camera.location.z * 2.0
+    in_millimetres = probe(plane, pw.make_porous_material("MM", **STONE, stone="SANDSTONE"), fields)
+    assert np.abs(in_metres[..., :2]).max() > 0.1
+    close = np.abs(in_metres - in_millimetres) < 1e-3
+    assert close.mean() > 0.99, f"{(~close).sum()} values differ"  # a point on a grain's edge may flip
+
+
+def test_stone_names_are_checked():
+    with pytest.raises(ValueError, match="LIMESTONE"):
+        pw.make_porous_material("Bad", stone="BASALT")
+    with pytest.raises(ValueError, match="variation"):
+        pw.make_porous_material("Bad", stone="LIMESTONE", variation="much")
+    assert "Bad" not in bpy.data.materials
+
+
+LAYER_WORDS = {stones.CELLS: "cells", stones.WAVE: "bands", stones.NOISE: "patches"}
+
+
+def layer_text(texture):
+    """A layer as docs/presets.md writes it: 'cells 1 mm', 'bands 12 cm (z)'."""
+    size = f"{texture.size * 1000:g} mm" if texture.size < 0.01 else f"{texture.size * 100:g} cm"
+    direction = f" ({texture.direction.lower()})" if texture.kind == stones.WAVE else ""
+    return f"{LAYER_WORDS[texture.kind]} {size}{direction}"
+
+
+@pytest.mark.parametrize("key", STRUCTURED)
+def test_docs_give_each_stones_structure(key):
+    preset = PRESETS[key]
+    text = (pathlib.Path(__file__).resolve().parent.parent / "docs" / "presets.md").read_text(encoding="utf-8")
+    section = text.split("## The stone's structure", 1)[1]
+    row = next(line for line in section.splitlines() if line.startswith(f"| {preset.label} |"))
+    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    s = preset.structure
+    assert cells[1] == ", ".join(layer_text(texture) for texture in s.textures)
+    colour = ", ".join(f"{c:g}" for c in s.colour)
+    assert cells[2:6] == [f"{s.porosity:g}", f"{s.pore_depth:g}", f"{s.roughness:g}", colour]
+
+
+def test_preset_materials_have_their_stone(fresh_scene):
+    assert STONE_NODE in pw.make_preset_material("BRICK").node_tree.nodes
+    assert STONE_NODE not in pw.make_preset_material("BRICK", name="Flat", variation=0.0).node_tree.nodes
+
+
+@pytest.mark.parametrize(("size", "unit", "warned"), [(300.0, 1.0, True), (300.0, 0.001, False), (2.0, 1.0, False)])
+def test_make_and_the_bake_warn_of_an_implausible_unit(fresh_scene, size, unit, warned):
+    from porous_weathering.maps import linking, scan_checks
+
+    fresh_scene.unit_settings.scale_length = unit
+    obj = studio.add_plane(fresh_scene, size=size)
+    bpy.context.view_layer.update()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        new = linking.weathered_material_for(obj, (), preset="LIMESTONE")
+    assert STONE_NODE in new.node_tree.nodes  # Make gives the preset's stone
+    made = [str(w.message) for w in caught if "Unit Scale" in str(w.message)]
+    baked = [message for message in scan_checks.problems(obj, rain=False) if "Unit Scale" in message]
+    assert len(made) == len(baked) == int(warned)
+    if warned:
+        assert "0.001 if it is modelled in millimetres" in made[0] and made[0] == baked[0]
