@@ -17,11 +17,12 @@ import numpy as np
 import pytest
 
 from helpers import run_cli
+from porous_weathering.contracts import GROUP_NODE
 from porous_weathering.core import model
 from porous_weathering.maps import lightmap
 from porous_weathering.publish import export, mapping
 from porous_weathering.samples.studio import add_sun
-from porous_weathering.shading import weathering
+from porous_weathering.shading import nodes, weathering
 
 SIZE = 32  #: texels: the wall's UV map is the whole square, so every texel is one point of the model
 STONE = dict(base_color=(0.6, 0.55, 0.45), ks=0.1, roughness=0.4, porosity=0.3, pore_depth_ratio=0.5)
@@ -36,7 +37,7 @@ RUNOFF = lambda u: 0.9 * (1.0 - u)
 # --- a tiny wall and its export -------------------------------------------------------------
 
 
-def make_wall(name="Wall", key_light=True, modes=("soiling",), runoff=False):
+def make_wall(name="Wall", key_light=True, modes=("soiling",), runoff=False, stone=None):
     """A 2 m square of 8 x 8 quads facing +Z, its UV map the whole [0, 1]² square, with a rain
     map E = u and an edge map C = v (colour attributes), and a weathered material (sun mode);
     with ``runoff``, a run-off map R = RUNOFF(u) read by the soiling too."""
@@ -57,7 +58,9 @@ def make_wall(name="Wall", key_light=True, modes=("soiling",), runoff=False):
         masks["runoff_map"] = "pw_runoff"
     if "efflorescence" in modes:
         masks["efflorescence_map"] = "pw_edges"
-    material = weathering.make_weathered_material(f"{name} Stone", modes=modes, key_light=sun, **STONE, **masks)
+    material = weathering.make_weathered_material(
+        f"{name} Stone", modes=modes, key_light=sun, stone=stone, **STONE, **masks
+    )
     wall.data.materials.append(material)
     return wall
 
@@ -266,6 +269,28 @@ def test_the_runoff_reaches_the_exported_textures(tmp_path):
     with_runoff, without = (expected_weights(1.0, False, runoff=flag)[0] for flag in (True, False))
     assert np.abs(srgb(base) - srgb(with_runoff)).max() <= 1.5 / 255
     assert np.abs(srgb(with_runoff) - srgb(without)).max() > 0.1
+
+
+def test_the_stones_structure_reaches_the_exported_textures(tmp_path):
+    """A stone's structure (docs/model.md §8) is baked into the textures: the clean variant's base
+    colour varies from texel to texel around the uniform wall's, and the soiled one's fronts follow
+    its receptivity (they differ from those of the same structure without it)."""
+    wall = make_wall(stone="LIMESTONE")
+    save(tmp_path)
+    result = export.export_variants([wall], (0.0, 0.5), size=SIZE, out_dir=str(tmp_path / "out"))
+    gltf, binary = read_glb(result.path)
+    clean, _, _ = material_values(variant_materials(gltf)["clean"], gltf, binary, tmp_path)
+    uniform = expected_weights(0.0, False)[0]
+    assert clean.std(axis=(0, 1)).min() > 0.005 and uniform.std(axis=(0, 1)).max() < 1e-6
+    assert np.abs(clean.mean(axis=(0, 1)) - uniform.mean(axis=(0, 1))).max() < 0.03  # its mean kept
+    material = wall.active_material
+    assert nodes.RECEPTIVITY in material.node_tree.nodes[GROUP_NODE].inputs
+    soiled, _, _ = material_values(variant_materials(gltf)["t=0.5"], gltf, binary, tmp_path)
+    material.node_tree.links.remove(material.node_tree.nodes[GROUP_NODE].inputs[nodes.RECEPTIVITY].links[0])
+    without = export.export_variants([wall], (0.0, 0.5), size=SIZE, out_dir=str(tmp_path / "without"))
+    gltf, binary = read_glb(without.path)
+    unreceptive, _, _ = material_values(variant_materials(gltf)["t=0.5"], gltf, binary, tmp_path)
+    assert np.abs(soiled - unreceptive).max() > 0.02
 
 
 def test_webp_textures_match_the_png_ones(exported, tmp_path):

@@ -95,9 +95,7 @@ def connect_stone(graph, group_node, key, structure, variation, base_color):
     """The stone group of ``key`` between the material's values and ``group_node``: it takes the
     base colour (or image), porosity, pore depth and roughness set on ``group_node`` as its means
     and feeds their per-point values (and, to a receptive weathered group, the receptivity)."""
-    from . import nodes as _nodes
-
-    node = graph.node("ShaderNodeGroup", depth=1, node_tree=_nodes.stone_group(key, structure))
+    node = graph.node("ShaderNodeGroup", depth=1, node_tree=nodes.stone_group(key, structure))
     node.name = node.label = STONE_NODE
     inputs = group_node.inputs
     for socket in ("Porosity", "Pore Depth Ratio", "Roughness"):
@@ -108,7 +106,7 @@ def connect_stone(graph, group_node, key, structure, variation, base_color):
         node.inputs["Base Color"].default_value = inputs["Base Color"].default_value
     node.inputs["Variation"].default_value = variation
     node.inputs["Metres Per Unit"].default_value = metres_per_unit()
-    for socket in ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", _nodes.RECEPTIVITY):
+    for socket in ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", nodes.RECEPTIVITY):
         if socket in inputs:
             graph.connect(node.outputs[socket], inputs[socket])
     group_node.id_data[STONE_PROPERTY] = key
