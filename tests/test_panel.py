@@ -11,7 +11,9 @@ import pytest
 
 from porous_weathering import ui
 from porous_weathering.common import imageio
+from porous_weathering.contracts import STONE_NODE
 from porous_weathering.core import modes as weathering_modes
+from porous_weathering.core import stones
 from porous_weathering.maps import efflorescence_map, linking
 from porous_weathering.maps import registry as maps
 from porous_weathering.samples import studio
@@ -203,6 +205,22 @@ def test_panel_weathering_values_come_from_the_registry_and_the_stone(registered
     assert group.inputs["Wet Darkening"].default_value == pytest.approx(0.45)
     settings.source = ui_settings.FROM_MATERIAL  # no preset: the API defaults
     assert settings.crust == pytest.approx(weathering_modes.inputs()["crust"].default)
+
+
+def test_the_variation_slider_gives_the_stone_its_structure_or_none(registered, fresh_scene):
+    """Make gives a preset's material its stone's structure at the panel's Variation (1 by
+    default: as the stone shows it); at 0 the material is uniform, with no stone node."""
+    settings = fresh_scene.porous_weathering
+    assert settings.variation == stones.DEFAULT_VARIATION == 1.0
+    plane = studio.add_plane(fresh_scene)
+    bpy.context.view_layer.objects.active = plane
+    settings.variation = 0.4
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    stone = plane.active_material.node_tree.nodes[STONE_NODE]
+    assert stone.inputs["Variation"].default_value == pytest.approx(0.4)
+    settings.variation = 0.0
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    assert STONE_NODE not in plane.active_material.node_tree.nodes
 
 
 def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_path):

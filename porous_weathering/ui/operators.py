@@ -203,6 +203,7 @@ class MakeMaterial(NeedsMaterialObject):
                     values={**settings.weathering_values(modes), **self.measured_values(settings, modes)},
                     environment=settings.environment,
                     stone=self.measured_stone(settings),
+                    variation=settings.variation,
                 )
         except ValueError as error:
             self.report({"ERROR"}, f"object '{obj.name}': {error}")

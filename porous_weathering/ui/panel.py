@@ -24,6 +24,8 @@ def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> No
 
     col = layout.column(heading="Material")
     col.prop(settings, "source")
+    if settings.preset() is not None:
+        col.prop(settings, "variation", slider=True)
     col.prop(settings, "environment")
     col.prop(settings, "key_light")
     if settings.key_light is None:

@@ -5,7 +5,7 @@ the age in years; the measured colours of a survey."""
 
 import bpy
 
-from ..core import aging, environments
+from ..core import aging, environments, stones
 from ..core import modes as weathering_modes
 from ..shading import presets
 
@@ -81,6 +81,15 @@ def settings_class() -> type:
                 )
             ],
             update=_apply_source,
+        ),
+        "variation": bpy.props.FloatProperty(
+            name="Variation",
+            description="How much the stone's own structure (grain, bedding, veins, speckle) varies its colour, "
+            "porosity and roughness from point to point, and so how its weathering breaks up: 1 as the stone "
+            "shows it, 0 a uniform stone (docs/model.md §8)",
+            default=stones.DEFAULT_VARIATION,
+            min=0.0,
+            max=1.0,
         ),
         "environment": bpy.props.EnumProperty(
             name="Environment",
