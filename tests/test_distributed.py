@@ -64,7 +64,8 @@ def gone(process):
 @pytest.fixture(scope="module")
 def scenes(tmp_path_factory):
     """scene0 and scene1: a cube Block<i> on a plane "Ground" (the same name in both: their Ground
-    maps clash); scene2: a cube alone; empty.blend: no mesh to bake (the file fails)."""
+    maps clash); scene2: a cube alone; broken.blend: no .blend Blender can open (the file fails
+    as it is baked: the up-front checks pass a file they cannot open on to the bake)."""
     folder = tmp_path_factory.mktemp("scenes")
     for index in range(3):
         bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -74,8 +75,7 @@ def scenes(tmp_path_factory):
             bpy.ops.mesh.primitive_plane_add(size=3.0, location=(0, 0, -0.5))
             bpy.context.object.name = "Ground"
         bpy.ops.wm.save_as_mainfile(filepath=str(folder / f"scene{index}.blend"), copy=True)
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.wm.save_as_mainfile(filepath=str(folder / "empty.blend"), copy=True)
+    (folder / "broken.blend").write_bytes(b"BLENDER-v500 but nothing after it")
     return folder
 
 
@@ -114,7 +114,7 @@ def test_a_name_clash_is_refused_as_in_the_serial_run_and_a_rerun_skips_what_is_
 
 
 def test_forced_clashes_and_a_failed_file_end_as_in_the_serial_run(scenes, tmp_path):
-    files = [scenes / name for name in ("scene0.blend", "empty.blend", "scene1.blend", "scene2.blend")]
+    files = [scenes / name for name in ("scene0.blend", "broken.blend", "scene1.blend", "scene2.blend")]
     serial, dask = tmp_path / "serial", tmp_path / "dask"
     code, lines = outcomes(run_cli("bake", *files, "--out", serial, "--force", *SMALL, timeout=TIMEOUT), serial)
     # scene1 replaced scene0's: each map of the registry written twice for "Ground"
