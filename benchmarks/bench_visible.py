@@ -396,11 +396,11 @@ def use_cycles(sample, args):
     scene.render.resolution_x = round(args.size * aspect)
 
 
-def add_render_options(parser):
+def add_render_options(parser, size=160, samples=16):
     """--size, --samples and --bake-samples, which ``use_cycles``, ``demo.Sample`` and
-    ``closing_line`` read."""
-    parser.add_argument("--size", type=int, default=160, help="picture height in pixels (default: 160)")
-    parser.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel (default: 16)")
+    ``closing_line`` read (``size`` and ``samples``: their defaults)."""
+    parser.add_argument("--size", type=int, default=size, help=f"picture height in pixels (default: {size})")
+    parser.add_argument("--samples", type=int, default=samples, help=f"Cycles samples per pixel (default: {samples})")
     parser.add_argument("--bake-samples", type=int, default=32, help="rain samples per corner (default: 32)")
 
 
