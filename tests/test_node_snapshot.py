@@ -2,7 +2,7 @@
 
 Every group the package builds is one case: the porous group in each light mode, the
 weathered group of every non-empty set of registered weathering modes in each light mode (with
-and without the receptivity of a stone's structure) and the group of every preset's stone, read
+and without the receptivity of a stone's structure) the group of every preset's stone and its masonry group, read
 from the registries (``modes.names()``, ``nodes.LIGHT_MODES``, ``presets.PRESETS``), so a new mode or light mode is
 covered by construction. ``group_data`` turns a group into plain data (its interface, its
 properties and its nodes: type, settings, constants and links) that syrupy compares with
@@ -164,3 +164,9 @@ def test_receptive_weathered_group_matches_its_snapshot(modes, light_mode, snaps
 @pytest.mark.parametrize("key", [key for key, preset in PRESETS.items() if preset.structure is not None])
 def test_stone_group_matches_its_snapshot(key, snapshot):
     assert group_data(nodes.stone_group(key, PRESETS[key].structure)) == snapshot
+
+
+@pytest.mark.parametrize("key", [key for key, preset in PRESETS.items() if preset.structure is not None])
+def test_masonry_group_matches_its_snapshot(key, snapshot):
+    """The group of a stone laid as coursed ashlar (docs/model.md §8.5)."""
+    assert group_data(nodes.masonry_group(key, PRESETS[key].structure)) == snapshot

@@ -20,6 +20,7 @@ class NumpyOps:
     minimum = staticmethod(np.minimum)
     power = staticmethod(np.power)
     arccos = staticmethod(np.arccos)
+    floor = staticmethod(np.floor)
 
     def __init__(self, colour: bool = True):
         self.colour = colour
@@ -53,6 +54,7 @@ class NodeOps:
     minimum = staticmethod(shader_math.minimum)
     power = staticmethod(shader_math.power)
     arccos = staticmethod(shader_math.arccos)
+    floor = staticmethod(shader_math.floor)
     smoothstep = staticmethod(shader_math.smoothstep)
     multiply_add = staticmethod(shader_math.multiply_add)
     mix = staticmethod(shader_math.mix)

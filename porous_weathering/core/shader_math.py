@@ -240,6 +240,7 @@ _FOLD = {
     "MINIMUM": min,
     "POWER": lambda a, b: a**b,
     "ARCCOSINE": lambda a: math.acos(min(max(a, -1.0), 1.0)),
+    "FLOOR": math.floor,
 }
 _VECTOR_TO_SCALAR = {"DOT_PRODUCT", "LENGTH", "DISTANCE"}
 #: Input indices of the Mix node by identifier (the same in Blender 4.5 and 5.2; several
@@ -374,6 +375,11 @@ def mix(factor, a, b):
     if graph is None:
         return a * (1.0 - factor) + b * factor
     return graph.mix(factor, a, b)
+
+
+def floor(x):
+    """The largest whole number not above x (a scalar): one Math node."""
+    return x.graph.math("FLOOR", x) if isinstance(x, Expr) else float(math.floor(x))
 
 
 def arccos(x):

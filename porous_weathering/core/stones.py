@@ -10,6 +10,10 @@ they move the parameters around the material's own values.  The maths (``texture
 node group builds it as nodes (``shading/nodes.py``).  What only a shader has, the procedural
 textures themselves, stays in ``shading/nodes.py``.
 
+Masonry (docs/model.md §8.5): an ``Ashlar`` record lays blocks out in courses with mortar joints;
+``ashlar`` finds a point's course, block and joint, ``block_fields`` shifts the fields by the
+block's own draw (each block its own bed), ``jointed`` mixes the mortar's parameters in.
+
 ``plausible_size`` holds the one rule of which object sizes are plausible in metres (the units
 warning of Make and the bake).
 """
@@ -80,12 +84,18 @@ class Stone:
     pore_depth: float
     colour: tuple[float, float, float]
     description: str
+    #: Masonry (docs/model.md §8.5): the share of the porosity field and of the colour field that
+    #: is the block's own draw b (each block from its own bed), in [0, 1]; 0: every block alike.
+    block_porosity: float = 0.0
+    block_colour: float = 0.0
 
     def __post_init__(self):
         for name in ("porosity", "colour"):
             total = sum(abs(getattr(texture, name)) for texture in self.textures)
             if total > 1.0 + 1e-9:
                 raise ValueError(f"a stone's {name} weights must add up to at most 1 (|z| <= 1), not {total}")
+        if not all(0.0 <= share <= 1.0 for share in (self.block_porosity, self.block_colour)):
+            raise ValueError("a stone's block shares must lie in [0, 1], so that |z| <= 1")
         if not all(0.0 <= a < 1.0 for a in (self.porosity, self.roughness, self.pore_depth, *map(abs, self.colour))):
             raise ValueError("a stone's relative amplitudes must lie in [0, 1), so no parameter changes sign")
 
@@ -132,9 +142,91 @@ def receptivity(xp, stone, z_p, variation):
     """r = (alpha / alpha_mean)^a (m / m_mean)^b (docs/model.md §8.3): how much faster than the
     stone's mean a point's pores fill; 1 where the stone is at its mean."""
     variation = xp.clip(variation, 0.0, 1.0)
-    porous_part = xp.power(relative(xp, z_p, stone.porosity, variation), RECEPTIVITY_POROSITY_EXPONENT)
-    rough_part = xp.power(relative(xp, z_p, stone.roughness, variation), RECEPTIVITY_ROUGHNESS_EXPONENT)
+    return receptivity_of(
+        xp, relative(xp, z_p, stone.porosity, variation), relative(xp, z_p, stone.roughness, variation)
+    )
+
+
+def receptivity_of(xp, porosity_ratio, roughness_ratio):
+    """r from alpha / alpha_mean and m / m_mean (docs/model.md §8.3)."""
+    porous_part = xp.power(porosity_ratio, RECEPTIVITY_POROSITY_EXPONENT)
+    rough_part = xp.power(roughness_ratio, RECEPTIVITY_ROUGHNESS_EXPONENT)
     return porous_part * rough_part
+
+
+# --- masonry (docs/model.md §8.5) -----------------------------------------------------------
+
+#: The joints' edges (the blocks' arrises) blend stone into mortar over this width, metres (a
+#: chamfer of a millimetre), or over half the joint if that is less.
+ARRIS = 0.001
+
+
+@dataclass(frozen=True)
+class Ashlar:
+    """Coursed ashlar (docs/model.md §8.5): courses ``course_height`` metres high, each of blocks
+    ``block_length`` metres long, every other course set over by half a block (a running bond),
+    the joints ``joint_width`` metres wide and filled with the preset ``mortar``.  The courses
+    run along the object's Z, the blocks along X and Y (walls in the object's axes)."""
+
+    course_height: float = 0.35
+    block_length: float = 0.7
+    joint_width: float = 0.01
+    mortar: str = "LIME_MORTAR"
+
+    def __post_init__(self):
+        lengths = (self.course_height, self.block_length, self.joint_width)
+        if not all(isinstance(x, (int, float)) and math.isfinite(x) and x > 0.0 for x in lengths):
+            raise ValueError(f"an ashlar's lengths (course, block, joint) must be > 0 m, not {lengths}")
+        if self.joint_width >= min(self.course_height, self.block_length) / 2.0:
+            raise ValueError(f"an ashlar's joint width ({self.joint_width:g} m) must be under half a course and block")
+
+
+def ashlar(xp, x, y, z, course_height, block_length, joint_width):
+    """(course, block, joint) at the point (x, y, z) in metres of an ashlar of those lengths
+    (metres): the course's and the block's whole-number indices (a block is the pair) and the
+    joint's share j in [0, 1] (1 in the mortar, 0 in the stone, blending over the arris).  The
+    blocks run along x + y, which is continuous round the corners of a wall in the object's
+    axes (a block turns the corner as a quoin does)."""
+    half = joint_width * 0.5
+    arris = xp.minimum(half, ARRIS) * 0.5
+    rows = z / course_height
+    course = xp.floor(rows)
+    parity = course - 2.0 * xp.floor(course * 0.5)  # 0 or 1: every other course set over
+    along = xp.multiply_add(parity, 0.5, (x + y) / block_length)
+    block = xp.floor(along)
+    bed, head = rows - course, along - block  # where in its course, in its block: [0, 1)
+    bed_distance = xp.minimum(bed, 1.0 - bed) * course_height  # metres to the nearest bed joint's centre
+    head_distance = xp.minimum(head, 1.0 - head) * block_length
+    low, high = half - arris, half + arris
+    in_stone = xp.minimum(xp.smoothstep(low, high, bed_distance), xp.smoothstep(low, high, head_distance))
+    return course, block, 1.0 - in_stone
+
+
+def block_fields(xp, stone, z_p, z_c, draw):
+    """(z_p, z_c) of a block whose own draw is ``draw`` (b in [-1, 1], mean 0): each field mixed
+    with b by the stone's block share, so it stays in [-1, 1] and of mean 0, and a block's mean
+    is its share of b (its bed)."""
+    return xp.mix(stone.block_porosity, z_p, draw), xp.mix(stone.block_colour, z_c, draw)
+
+
+#: The least mean porosity or roughness the mortar's receptivity is taken relative to.
+LEAST_MEAN = 1e-3
+
+
+def mortar_receptivity(xp, mortar_alpha, mortar_m, alpha, m):
+    """The mortar's r relative to the stone's means alpha and m (docs/model.md §8.3, §8.5): a
+    mortar more porous and rougher than the stone takes up soot, water and salt faster."""
+    return receptivity_of(xp, mortar_alpha / xp.maximum(alpha, LEAST_MEAN), mortar_m / xp.maximum(m, LEAST_MEAN))
+
+
+def jointed(xp, joint, stone_values, mortar_values):
+    """Each of ``stone_values`` (k_d, alpha, s_p, m, r) mixed with the mortar's by the joint's share."""
+    kd, *scalars = stone_values
+    mortar_kd, *mortar_scalars = mortar_values
+    return (
+        xp.mix(xp.channel(joint), kd, mortar_kd),
+        *(xp.mix(joint, a, b) for a, b in zip(scalars, mortar_scalars)),
+    )
 
 
 def plausible_size(size: float, metres_per_unit: float) -> str | None:

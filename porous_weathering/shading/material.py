@@ -32,6 +32,7 @@ def make_porous_material(
     key_light: "bpy.types.Object | str | None" = None,
     stone: str | None = None,
     variation: float = stones.DEFAULT_VARIATION,
+    masonry: stones.Ashlar | None = None,
 ) -> "bpy.types.Material":
     """A new material that renders the porous BRDF post-process (docs/model.md §2) in EEVEE and Cycles.
 
@@ -42,12 +43,14 @@ def make_porous_material(
     structure (docs/model.md §8): k_d, alpha, s_p and m vary from point to point around the values
     given, by ``variation`` in [0, 1] (1: as the stone shows it), at physical sizes in the scene's
     unit (``unit_settings.scale_length`` when the material is made); ``stone=None`` or
-    ``variation=0`` builds the uniform material.  Out-of-range or NaN numbers are clamped with a
+    ``variation=0`` builds the uniform material.  ``masonry`` (a ``stones.Ashlar``, with a
+    ``stone``) lays the stone as coursed ashlar, each block its own draw of the stone's
+    parameters, its joints the mortar preset's (docs/model.md §8.5).  Out-of-range or NaN numbers are clamped with a
     ``PorousInputWarning``; a key light that is not a light, or an unknown stone, raises
     ``ValueError`` before anything is created.
     """
     base_color, values = porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio)
-    structure = stone_structure(stone, variation)
+    structure = stone_structure(stone, variation, masonry)
     light = resolve_key_light(key_light)
     light_mode = LIGHT_MODE_OF_TYPE[light.data.type] if light else nodes.AMBIENT
     material = compat.new_material(name)
@@ -69,19 +72,28 @@ def make_porous_material(
     return material
 
 
-def stone_structure(stone: str | None, variation: float) -> "tuple[stones.Stone, float] | None":
-    """(the stone's structure, variation) for ``stone`` (a preset key) and ``variation``, or None
-    when the material is uniform (no stone, variation 0, or a preset without a structure);
-    ValueError naming an unknown stone or a variation that is not a number."""
+def stone_structure(
+    stone: str | None, variation: float, masonry: "stones.Ashlar | None" = None
+) -> "tuple[stones.Stone, float, stones.Ashlar | None] | None":
+    """(the stone's structure, variation, masonry) for ``stone`` (a preset key), ``variation`` and
+    ``masonry``, or None when the material is uniform (no stone, or variation 0 or a preset without
+    a structure and no masonry); ValueError naming an unknown stone or mortar, a variation that is
+    not a number, or masonry that is not an ``Ashlar`` or has no stone."""
     from .presets import PRESETS
 
     variation = float(model.sanitize("variation", real_number("variation", variation), 0.0, 1.0))
+    if masonry is not None:
+        if not isinstance(masonry, stones.Ashlar):
+            raise ValueError(f"masonry must be a stones.Ashlar or None, not {masonry!r}")
+        if stone is None:
+            raise ValueError("masonry needs a stone (stone='LIMESTONE', say): its blocks are the stone's")
+        choice("mortar", masonry.mortar, PRESETS)
     if stone is None:
         return None
     preset = PRESETS[choice("stone", stone, PRESETS)]
-    if preset.structure is None or variation == 0.0:
+    if masonry is None and (preset.structure is None or variation == 0.0):
         return None
-    return preset.structure, variation
+    return preset.structure or stones.Stone((), 0.0, 0.0, 0.0, (0.0, 0.0, 0.0), "uniform"), variation, masonry
 
 
 def metres_per_unit(scene: "bpy.types.Scene | None" = None) -> float:
@@ -91,11 +103,16 @@ def metres_per_unit(scene: "bpy.types.Scene | None" = None) -> float:
     return float(scene.unit_settings.scale_length) if scene is not None else 1.0
 
 
-def connect_stone(graph, group_node, key, structure, variation, base_color):
+def connect_stone(graph, group_node, key, structure, variation, masonry, base_color):
     """The stone group of ``key`` between the material's values and ``group_node``: it takes the
     base colour (or image), porosity, pore depth and roughness set on ``group_node`` as its means
-    and feeds their per-point values (and, to a receptive weathered group, the receptivity)."""
-    node = graph.node("ShaderNodeGroup", depth=1, node_tree=nodes.stone_group(key, structure))
+    and feeds their per-point values (and, to a receptive weathered group, the receptivity).
+    With ``masonry`` (an ``Ashlar``) the stone's masonry group, given the ashlar's lengths in
+    metres and its mortar preset's values."""
+    from .presets import PRESETS
+
+    group = nodes.masonry_group(key, structure) if masonry else nodes.stone_group(key, structure)
+    node = graph.node("ShaderNodeGroup", depth=1, node_tree=group)
     node.name = node.label = STONE_NODE
     inputs = group_node.inputs
     for socket in ("Porosity", "Pore Depth Ratio", "Roughness"):
@@ -106,6 +123,14 @@ def connect_stone(graph, group_node, key, structure, variation, base_color):
         node.inputs["Base Color"].default_value = inputs["Base Color"].default_value
     node.inputs["Variation"].default_value = variation
     node.inputs["Metres Per Unit"].default_value = metres_per_unit()
+    if masonry:
+        node.inputs["Course Height"].default_value = masonry.course_height
+        node.inputs["Block Length"].default_value = masonry.block_length
+        node.inputs["Joint Width"].default_value = masonry.joint_width
+        mortar = PRESETS[masonry.mortar]
+        values = (mortar.linear_base_color(), mortar.porosity, mortar.pore_depth_ratio, mortar.roughness)
+        for socket, value in zip(nodes.MORTAR_SOCKETS, values):
+            node.inputs[socket].default_value = value
     for socket in ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", nodes.RECEPTIVITY):
         if socket in inputs:
             graph.connect(node.outputs[socket], inputs[socket])

@@ -336,6 +336,81 @@ def stone_body(graph, inputs, stone):
     }
 
 
+# --- masonry (docs/model.md §8.5) -----------------------------------------------------------
+
+#: The masonry group's inputs beyond the stone group's: the ashlar's lengths and the mortar's values.
+MASONRY_INPUTS = {
+    "Course Height": ("NodeSocketFloat", stones.Ashlar.course_height, 1e-6, 1e6, "Height of a course, metres"),
+    "Block Length": ("NodeSocketFloat", stones.Ashlar.block_length, 1e-6, 1e6, "Length of a block, metres"),
+    "Joint Width": ("NodeSocketFloat", stones.Ashlar.joint_width, 0.0, 1e6, "Width of the mortar joints, metres"),
+    "Mortar Color": PORE_INPUTS["Base Color"][:4] + ("Diffuse albedo k_d of the mortar",),
+    "Mortar Porosity": PORE_INPUTS["Porosity"][:4] + ("Porosity alpha of the mortar",),
+    "Mortar Pore Depth Ratio": PORE_INPUTS["Pore Depth Ratio"][:4] + ("Pore depth ratio s_p of the mortar",),
+    "Mortar Roughness": PORE_INPUTS["Roughness"][:4] + ("Roughness m of the mortar",),
+}
+MASONRY_OUTPUTS = {
+    "Block Field": ("NodeSocketFloat", "b in [-1, 1]: this block's own draw (its bed)"),
+    "Joint": ("NodeSocketFloat", "j in [0, 1]: 1 in the mortar joints, 0 in the stone"),
+}
+#: What the mortar's values and the ashlar's lengths are called in the masonry group.
+MORTAR_SOCKETS = ("Mortar Color", "Mortar Porosity", "Mortar Pore Depth Ratio", "Mortar Roughness")
+
+
+def masonry_group_name(key):
+    return f"{stone_group_name(key)} Ashlar"
+
+
+def masonry_group(key, stone):
+    """The node group of the stone ``key`` laid as coursed ashlar (docs/model.md §8.5): the
+    stone group's textures and maths, each block's own draw, and the mortar in the joints."""
+    name = masonry_group_name(key)
+    body = lambda graph, inputs: masonry_body(graph, inputs, stone)  # noqa: E731
+    return _reuse(name) or _build(name, body, {**STONE_INPUTS, **MASONRY_INPUTS}, {**STONE_OUTPUTS, **MASONRY_OUTPUTS})
+
+
+def masonry_body(graph, inputs, stone):
+    coordinates = graph.node("ShaderNodeTexCoord", depth=0)
+    metres = graph.wrap(coordinates.outputs["Object"]) * inputs["Metres Per Unit"]
+    values = [texture_value(graph, metres, texture) for texture in stone.textures]
+    axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": metres})
+    x, y, z = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
+    course, block, joint = stones.ashlar(
+        NODE_OPS, x, y, z, inputs["Course Height"], inputs["Block Length"], inputs["Joint Width"]
+    )
+    draw = block_draw(graph, course, block)
+    z_p, z_c = stones.block_fields(NODE_OPS, stone, *stones.fields(NODE_OPS, stone, values), draw)
+    variation = inputs["Variation"]
+    alpha, m = inputs["Porosity"], inputs["Roughness"]
+    kd, point_alpha, sp, point_m = stones.point_parameters(
+        NODE_OPS, stone, inputs["Base Color"], alpha, inputs["Pore Depth Ratio"], m, z_p, z_c, variation
+    )
+    r = stones.receptivity(NODE_OPS, stone, z_p, variation)
+    mortar = [inputs[socket] for socket in MORTAR_SOCKETS]
+    mortar_r = stones.mortar_receptivity(NODE_OPS, mortar[1], mortar[3], alpha, m)
+    kd, point_alpha, sp, point_m, r = stones.jointed(
+        NODE_OPS, joint, (kd, point_alpha, sp, point_m, r), (*mortar, mortar_r)
+    )
+    return {
+        "Base Color": kd,
+        "Porosity": point_alpha,
+        "Pore Depth Ratio": sp,
+        "Roughness": point_m,
+        RECEPTIVITY: r,
+        "Porosity Field": z_p,
+        "Colour Field": z_c,
+        "Block Field": draw,
+        "Joint": joint,
+    }
+
+
+def block_draw(graph, course, block):
+    """b in [-1, 1], uniform and of mean 0: each block's own random value (a White Noise of its
+    whole-number (block, course) index: the same at every point of the block)."""
+    cell = graph.node("ShaderNodeCombineXYZ", {"X": block, "Y": course, "Z": 0.0})
+    noise = graph.node("ShaderNodeTexWhiteNoise", {"Vector": cell.outputs[0]}, noise_dimensions="3D")
+    return graph.wrap(noise.outputs["Value"]) * 2.0 - 1.0
+
+
 def texture_value(graph, metres, texture):
     """The value (mean 1/2, in [0, 1]) of one layer's Blender texture at ``metres``."""
     common = {"Vector": metres, "Scale": texture.scale}

@@ -14,7 +14,7 @@ from ..contracts import PRESET_PROPERTY
 from ..core import colorimetry
 from ..core import modes as weathering_modes
 from ..core.environments import DEFAULT_ENVIRONMENT, ENVIRONMENTS, Environment  # noqa: F401  (public: docs/api.md)
-from ..core.stones import CELLS, DEFAULT_VARIATION, NOISE, WAVE, Stone, Texture
+from ..core.stones import CELLS, DEFAULT_VARIATION, NOISE, WAVE, Ashlar, Stone, Texture  # noqa: F401  (Ashlar: docs/api.md)
 
 if TYPE_CHECKING:
     import bpy
@@ -81,6 +81,8 @@ PRESETS = {
             pore_depth=0.15,
             colour=(-0.10, -0.16, -0.24),
             description="Quartz grains, cross-bedded laminae a few cm apart, patchy cement",
+            block_porosity=0.4,
+            block_colour=0.5,
         ),
     ),
     "LIMESTONE": Preset(
@@ -103,6 +105,8 @@ PRESETS = {
             pore_depth=0.15,
             colour=(-0.06, -0.09, -0.15),
             description="Ooids ~1 mm, bedding a decimetre apart, softer porous patches",
+            block_porosity=0.4,
+            block_colour=0.5,
         ),
     ),
     "MARBLE": Preset(
@@ -125,6 +129,8 @@ PRESETS = {
             pore_depth=0.1,
             colour=(-0.08, -0.08, -0.07),  # near-white: at most k_d + k_s = 1
             description="Calcite crystals ~2 mm and grey veins wandering across",
+            block_porosity=0.3,
+            block_colour=0.3,
         ),
     ),
     "GRANITE": Preset(
@@ -147,6 +153,8 @@ PRESETS = {
             pore_depth=0.1,
             colour=(-0.65, -0.66, -0.67),
             description="Interlocking crystals a few mm across: dark mica, grey quartz, pale feldspar",
+            block_porosity=0.2,
+            block_colour=0.15,
         ),
     ),
     "BRICK": Preset(
@@ -170,6 +178,8 @@ PRESETS = {
             pore_depth=0.1,
             colour=(-0.22, -0.28, -0.30),
             description="Grog specks, darker and lighter firing patches",
+            block_porosity=0.4,
+            block_colour=0.5,
         ),
     ),
     "TERRACOTTA": Preset(
@@ -192,6 +202,8 @@ PRESETS = {
             pore_depth=0.1,
             colour=(-0.15, -0.20, -0.22),
             description="Fine grog and soft firing patches",
+            block_porosity=0.3,
+            block_colour=0.4,
         ),
     ),
     "PLASTER": Preset(
@@ -235,6 +247,30 @@ PRESETS = {
             pore_depth=0.15,
             colour=(-0.18, -0.18, -0.17),
             description="Aggregate in cement paste, patches from the pour",
+            block_porosity=0.3,
+            block_colour=0.3,
+        ),
+    ),
+    "LIME_MORTAR": Preset(
+        "Lime Mortar",
+        0.32,
+        (0.20, 0.40),
+        2.5,
+        "#C2B9A6",
+        0.03,
+        0.85,
+        "Lime and sand mortar of the joints: very porous, sandy and rough, greyer than the stone",
+        weathering=dict(crust=0.75),
+        structure=Stone(
+            (
+                Texture(CELLS, 0.001, 0.3, 0.3),  # sand in lime, ~1 mm
+                Texture(NOISE, 0.03, 0.7, 0.7, detail=2.0),  # pointing and carbonation patches, cm
+            ),
+            porosity=0.25,
+            roughness=0.1,
+            pore_depth=0.1,
+            colour=(-0.06, -0.08, -0.11),
+            description="Sand grains in lime, patches of the pointing",
         ),
     ),
 }

@@ -43,6 +43,7 @@ def make_weathered_material(
     environment: str | None = environments.DEFAULT_ENVIRONMENT,
     stone: str | None = None,
     variation: float = stones.DEFAULT_VARIATION,
+    masonry: stones.Ashlar | None = None,
     **weathering: MaskValue | Sequence[float],
 ) -> "bpy.types.Material":
     """A new material: the porous BRDF (as make_porous_material) weathered by ``modes``.
@@ -61,12 +62,13 @@ def make_weathered_material(
     given explicitly win; None leaves the API defaults.  ``stone`` and ``variation`` give the
     stone's structure as in make_porous_material, and through its receptivity every front follows
     it (docs/model.md §8.3); ``stone=None`` or ``variation=0`` is the uniform material.
+    ``masonry`` lays the stone as ashlar with mortar joints, as in make_porous_material.
     """
     modes = model.weathering_modes(modes)
     weathering = {**environments.weathering_inputs(environment, modes), **weathering}
     masks = [item.name for item in weathering_modes.inputs().values() if item.mask]
     base_color, values = material.porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio)
-    structure = material.stone_structure(stone, variation)
+    structure = material.stone_structure(stone, variation, masonry)
     light = material.resolve_key_light(key_light)
     light_mode = material.LIGHT_MODE_OF_TYPE[light.data.type] if light else nodes.AMBIENT
     sources = {mask: mask_source(mask, weathering.pop(mask)) for mask in masks if mask in weathering}
