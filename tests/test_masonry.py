@@ -327,6 +327,26 @@ def test_millimetres_and_metres_give_the_same_ashlar(fresh_scene):
     assert close.mean() > 0.99, f"{(~close).sum()} values differ"
 
 
+def test_a_wall_stood_up_and_scaled_gets_the_same_level_courses(fresh_scene):
+    """The structure is read along the world's axes, in metres, from the object's origin (docs/
+    model.md §8.2): the same wall modelled lying in its XY plane at half size, stood up by a
+    rotation and scaled by 2 (as users add a plane and turn it), has the upright wall's courses,
+    blocks and fields at the same points."""
+    wall = Wall(fresh_scene, size=24)
+    outputs = ("Joint", "Block Field", "Porosity Field")
+    upright = probe(wall, masonry_material("Upright", wall), outputs)
+    mesh = wall.wall.data
+    mesh.clear_geometry()
+    corners = [(-0.5, 0.05, 0.0), (0.5, 0.05, 0.0), (0.5, 1.05, 0.0), (-0.5, 1.05, 0.0)]
+    mesh.from_pydata(corners, [], [(0, 1, 2, 3)])
+    wall.wall.rotation_euler = (np.pi / 2, 0.0, 0.0)
+    wall.wall.scale = (2.0, 2.0, 2.0)
+    bpy.context.view_layer.update()
+    turned = probe(wall, masonry_material("Turned", wall), outputs)
+    close = np.abs(upright - turned) < 1e-3
+    assert upright[..., 0].max() == 1.0 and close.mean() > 0.99, f"{(~close).sum()} values differ"
+
+
 def test_without_masonry_the_material_is_todays(fresh_scene):
     wall = Wall(fresh_scene, size=16)
     today = pw.make_porous_material("Today", **STONE, stone="LIMESTONE", key_light=wall.sun)

@@ -9,8 +9,9 @@ constants cost no nodes.  Nodes are laid out in columns by their depth in the gr
 import math
 
 SCALAR, VECTOR = "SCALAR", "VECTOR"
-#: Nodes whose outputs change from point to point: the shading geometry and the texture coordinates.
-VARYING_SOURCES = ("ShaderNodeNewGeometry", "ShaderNodeTexCoord")
+#: Nodes whose outputs are not known when the group is built: the shading geometry, the texture
+#: coordinates and the object's own data (its location).
+VARYING_SOURCES = ("ShaderNodeNewGeometry", "ShaderNodeTexCoord", "ShaderNodeObjectInfo")
 _COLUMN_WIDTH, _ROW_HEIGHT = 220, 180
 
 

@@ -166,7 +166,7 @@ class Ashlar:
     """Coursed ashlar (docs/model.md §8.5): courses ``course_height`` metres high, each of blocks
     ``block_length`` metres long, every other course set over by half a block (a running bond),
     the joints ``joint_width`` metres wide and filled with the preset ``mortar``.  The courses
-    run along the object's Z, the blocks along X and Y (walls in the object's axes)."""
+    run along the world's Z, the blocks along X and Y (walls in the world's axes)."""
 
     course_height: float = 0.35
     block_length: float = 0.7

@@ -295,22 +295,31 @@ STONE_OUTPUTS = {
 }
 
 
+def point_in_metres(graph, inputs):
+    """Where the shading point lies from its object's origin, in metres, along the world's axes
+    (docs/model.md §8.2): physical whatever the object's scale, and the beds and courses level
+    (along Z) whatever way the object was modelled or turned."""
+    position = graph.node("ShaderNodeNewGeometry", depth=0).outputs["Position"]
+    origin = graph.node("ShaderNodeObjectInfo", depth=0).outputs["Location"]
+    return (graph.wrap(position) - graph.wrap(origin)) * inputs["Metres Per Unit"]
+
+
 def stone_group_name(key):
     return f"PW Stone {key.title()}"
 
 
 def stone_group(key, stone):
     """The node group of the stone ``key`` (a preset key) whose structure is ``stone``
-    (``stones.Stone``), built on first use: its textures at their physical sizes, in the
-    object's coordinates times the metres per unit, and the maths of ``core/stones.py``."""
+    (``stones.Stone``), built on first use: its textures at their physical sizes, at the point's
+    place from its object's origin in metres (``point_in_metres``), and the maths of
+    ``core/stones.py``."""
     name = stone_group_name(key)
     body = lambda graph, inputs: stone_body(graph, inputs, stone)  # noqa: E731
     return _reuse(name) or _build(name, body, STONE_INPUTS, STONE_OUTPUTS)
 
 
 def stone_body(graph, inputs, stone):
-    coordinates = graph.node("ShaderNodeTexCoord", depth=0)
-    metres = graph.wrap(coordinates.outputs["Object"]) * inputs["Metres Per Unit"]
+    metres = point_in_metres(graph, inputs)
     values = [texture_value(graph, metres, texture) for texture in stone.textures]
     z_p, z_c = stones.fields(NODE_OPS, stone, values)
     variation = inputs["Variation"]
@@ -369,8 +378,7 @@ def masonry_group(key, stone):
 
 
 def masonry_body(graph, inputs, stone):
-    coordinates = graph.node("ShaderNodeTexCoord", depth=0)
-    metres = graph.wrap(coordinates.outputs["Object"]) * inputs["Metres Per Unit"]
+    metres = point_in_metres(graph, inputs)
     values = [texture_value(graph, metres, texture) for texture in stone.textures]
     axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": metres})
     x, y, z = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
