@@ -12,6 +12,9 @@
 - ``paper_modes``: the modes as the paper writes them, without the layers beyond it (docs/model.md §6).
 - ``rain_only_modes``: the modes as they were before run-off (docs/model.md §7): the rain map's E
   where they now read the water W, and no dirty streaks.
+- ``stone_probe``, ``stone_parameters``, ``stone_glossy_lobe``: the per-point parameters a material's
+  "Stone" node gives (k_d, alpha, s_p, m, receptivity), read back from renders of its outputs,
+  and the white GGX lobe of its per-point roughness (docs/model.md §8).
 - ``run_cli``: ``python -m porous_weathering COMMAND ...`` in a subprocess, as users run it.
 - ``corner_values``: a baked colour attribute's value at every corner of a mesh.
 - ``bust_mesh``, ``add_bust``: the scan-like bust of sample_blends/scan_generator.py, in
@@ -33,7 +36,7 @@ import numpy as np
 import porous_weathering as pw
 from porous_weathering.blender import mesh_arrays, render
 from porous_weathering.common.options import option
-from porous_weathering.contracts import map_attribute
+from porous_weathering.contracts import STONE_NODE, map_attribute
 from porous_weathering.core import model
 from porous_weathering.core import modes as weathering_modes
 from porous_weathering.core.modes import base as mode_base
@@ -41,7 +44,7 @@ from porous_weathering.core.modes import soiling, wet
 from porous_weathering.core.modes.base import TIME, Input, Layer, Mode
 from porous_weathering.maps import registry as maps
 from porous_weathering.samples import studio
-from porous_weathering.shading import weathering
+from porous_weathering.shading import nodes, weathering
 from scripts import load_script
 
 #: Cycles evaluates the node maths in float32 and stores float32 EXR: agreement to 1e-4
@@ -233,6 +236,76 @@ def rain_only_modes(names):
             dataclasses.replace(layer, apply=BEFORE_RUNOFF.get(layer.apply, layer.apply)) for layer in mode.layers
         ),
     )
+
+
+# --- the stone node's outputs, read back --------------------------------------------------------
+
+
+def _surface_of_copy(material, surface):
+    """A copy of ``material`` whose surface is ``surface(tree, stone_node)`` (a shader socket)."""
+    copy = material.copy()
+    tree = copy.node_tree
+    output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
+    tree.links.new(surface(tree, tree.nodes[STONE_NODE]), output.inputs["Surface"])
+    return copy
+
+
+def stone_probe(render_with, material, outputs):
+    """(H, W, 3) of the ``outputs`` of ``material``'s stone node (a colour output alone, or up to
+    three scalars), emitted by a copy of the material rendered by ``render_with``."""
+
+    def emit(tree, stone):
+        emission = tree.nodes.new("ShaderNodeEmission")
+        emission.inputs["Strength"].default_value = 1.0
+        if len(outputs) == 1:
+            tree.links.new(stone.outputs[outputs[0]], emission.inputs["Color"])
+        else:
+            combine = tree.nodes.new("ShaderNodeCombineXYZ")
+            for index, name in enumerate(outputs):
+                tree.links.new(stone.outputs[name], combine.inputs[index])
+            tree.links.new(combine.outputs[0], emission.inputs["Color"])
+        return emission.outputs[0]
+
+    return render_with(_surface_of_copy(material, emit))[..., :3]
+
+
+def stone_shifted(render_with, material, socket):
+    """(H, W) of a field output of the stone node, in [-1, 1]: emitted shifted by +1 (an
+    emission is not negative)."""
+
+    def emit(tree, stone):
+        add = tree.nodes.new("ShaderNodeMath")
+        add.operation = "ADD"
+        add.inputs[1].default_value = 1.0
+        tree.links.new(stone.outputs[socket], add.inputs[0])
+        emission = tree.nodes.new("ShaderNodeEmission")
+        tree.links.new(add.outputs[0], emission.inputs["Color"])
+        return emission.outputs[0]
+
+    return render_with(_surface_of_copy(material, emit))[..., 0] - 1.0
+
+
+def stone_parameters(render_with, material, extra=()):
+    """The per-pixel parameters ``material``'s stone node gives: {kd, alpha, sp, m, r} and up to
+    two ``extra`` scalar outputs (keyed by their socket names), in three probe renders."""
+    alpha, m, sp = np.moveaxis(stone_probe(render_with, material, ("Porosity", "Roughness", "Pore Depth Ratio")), -1, 0)
+    scalars = (nodes.RECEPTIVITY, *extra, *extra[-1:] * (2 - len(extra)))  # padded to three outputs
+    r, *others = np.moveaxis(stone_probe(render_with, material, scalars), -1, 0)
+    kd = stone_probe(render_with, material, ("Base Color",))
+    return dict(kd=kd, alpha=alpha, m=m, sp=sp, r=r, **{name: value for name, value in zip(extra, others)})
+
+
+def stone_glossy_lobe(render_with, material):
+    """A white GGX lobe whose roughness is ``material``'s per-point m (its stone node's)."""
+
+    def glossy(tree, stone):
+        lobe = tree.nodes.new("ShaderNodeBsdfGlossy")
+        lobe.distribution = "GGX"
+        lobe.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+        tree.links.new(stone.outputs["Roughness"], lobe.inputs["Roughness"])
+        return lobe.outputs[0]
+
+    return render_with(_surface_of_copy(material, glossy))[..., :3]
 
 
 # --- the command line -------------------------------------------------------------------------

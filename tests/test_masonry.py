@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import assert_matches
+from helpers import assert_matches, stone_glossy_lobe, stone_parameters, stone_probe, stone_shifted
 from porous_weathering.blender import render
 from porous_weathering.contracts import STONE_NODE
 from porous_weathering.core import model, stones
@@ -176,46 +176,18 @@ class Wall:
 
 def probe(wall, material, outputs):
     """(H, W, 3) of up to three scalar outputs (or one colour) of ``material``'s stone node."""
-    copy = material.copy()
-    tree = copy.node_tree
-    stone = tree.nodes[STONE_NODE]
-    emission = tree.nodes.new("ShaderNodeEmission")
-    if len(outputs) == 1:
-        tree.links.new(stone.outputs[outputs[0]], emission.inputs["Color"])
-    else:
-        combine = tree.nodes.new("ShaderNodeCombineXYZ")
-        for index, name in enumerate(outputs):
-            tree.links.new(stone.outputs[name], combine.inputs[index])
-        tree.links.new(combine.outputs[0], emission.inputs["Color"])
-    output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
-    tree.links.new(emission.outputs[0], output.inputs["Surface"])
-    return wall.render(copy)[..., :3]
+    return stone_probe(wall.render, material, outputs)
 
 
 def read_back(wall, material):
     """{kd, alpha, sp, m, r, z_p, z_c, b, joint} per pixel from the material's stone node. The
     fields, in [-1, 1], are emitted shifted by +1 (an emission is not negative)."""
-    alpha, m, sp = np.moveaxis(probe(wall, material, ("Porosity", "Roughness", "Pore Depth Ratio")), -1, 0)
-    r, joint, _ = np.moveaxis(probe(wall, material, (nodes.RECEPTIVITY, "Joint", "Joint")), -1, 0)
-    fields = {}
-    for name, socket in (("z_p", "Porosity Field"), ("z_c", "Colour Field"), ("b", "Block Field")):
-        fields[name] = shifted(wall, material, socket)
-    kd = probe(wall, material, ("Base Color",))
-    return dict(kd=kd, alpha=alpha, m=m, sp=sp, r=r, joint=joint, **fields)
-
-
-def shifted(wall, material, socket):
-    copy = material.copy()
-    tree = copy.node_tree
-    add = tree.nodes.new("ShaderNodeMath")
-    add.operation = "ADD"
-    add.inputs[1].default_value = 1.0
-    tree.links.new(tree.nodes[STONE_NODE].outputs[socket], add.inputs[0])
-    emission = tree.nodes.new("ShaderNodeEmission")
-    tree.links.new(add.outputs[0], emission.inputs["Color"])
-    output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
-    tree.links.new(emission.outputs[0], output.inputs["Surface"])
-    return wall.render(copy)[..., 0] - 1.0
+    got = stone_parameters(wall.render, material, extra=("Joint",))
+    fields = {
+        name: stone_shifted(wall.render, material, socket)
+        for name, socket in (("z_p", "Porosity Field"), ("z_c", "Colour Field"), ("b", "Block Field"))
+    }
+    return dict(got, joint=got.pop("Joint"), **fields)
 
 
 def masonry_material(name, wall, **extra):
@@ -276,15 +248,7 @@ def test_masonry_is_the_maths_and_the_model_per_pixel(fresh_scene):
     for name, value in (("kd", kd), ("alpha", alpha), ("sp", sp), ("m", m), ("r", r)):
         assert np.abs(got[name] - value)[covered].max() < 1e-5 * max(1.0, float(np.abs(value).max())), name
     diffuse = wall.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
-    copy = material.copy()
-    tree = copy.node_tree
-    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
-    glossy.distribution = "GGX"
-    glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    tree.links.new(tree.nodes[STONE_NODE].outputs["Roughness"], glossy.inputs["Roughness"])
-    output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
-    tree.links.new(glossy.outputs[0], output.inputs["Surface"])
-    glossy_image = wall.render(copy)[..., :3]
+    glossy_image = stone_glossy_lobe(wall.render, material)
     towards = np.array(wall.sun.matrix_world.to_3x3().col[2])
     n_dot_l = float(-towards[1])  # the wall faces -Y, the camera looks along +Y
     kd_poro, ks_poro = model.porous_coefficients(

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import porous_weathering
-from helpers import assert_matches, expected_image
+from helpers import assert_matches, expected_image, stone_glossy_lobe, stone_parameters
 from porous_weathering.blender import render
 from porous_weathering.core import model
 from porous_weathering.samples import demo, studio
@@ -95,8 +95,9 @@ def test_samples_are_what_the_script_builds(tmp_path):
 
 class Weathered:
     """A sample weathered in ``mode`` (demo.Sample): the late-over-clean luminance of its
-    render at age 0 and ``age``, what model.py predicts for it per pixel, and each map the mode
-    reads, probed per pixel on the weathered objects (the others held out: they still hide what
+    render at age 0 and ``age``, what model.py predicts for it per pixel (at the stone's
+    per-point parameters, read back from its "Stone" node), and each map the mode reads, probed
+    per pixel on the weathered objects (the others held out: they still hide what
     lies behind them, as in the renders, but leave their pixels transparent)."""
 
     def __init__(self, name, mode, age, map_dir, size=48):
@@ -124,18 +125,21 @@ class Weathered:
         towards_camera = np.array(scene.camera.location) - self.position
         n_dot_v = (normals * towards_camera).sum(-1) / np.linalg.norm(towards_camera, axis=-1)
         n_dot_l = normals @ np.array(sample.sun.matrix_world.to_3x3().col[2])
-        stone = sample.stone
+        # the stone's per-point parameters, each pixel's mean over its samples as the render's is
+        stone = stone_parameters(lambda material: self.probe(sample, material), sample.material(mode))
+        ks = sample.stone["ks"]
 
         def diffuse(time):
             weights = model.weathered_coefficients(
-                stone["base_color"][:3],
-                stone["ks"],
-                stone["roughness"],
-                stone["porosity"],
-                stone["pore_depth_ratio"],
+                stone["kd"],
+                ks,
+                stone["m"],
+                stone["alpha"],
+                stone["sp"],
                 n_dot_l,
                 n_dot_v,
                 (mode,),
+                receptivity=stone["r"],
                 **{**self.inputs, "time": time, **self.maps},
             )
             return luminance(weights[0])
@@ -260,9 +264,11 @@ PAPER_EXACT = {model.SOILING: dict(crust=0.0), model.WET: dict(wet_darkening=0.0
 def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
     """Every mode of the sample's recipe at t = 0.66 and 1, with the API's defaults (black crust
     and wet darkening on) and with the paper-exact settings (crust = 0, wet_darkening = 0): each
-    pixel of the weathered objects is model.py's k_d D + k_s G + k_water W, D, G and W being
-    renders of a white Lambert, a white GGX of the stone's roughness and one of the water's. The
-    sun alone lights it (no sky, no bounce), so that each pixel is one point lit one way."""
+    pixel of the weathered objects is model.py's k_d D + k_s G + k_water W at the stone's
+    per-point k_d, alpha, s_p, m and receptivity (read back from the material's "Stone" node),
+    D, G and W being renders of a white Lambert, a white GGX of the per-point roughness m and one
+    of the water's. The sun alone lights it (no sky, no bounce), so that each pixel is one point
+    lit one way."""
     sample = demo.Sample(name, bake_samples=8, map_dir=tmp_path)
     scene = sample.scene
     scene.world = None
@@ -286,22 +292,24 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
     towards_camera = np.array(scene.camera.matrix_world.translation) - points
     n_dot_v = (normals * towards_camera).sum(-1) / np.linalg.norm(towards_camera, axis=-1)
     n_dot_l = normals @ np.array(sample.sun.matrix_world.to_3x3().col[2])
-    stone = sample.stone
+    ks = sample.stone["ks"]
+    water = sample.stone.get("water_roughness", nodes.WATER_ROUGHNESS)
+    # The stone is the same in every mode's material: its per-point parameters and the white GGX
+    # lobe of its per-point roughness, read once.
+    first = sample.material(next(iter(sample.recipe.masks)))
+    stone = stone_parameters(shade, first, extra=("Joint",) if sample.recipe.masonry else ())
+    assert np.ptp(stone["alpha"][covered]) > 0.01, "the sample shows its stone"
+    if sample.recipe.masonry:  # some pixels land in the mortar (its share of the wall, ~4%)
+        assert 0.01 < (stone["Joint"][covered] > 0.5).mean() < 0.2, "the façade is laid in ashlar"
+    lobes = [
+        shade(porous_weathering.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3],
+        stone_glossy_lobe(shade, first),
+        shade(porous_weathering.make_base_material("W", base_color=(0, 0, 0), ks=1.0, roughness=water))[..., :3],
+    ]
     checked = 0
     for mode, masks in sample.recipe.masks.items():
         inputs = sample.inputs(mode)
         assert "water_roughness" not in inputs, "the water roughness is the stone's (a material option)"
-        water = stone.get("water_roughness", nodes.WATER_ROUGHNESS)
-        white = dict(base_color=(1, 1, 1), ks=0.0, roughness=stone["roughness"])
-        lobe_materials = {
-            "D": white,
-            "G": dict(white, base_color=(0, 0, 0), ks=1.0),
-            "W": dict(base_color=(0, 0, 0), ks=1.0, roughness=water),
-        }
-        lobes = [
-            shade(porous_weathering.make_base_material(lobe, **params))[..., :3]
-            for lobe, params in lobe_materials.items()
-        ]
         values = {mask: shade(mask_probe(sample.sources[map_name]))[..., 0] for mask, map_name in masks.items()}
         late = []
         for changes in ({}, PAPER_EXACT.get(mode)):
@@ -312,14 +320,15 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
                 image = render.render_array(scene)
                 late += [image] if age == 1.0 else []
                 weights = model.weathered_coefficients(
-                    stone["base_color"][:3],
-                    stone["ks"],
-                    stone["roughness"],
-                    stone["porosity"],
-                    stone["pore_depth_ratio"],
+                    stone["kd"],
+                    ks,
+                    stone["m"],
+                    stone["alpha"],
+                    stone["sp"],
                     n_dot_l,
                     n_dot_v,
                     (mode,),
+                    receptivity=stone["r"],
                     **{**inputs, **changes, "time": age, **values},
                 )
                 assert_matches(image, expected_image(weights, lobes), covered)

@@ -19,12 +19,11 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import MaskedPlane, assert_matches
+from helpers import MaskedPlane, assert_matches, stone_glossy_lobe, stone_parameters, stone_probe
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.core.backends import NumpyOps
 from porous_weathering.samples import studio
-from porous_weathering.shading import nodes
 from porous_weathering.shading.presets import PRESETS
 
 XP = NumpyOps(colour=True)
@@ -164,43 +163,17 @@ def test_implausible_sizes_name_the_unit_scale(size, scale, advice):
 
 
 def probe(plane, material, outputs):
-    """(H, W, 3) of the ``outputs`` of ``material``'s stone node (a colour output alone, or up to
-    three scalars), emitted by a copy of the material."""
-    copy = material.copy()
-    tree = copy.node_tree
-    stone = tree.nodes[STONE_NODE]
-    emission = tree.nodes.new("ShaderNodeEmission")
-    emission.inputs["Strength"].default_value = 1.0
-    if len(outputs) == 1:
-        tree.links.new(stone.outputs[outputs[0]], emission.inputs["Color"])
-    else:
-        combine = tree.nodes.new("ShaderNodeCombineXYZ")
-        for index, name in enumerate(outputs):
-            tree.links.new(stone.outputs[name], combine.inputs[index])
-        tree.links.new(combine.outputs[0], emission.inputs["Color"])
-    output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
-    tree.links.new(emission.outputs[0], output.inputs["Surface"])
-    return plane.render(copy)[..., :3]
+    return stone_probe(plane.render, material, outputs)
 
 
 def glossy_lobe(plane, material):
-    """A white GGX lobe whose roughness is the material's per-point m."""
-    copy = material.copy()
-    tree = copy.node_tree
-    glossy = tree.nodes.new("ShaderNodeBsdfGlossy")
-    glossy.distribution = "GGX"
-    glossy.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
-    tree.links.new(tree.nodes[STONE_NODE].outputs["Roughness"], glossy.inputs["Roughness"])
-    output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
-    tree.links.new(glossy.outputs[0], output.inputs["Surface"])
-    return plane.render(copy)[..., :3]
+    return stone_glossy_lobe(plane.render, material)
 
 
 def read_back(plane, material):
     """The per-pixel values the stone node gives: {kd, alpha, sp, m, r, z_p, z_c}."""
-    alpha, m, sp = np.moveaxis(probe(plane, material, ("Porosity", "Roughness", "Pore Depth Ratio")), -1, 0)
-    r, z_p, z_c = np.moveaxis(probe(plane, material, (nodes.RECEPTIVITY, "Porosity Field", "Colour Field")), -1, 0)
-    return dict(kd=probe(plane, material, ("Base Color",)), alpha=alpha, m=m, sp=sp, r=r, z_p=z_p, z_c=z_c)
+    got = stone_parameters(plane.render, material, extra=("Porosity Field", "Colour Field"))
+    return dict(got, z_p=got.pop("Porosity Field"), z_c=got.pop("Colour Field"))
 
 
 def cosines(plane):

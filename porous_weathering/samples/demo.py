@@ -78,8 +78,10 @@ class View:
 class Recipe:
     """How a sample scene weathers: only what a user picks in the panel, and facts of the scene,
     never a tuning of the model. The objects (None: every mesh but the ground); their ``stone``
-    (a key of presets.PRESETS) and ``environment`` (a key of environments.ENVIRONMENTS), the
-    panel's Stone and Environment choices; for each mode the map each mask reads: "rain",
+    (a key of presets.PRESETS, whose structure the materials have at the default variation:
+    docs/model.md §8) and ``environment`` (a key of environments.ENVIRONMENTS), the panel's Stone
+    and Environment choices; ``masonry``: if not None, the ``presets.Ashlar`` the stone is laid
+    in (docs/model.md §8.5), a fact of the building; for each mode the map each mask reads: "rain",
     "runoff" or "edges" (baked as colour attributes with the bake's defaults, as the command
     line bakes them) or "joints" (JOINT_MAP, an image on the bricks' UV map); the ``rain`` of the
     site (rain.RainSettings fields: its wind); the main job's ``view`` (None: the scene's own
@@ -100,6 +102,7 @@ class Recipe:
     view: View | None = None
     unite: str | None = None
     cell: float | None = None
+    masonry: presets.Ashlar | None = None
 
 
 #: What the panel's Make wires for soiling and wetting: every baked map the mode reads.
@@ -112,6 +115,12 @@ RAIN_AND_EDGES = dict(WATER, edge_map="edges")
 FACADE_VIEW = View(
     location=(-2.6, -12.5, 1.4), target=(-0.2, 0.0, 3.1), lens=33.0, sun=(0.437, -0.881, 0.183), sun_strength=3.0
 )
+#: The façade's coursed ashlar, from its proportions (sample_blends/build_samples.py; the stone is
+#: read in metres from the origin, at ground level): courses 0.4 m high, so that the 0.8 m plinth
+#: is two courses with a bed joint on its top and the 2 m window openings five; blocks 0.7 m long
+#: (1.75 times the course, as ashlar is cut), five to each 3.5 m bay between the pilasters' centres;
+#: 10 mm lime-mortar joints, as fine ashlar is pointed.
+FACADE_ASHLAR = presets.Ashlar(course_height=0.4, block_length=0.7, joint_width=0.01)
 RECIPES = {
     # Efflorescence on the façade follows the water it absorbs, the run-off map, as the panel's
     # Make connects it where no location map was made (docs/model.md §7.2).
@@ -126,6 +135,7 @@ RECIPES = {
         view=FACADE_VIEW,
         unite="Facade",
         cell=0.1,
+        masonry=FACADE_ASHLAR,
     ),
     "brick_wall": Recipe(
         ("Bricks",),
@@ -226,12 +236,14 @@ class Sample:
 
     @property
     def stone(self):
-        """make_weathered_material's material keywords of the recipe's stone preset."""
+        """make_weathered_material's material keywords of the recipe's stone preset (its means:
+        the materials vary about them with the stone's structure)."""
         return presets.PRESETS[self.recipe.stone].material_params()
 
     def material(self, mode, **changes):
         """The weathered material of ``mode`` (made once per set of ``changes``: see ``inputs``),
-        on the sample's stone and maps, as the panel's Make makes it."""
+        on the sample's stone, with its structure at the default variation and laid in the
+        recipe's masonry, and on its maps, as the panel's Make makes it."""
         key = (mode, tuple(sorted(changes.items())))
         if key not in self._materials:
             masks = {mask: self.sources[map_name] for mask, map_name in self.recipe.masks[mode].items()}
@@ -241,6 +253,8 @@ class Sample:
                 modes=(mode,),
                 key_light=self.sun,
                 environment=self.recipe.environment,
+                stone=self.recipe.stone,
+                masonry=self.recipe.masonry,
                 **self.stone,
                 **masks,
                 **self.inputs(mode, **changes),
