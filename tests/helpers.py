@@ -441,3 +441,11 @@ def weathered_mode_sets():
     """Every non-empty set of the registered weathering modes, in registry order."""
     names = weathering_modes.names()
     return [modes for size in range(1, len(names) + 1) for modes in itertools.combinations(names, size)]
+
+
+def presets_row(section: str, label: str) -> list[str]:
+    """The cells of the row of ``label`` in the first table after the heading ``section`` of
+    docs/presets.md (``"## Masonry"``)."""
+    text = (ROOT / "docs" / "presets.md").read_text(encoding="utf-8")
+    row = next(line for line in text.split(section, 1)[1].splitlines() if line.startswith(f"| {label} |"))
+    return [cell.strip() for cell in row.strip("|").split("|")]

@@ -12,15 +12,13 @@ parameters, the lime mortar in the joints.
   is today's.
 """
 
-import pathlib
-
 import bpy
 
 import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import assert_matches, stone_glossy_lobe, stone_parameters, stone_probe, stone_shifted
+from helpers import assert_matches, presets_row, stone_glossy_lobe, stone_parameters, stone_probe, stone_shifted
 from porous_weathering.blender import render
 from porous_weathering.contracts import STONE_NODE
 from porous_weathering.core import model, stones
@@ -75,10 +73,7 @@ def test_block_draws_keep_the_stones_means_and_range(key):
 @pytest.mark.parametrize("key", PRESETS)
 def test_docs_give_each_stones_block_shares(key):
     preset = PRESETS[key]
-    text = (pathlib.Path(__file__).resolve().parent.parent / "docs" / "presets.md").read_text(encoding="utf-8")
-    section = text.split("## Masonry", 1)[1]
-    row = next(line for line in section.splitlines() if line.startswith(f"| {preset.label} |"))
-    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    cells = presets_row("## Masonry", preset.label)
     assert cells[1:3] == [f"{preset.structure.block_porosity:g}", f"{preset.structure.block_colour:g}"]
 
 

@@ -10,7 +10,6 @@ renders against it pixel by pixel (Cycles CPU, fixed seed, tiny images).
 - the same plane in millimetres (unit scale 0.001) and in metres has the same fields.
 """
 
-import pathlib
 import warnings
 
 import bpy
@@ -19,7 +18,7 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import MaskedPlane, assert_matches, stone_glossy_lobe, stone_parameters, stone_probe
+from helpers import MaskedPlane, assert_matches, presets_row, stone_glossy_lobe, stone_parameters, stone_probe
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.core.backends import NumpyOps
@@ -294,10 +293,7 @@ def layer_text(texture):
 @pytest.mark.parametrize("key", STRUCTURED)
 def test_docs_give_each_stones_structure(key):
     preset = PRESETS[key]
-    text = (pathlib.Path(__file__).resolve().parent.parent / "docs" / "presets.md").read_text(encoding="utf-8")
-    section = text.split("## The stone's structure", 1)[1]
-    row = next(line for line in section.splitlines() if line.startswith(f"| {preset.label} |"))
-    cells = [cell.strip() for cell in row.strip("|").split("|")]
+    cells = presets_row("## The stone's structure", preset.label)
     s = preset.structure
     assert cells[1] == ", ".join(layer_text(texture) for texture in s.textures)
     colour = ", ".join(f"{c:g}" for c in s.colour)
