@@ -267,3 +267,41 @@ def test_everything_at_once_bakes_every_map_and_a_stray_vertex_changes_nothing(f
             pixels = imageio.read_image(imageio.image_path(tmp_path, obj.name, map_name))[0]
             assert np.isfinite(pixels).all() and pixels.min() >= 0.0 and pixels.max() <= 1.0, map_name
     assert_agree(*objects, tmp_path)
+
+
+def test_a_bake_that_writes_nothing_takes_its_carrier_lightmap_back(fresh_scene, tmp_path, monkeypatch):
+    """The lightmap of an Array (a carrier object and a Data Transfer modifier) is undone when
+    none of the object's maps is written, as a new UV map is: the user's object as it was."""
+    obj = box(fresh_scene, "Box")
+    MODIFIERS["Array"](obj)
+    kind = maps.get("rain")
+
+    def failing(*args):
+        raise RuntimeError("the rain bake failed")
+
+    monkeypatch.setitem(registry._REGISTRY, "rain", dataclasses.replace(kind, bake_image=failing))
+    objects_before = set(bpy.data.objects.keys())
+    with pytest.raises(RuntimeError, match="the rain bake failed"):
+        bake_images([obj], tmp_path, alone())
+    assert [modifier.name for modifier in obj.modifiers] == ["Array"]
+    assert not obj.data.uv_layers and set(bpy.data.objects.keys()) == objects_before
+    assert not [mesh for mesh in bpy.data.meshes if mesh.name.endswith(lightmap.LIGHTMAP_UV)]
+
+
+def test_a_changed_modifier_gets_its_carrier_lightmap_made_again(fresh_scene, tmp_path):
+    """After the Array gains a copy, the carrier no longer fits its corners: the next bake makes
+    the lightmap again on the carrier (not refused as a stale lightmap of the user's would be),
+    and every map agrees with the new shape applied."""
+    obj = box(fresh_scene, "Box")
+    MODIFIERS["Array"](obj)
+    bake_images([obj], tmp_path, alone())
+    obj.modifiers["Array"].count = 3
+    bpy.context.view_layer.update()
+    outcomes = bake_images([obj], tmp_path, alone())
+    assert [outcome.status for outcome in outcomes] == ["written"] * len(maps.names())
+    carrier = obj.modifiers[lightmap.LIGHTMAP_MODIFIER].object
+    with scratch_scene.rendered(obj) as seen:
+        assert len(carrier.data.loops) == len(seen.mesh.loops) == 3 * len(obj.data.loops)
+    flat = applied(fresh_scene, obj)
+    bake_images([flat], tmp_path, alone())
+    assert_agree(obj, flat, tmp_path)
