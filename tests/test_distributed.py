@@ -19,6 +19,7 @@ import pytest
 from distributed import LocalCluster
 
 from helpers import cli_command, run_cli
+from porous_weathering.cli import distributed
 from porous_weathering.common import imageio
 from porous_weathering.maps import registry as maps
 
@@ -198,3 +199,25 @@ def test_bad_cluster_options_fail_with_one_line(scenes, args, message):
     result = run_cli("bake", scenes / "scene0.blend", *args, timeout=TIMEOUT)
     assert result.returncode == 2
     assert message in result.stderr and len(result.stderr.strip().splitlines()) == 1, result.stderr
+
+
+class _LostFuture:
+    """A task the client lost with its scheduler: neither finished nor failed."""
+
+    status, key = "lost", "bake-0"
+
+    @staticmethod
+    def exception():
+        return None
+
+
+def test_a_task_lost_with_its_scheduler_says_so():
+    """A task that ends with neither a result nor an error (the scheduler was lost) fails its
+    files with a line that says so (it read "NoneType: None")."""
+    run = object.__new__(distributed._Run)
+    run.attempts = {}
+    result = run._result(_LostFuture(), ["/data/a.blend"])
+    assert result.code == 1
+    assert result.stderr == (
+        "error: /data/a.blend: its Dask task ended 'lost' with neither a result nor an error: the scheduler was lost",
+    )

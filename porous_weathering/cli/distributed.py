@@ -228,11 +228,12 @@ class _Run:
             result = future.result()
             return Result(result.files, result.code, result.stdout, result.stderr, workers)
         error = future.exception()
-        reason = (
-            f"the Dask workers running it died {len(workers)} times"
-            if type(error).__name__ == "KilledWorker"
-            else f"{type(error).__name__}: {error}"
-        )
+        if error is None:  # no result and no error: the client lost the scheduler that held it
+            reason = f"its Dask task ended '{future.status}' with neither a result nor an error: the scheduler was lost"
+        elif type(error).__name__ == "KilledWorker":
+            reason = f"the Dask workers running it died {len(workers)} times"
+        else:
+            reason = f"{type(error).__name__}: {error}"
         return Result(
             tuple(files), EXIT_FAILED, stderr=tuple(f"error: {path}: {reason}" for path in files), workers=workers
         )
