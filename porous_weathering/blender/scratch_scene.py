@@ -152,12 +152,11 @@ def placed_copy(obj, scene, material, *, own_mesh=False, ledger=None):
 
 @dataclass(frozen=True)
 class Rendered:
-    """An object as the render sees it: ``evaluated``, its evaluated copy in ``depsgraph``,
-    and ``mesh``, that copy's mesh (modifiers applied at their render settings)."""
+    """An object as the render sees it: ``evaluated``, its evaluated copy, and ``mesh``, that
+    copy's mesh (modifiers applied at their render settings)."""
 
     evaluated: bpy.types.Object
     mesh: bpy.types.Mesh
-    depsgraph: bpy.types.Depsgraph
 
     @property
     def matrix_world(self) -> np.ndarray:
@@ -185,7 +184,7 @@ def rendered(obj: bpy.types.Object, modifiers: int | None = None) -> Iterator[Re
         evaluated = copy.evaluated_get(depsgraph)
         mesh = evaluated.to_mesh()
         try:
-            yield Rendered(evaluated, mesh, depsgraph)
+            yield Rendered(evaluated, mesh)
         finally:
             evaluated.to_mesh_clear()
 
