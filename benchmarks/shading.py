@@ -66,11 +66,13 @@ MAP_ATTRIBUTE = "pw_bench_map"
 MAP_RANGE = (0.2, 0.8)
 
 
-def weathered(modes, key_light, maps=False):
-    """The material of ``modes``; ``maps``: every mask read from MAP_ATTRIBUTE."""
+def weathered(modes, key_light, maps=False, stone=None):
+    """The material of ``modes``; ``maps``: every mask read from MAP_ATTRIBUTE; ``stone``: a
+    preset key whose structure the material takes (docs/model.md §8)."""
     masks = {name: MAP_ATTRIBUTE for name in ("rain_map", "edge_map", "efflorescence_map")} if maps else {}
     state = {name: value for name, value in {**WEATHERING, **masks}.items() if name in model.inputs_of(modes)}
-    return pw.make_weathered_material("+".join(modes), modes=modes, key_light=key_light, **speed.stone(), **state)
+    name = "+".join(modes) + (f" {stone}" if stone else "")
+    return pw.make_weathered_material(name, modes=modes, key_light=key_light, stone=stone, **speed.stone(), **state)
 
 
 def add_map_attribute(obj):
@@ -89,6 +91,9 @@ LOOKUP_SIZE = 64
 #: Math nodes chained behind a Map Range of constants in folded_chain_material().
 FOLDED_CHAIN = 20
 FOLDED = f"Diffuse+Glossy, {FOLDED_CHAIN} Math nodes behind a Map Range of constants"
+#: The weathered material with a stone's structure (docs/model.md §8), against the same without it.
+STRUCTURED_STONE = "LIMESTONE"
+STRUCTURED = f"all three modes, key light, baked maps, the {STRUCTURED_STONE.lower()}'s structure"
 #: Materials shading_instructions.py can count but the timings leave out: designs measured, not
 #: shipped, and a check of what Cycles folds.
 EXPERIMENTS = ("porous key light, lookup texture", FOLDED)
@@ -178,6 +183,7 @@ def material_makers(sun):
         "all three modes, key light": lambda: weathered(model.MODES, sun),
         "all three modes, ambient": lambda: weathered(model.MODES, None),
         "all three modes, key light, baked maps": lambda: weathered(model.MODES, sun, maps=True),
+        STRUCTURED: lambda: weathered(model.MODES, sun, maps=True, stone=STRUCTURED_STONE),
         **{f"{mode}, key light": (lambda mode=mode: weathered((mode,), sun)) for mode in model.MODES},
     }
 

@@ -10,7 +10,9 @@
 ``python -m porous_weathering demo --docs`` regenerates every picture of docs/images/ instead:
 ``porous_vs_base.png``, ``facade_aging.png`` (the façade new and fully weathered, a row per
 mode), ``<mode>_before_after.png``, a sample scene new (left) and fully weathered (right) for
-each mode (DOCS_BEFORE_AFTER), and ``bust_weathering.png``, the scan-like bust (DOCS_BUST).
+each mode (DOCS_BEFORE_AFTER), ``stone_flat_vs_structured.png`` and ``stone_mm_vs_m.png``, a wall
+of the façade's stone flat and structured, in metres and in millimetres (STONE_WALL), and
+``bust_weathering.png``, the scan-like bust (DOCS_BUST).
 
 Pictures are ``--size`` pixels high (default 540: the façade's are 960 x 540), denoised, each
 labelled with its mode and age; the documentation's are written at DOCS_SCALE.
@@ -164,6 +166,10 @@ DOCS_BEFORE_AFTER = {model.SOILING: "sculpted_stone", model.WET: "brick_wall", m
 #: docs/images/runoff_before_after.png: the façade soiled at t = 1 by the rain alone (the modes
 #: without run-off: docs/model.md §7.2) and by the rain and its run-off (the defaults).
 DOCS_RUNOFF = (("rain alone", dict(runoff=0.0, streaks=0.0)), ("rain and run-off", {}))
+#: docs/images/stone_flat_vs_structured.png and stone_mm_vs_m.png (docs/model.md §8): a square wall
+#: of the façade's stone and masonry, ``side`` metres, new and soiled, its masks constant (a wall
+#: half reached by the rain, mid-way down the edge mask): what varies is the stone's alone.
+STONE_WALL = dict(stone="LIMESTONE", side=1.6, masks=dict(rain_map=0.3, edge_map=0.6))
 
 
 class Sample:
@@ -378,6 +384,7 @@ def docs_pictures(args):
                 labels = [f"{mode}, t = {age:g}" for age in (0, 1)]
                 out = os.path.join(DOCS_IMAGES, f"{mode}_before_after.png")
                 written.append(side_by_side(pictures, 2, out, labels, DOCS_SCALE))
+        written += render_stone_walls(work, args.size, args.samples)
         bust = Sample("bust", bake_samples=args.bake_samples, map_dir=work, progress=True)
         bust.use_cycles(args.size, args.samples)
         pictures = [bust.render(mode, age, os.path.join(work, f"bust_{mode}_{age}.png")) for mode, age in DOCS_BUST]
@@ -407,6 +414,74 @@ def render_porous_vs_base(path, size=256, samples=64):
     scene.render.resolution_x = 2 * size
     scene.cycles.use_denoising = True
     return render.render_picture(scene, path)
+
+
+def stone_wall_scene(metres_per_unit):
+    """STONE_WALL standing in the XZ plane, facing -Y, in a scene of ``metres_per_unit``, seen
+    square-on by an orthographic camera and lit from the front left: (scene, wall, sun)."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.unit_settings.scale_length = metres_per_unit
+    side = STONE_WALL["side"] / metres_per_unit
+    wall = studio.add_plane(scene, "Wall", size=side)
+    wall.rotation_euler.x = math.pi / 2  # +Z turns to -Y
+    world = bpy.data.worlds.new("Sky")
+    world.color = (0.05, 0.055, 0.06)
+    scene.world = world
+    sun = studio.add_sun(scene, (-0.5, -0.75, 0.45), strength=3.0)
+    camera = studio.add_ortho_camera(scene, scale=side)
+    camera.location = (0.0, -2.0 * side, 0.0)
+    camera.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    camera.data.clip_end = 4.0 * side
+    return scene, wall, sun
+
+
+def stone_wall_material(sun, variation, metres_per_unit=1.0):
+    """The soiled STONE_WALL's material (docs/model.md §8) at ``variation``."""
+    stone = STONE_WALL["stone"]
+    inputs = {
+        **environments.weathering_inputs(environments.DEFAULT_ENVIRONMENT, (model.SOILING,)),
+        **{k: v for k, v in presets.weathering_values(stone).items() if k in model.inputs_of((model.SOILING,))},
+        **STONE_WALL["masks"],
+    }
+    return weathering.make_weathered_material(
+        f"{stone} wall, variation {variation:g}, {metres_per_unit:g} m per unit",
+        modes=(model.SOILING,),
+        key_light=sun,
+        stone=stone,
+        variation=variation,
+        masonry=FACADE_ASHLAR,
+        **presets.PRESETS[stone].material_params(),
+        **inputs,
+    )
+
+
+def render_stone_walls(work, size, samples):
+    """docs/images/stone_flat_vs_structured.png (the wall flat and structured, new and soiled) and
+    stone_mm_vs_m.png (the same wall in metres and in millimetres, new and soiled)."""
+    pictures, labels = {}, {}
+    for unit, unit_label in ((1.0, "metres"), (0.001, "millimetres")):
+        scene, wall, sun = stone_wall_scene(unit)
+        render.use_cycles(scene, size=size, samples=samples, bounces=4, pixel_filter=1.5)
+        scene.cycles.use_denoising = True
+        for variation in (0.0, 1.0) if unit == 1.0 else (1.0,):
+            weathered = stone_wall_material(sun, variation, unit)
+            studio.assign(wall, weathered)
+            for age in (0.0, 1.0):
+                weathering.set_input(weathered.node_tree.nodes[GROUP_NODE], "time", age)
+                key = (unit, variation, age)
+                path = os.path.join(work, f"stone_wall_{unit:g}_{variation:g}_{age:g}.png")
+                pictures[key] = render.render_picture(scene, path, view_transform="Standard")
+                look = "flat" if variation == 0 else "structured"
+                labels[key] = f"{look}, {unit_label}, t = {age:g}"
+    sheets = {
+        "stone_flat_vs_structured.png": [(1.0, v, age) for age in (0.0, 1.0) for v in (0.0, 1.0)],
+        "stone_mm_vs_m.png": [(unit, 1.0, age) for age in (0.0, 1.0) for unit in (1.0, 0.001)],
+    }
+    return [
+        side_by_side([pictures[k] for k in keys], 2, os.path.join(DOCS_IMAGES, name), [labels[k] for k in keys])
+        for name, keys in sheets.items()
+    ]
 
 
 def render_aging(out, size, samples, bake_samples, ages=AGES):
