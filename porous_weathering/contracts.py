@@ -23,6 +23,9 @@ KEY_LIGHT_PROPERTY = "pw_key_light"
 #: material property naming its stone (a preset key).
 STONE_NODE = "Stone"
 STONE_PROPERTY = "pw_stone"
+#: The integer face attribute naming each face's block, where the blocks are the mesh's own
+#: (``presets.MeshBlocks``, ``presets.mark_blocks``: docs/model.md §8.5).
+BLOCK_ATTRIBUTE = "pw_block"
 #: Node-group property: the builder version a group was built by (groups of another are rebuilt).
 BUILD_VERSION_PROPERTY = "pw_build_version"
 

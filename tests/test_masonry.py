@@ -24,7 +24,7 @@ from porous_weathering.contracts import STONE_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.core.backends import NumpyOps
 from porous_weathering.samples import studio
-from porous_weathering.shading import nodes
+from porous_weathering.shading import nodes, presets
 from porous_weathering.shading.presets import PRESETS
 
 XP = NumpyOps(colour=True)
@@ -315,3 +315,101 @@ def test_without_masonry_the_material_is_todays(fresh_scene):
     assert np.array_equal(wall.render(today), wall.render(none))
     ashlar = masonry_material("Ashlar", wall)
     assert not np.array_equal(wall.render(today), wall.render(ashlar))
+
+
+# --- blocks the mesh knows (MeshBlocks, mark_blocks) -------------------------------------------
+
+
+def blocks_mesh(name, parts):
+    """A mesh of ``parts`` vertical quads in the XZ plane (x from -1 to 1, z from 0.1 to 2.1, a gap
+    of 4 cm between neighbours), each its own loose part."""
+    width = (2.0 - 0.04 * (parts - 1)) / parts
+    vertices, faces = [], []
+    for k in range(parts):
+        x0 = -1.0 + k * (width + 0.04)
+        vertices += [(x0, 0.0, 0.1), (x0 + width, 0.0, 0.1), (x0 + width, 0.0, 2.1), (x0, 0.0, 2.1)]
+        faces.append(tuple(range(4 * k, 4 * k + 4)))
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(vertices, [], faces)
+    return mesh
+
+
+def test_islands_are_the_loose_parts_in_the_order_of_their_first_faces(fresh_scene):
+    from porous_weathering.blender import mesh_arrays
+
+    mesh = bpy.data.meshes.new("Parts")
+    # part A: two quads sharing an edge; part B: one quad; part C: two triangles sharing one vertex
+    vertices = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (2, 0, 0), (2, 1, 0)]
+    vertices += [(5, 0, 0), (6, 0, 0), (6, 1, 0), (5, 1, 0)]
+    vertices += [(8, 0, 0), (9, 0, 0), (9, 1, 0), (10, 1, 0), (10, 2, 0)]
+    faces = [(6, 7, 8, 9), (0, 1, 2, 3), (10, 11, 12), (1, 4, 5, 2), (12, 13, 14)]
+    mesh.from_pydata(vertices, [], faces)
+    assert list(mesh_arrays.face_islands(mesh)) == [0, 1, 2, 1, 2]
+    # a long strip (one part, many passes of the labels)
+    strip = bpy.data.meshes.new("Strip")
+    count = 500
+    strip.from_pydata(
+        [(x, y, 0) for x in range(count + 1) for y in (0, 1)],
+        [],
+        [(2 * i, 2 * i + 2, 2 * i + 3, 2 * i + 1) for i in range(count)],
+    )
+    assert not mesh_arrays.face_islands(strip).any()
+
+
+def test_mark_blocks_writes_each_faces_block(fresh_scene):
+    obj = studio.link(fresh_scene, bpy.data.objects.new("Blocks", blocks_mesh("Blocks", 3)))
+    assert presets.mark_blocks(obj) == 3
+    values = np.empty(3, dtype=np.int32)
+    obj.data.attributes[stones.MeshBlocks().attribute].data.foreach_get("value", values)
+    assert list(values) == [0, 1, 2]
+    with pytest.raises(ValueError, match="no face sets"):
+        presets.mark_blocks(obj, "FACE_SETS")
+    face_sets = obj.data.attributes.new(presets.FACE_SET_ATTRIBUTE, "INT", "FACE")
+    face_sets.data.foreach_set("value", np.array([7, 7, 9], dtype=np.int32))
+    assert presets.mark_blocks(obj, "FACE_SETS") == 2
+    obj.data.attributes[stones.MeshBlocks().attribute].data.foreach_get("value", values)
+    assert list(values) == [7, 7, 9]
+    with pytest.raises(ValueError, match="source"):
+        presets.mark_blocks(obj, "VERTEX_GROUPS")
+    with pytest.raises(ValueError, match="not a mesh"):
+        presets.mark_blocks(fresh_scene.camera or bpy.data.objects.new("Empty", None))
+
+
+def test_blocks_the_mesh_knows_each_take_their_own_draw(fresh_scene):
+    """A wall of six blocks modelled one by one: each block (its loose part) has one draw b,
+    neighbours differ, and the per-point parameters are the numpy maths of the read-back fields
+    (the stone's, each block its bed); the blocks' draws follow the attribute, not the place."""
+    wall = Wall(fresh_scene, size=32)
+    wall.wall.data = blocks_mesh("Six", 6)
+    presets.mark_blocks(wall.wall)
+    material = pw.make_porous_material(
+        "Blocks", **STONE, stone="LIMESTONE", masonry=stones.MeshBlocks(), key_light=wall.sun
+    )
+    assert material.node_tree.nodes[STONE_NODE].node_tree.name == nodes.mesh_blocks_group_name(
+        "LIMESTONE", stones.MeshBlocks().attribute
+    )
+    got = stone_parameters(wall.render, material)
+    b = stone_shifted(wall.render, material, "Block Field")
+    z_p = stone_shifted(wall.render, material, "Porosity Field")
+    z_c = stone_shifted(wall.render, material, "Colour Field")
+    covered = wall.render(material)[..., 3] > 0.999
+    x = wall.metres()[..., 0]
+    part = np.floor((x + 1.0) / (2.0 / 6)).astype(int)
+    draws = []
+    for k in range(6):
+        inside = covered & (part == k) & (np.abs((x + 1.0) - (k + 0.5) * 2.0 / 6) < 0.1)
+        assert inside.sum() > 10
+        assert np.ptp(b[inside]) < 1e-6  # one draw per block
+        draws.append(b[inside][0])
+    assert np.median(np.abs(np.diff(draws))) > 0.15
+    kd, alpha, sp, m = parameters(LIMESTONE, z_p, z_c)
+    for name, value in (("kd", kd), ("alpha", alpha), ("sp", sp), ("m", m)):
+        assert np.abs(got[name] - value)[covered].max() < 1e-5 * max(1.0, float(np.abs(value).max())), name
+    # the same blocks numbered otherwise: the draws move with the numbers
+    values = np.arange(6, dtype=np.int32)[::-1].copy()
+    wall.wall.data.attributes[stones.MeshBlocks().attribute].data.foreach_set("value", values)
+    renumbered = stone_shifted(wall.render, material, "Block Field")
+    first = covered & (part == 0) & (np.abs(x + 1.0 - 1.0 / 6) < 0.1)
+    last = covered & (part == 5) & (np.abs(x + 1.0 - 11.0 / 6) < 0.1)
+    assert renumbered[first][0] == pytest.approx(draws[5], abs=1e-6)
+    assert renumbered[last][0] == pytest.approx(draws[0], abs=1e-6)

@@ -2,7 +2,7 @@
 
 Every group the package builds is one case: the porous group in each light mode, the
 weathered group of every non-empty set of registered weathering modes in each light mode (with
-and without the receptivity of a stone's structure) the group of every preset's stone and its masonry group, read
+and without the receptivity of a stone's structure) the group of every preset's stone, its masonry group and its group of the mesh's blocks, read
 from the registries (``modes.names()``, ``nodes.LIGHT_MODES``, ``presets.PRESETS``), so a new mode or light mode is
 covered by construction. ``group_data`` turns a group into plain data (its interface, its
 properties and its nodes: type, settings, constants and links) that syrupy compares with
@@ -20,6 +20,7 @@ import bpy
 import pytest
 
 from helpers import weathered_mode_sets
+from porous_weathering.core import stones
 from porous_weathering.shading import nodes
 from porous_weathering.shading.presets import PRESETS
 
@@ -170,3 +171,10 @@ def test_stone_group_matches_its_snapshot(key, snapshot):
 def test_masonry_group_matches_its_snapshot(key, snapshot):
     """The group of a stone laid as coursed ashlar (docs/model.md §8.5)."""
     assert group_data(nodes.masonry_group(key, PRESETS[key].structure)) == snapshot
+
+
+@pytest.mark.parametrize("key", [key for key, preset in PRESETS.items() if preset.structure is not None])
+def test_mesh_blocks_group_matches_its_snapshot(key, snapshot):
+    """The group of a stone laid in the blocks the mesh knows (docs/model.md §8.5)."""
+    group = nodes.mesh_blocks_group(key, PRESETS[key].structure, stones.MeshBlocks().attribute)
+    assert group_data(group) == snapshot

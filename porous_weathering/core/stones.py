@@ -21,6 +21,8 @@ warning of Make and the bake).
 import math
 from dataclasses import dataclass
 
+from ..contracts import BLOCK_ATTRIBUTE
+
 #: Texture kinds: Blender's Noise (patches, mottling), Wave bands (bedding, veins) and Voronoi
 #: cells, each cell its own random value (grains, crystals, aggregate).
 NOISE, WAVE, CELLS = "NOISE", "WAVE", "CELLS"
@@ -179,6 +181,21 @@ class Ashlar:
             raise ValueError(f"an ashlar's lengths (course, block, joint) must be > 0 m, not {lengths}")
         if self.joint_width >= min(self.course_height, self.block_length) / 2.0:
             raise ValueError(f"an ashlar's joint width ({self.joint_width:g} m) must be under half a course and block")
+
+
+@dataclass(frozen=True)
+class MeshBlocks:
+    """Blocks the mesh knows (docs/model.md §8.5): each face's block is the whole number in its
+    integer face attribute ``attribute`` (``presets.mark_blocks`` writes it from the mesh's loose
+    parts or face sets; a user's own attribute does as well), and each block takes its own draw
+    of the stone's parameters. The joints are the mesh's own: model them, and give the mortar's
+    faces or object the lime mortar preset."""
+
+    attribute: str = BLOCK_ATTRIBUTE
+
+    def __post_init__(self):
+        if not (isinstance(self.attribute, str) and self.attribute):
+            raise ValueError(f"a MeshBlocks' attribute must be an attribute's name, not {self.attribute!r}")
 
 
 def ashlar(xp, x, y, z, course_height, block_length, joint_width):

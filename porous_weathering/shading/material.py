@@ -32,7 +32,7 @@ def make_porous_material(
     key_light: "bpy.types.Object | str | None" = None,
     stone: str | None = None,
     variation: float = stones.DEFAULT_VARIATION,
-    masonry: stones.Ashlar | None = None,
+    masonry: stones.Ashlar | stones.MeshBlocks | None = None,
 ) -> "bpy.types.Material":
     """A new material that renders the porous BRDF post-process (docs/model.md §2) in EEVEE and Cycles.
 
@@ -45,7 +45,8 @@ def make_porous_material(
     unit (``unit_settings.scale_length`` when the material is made); ``stone=None`` or
     ``variation=0`` builds the uniform material.  ``masonry`` (a ``stones.Ashlar``, with a
     ``stone``) lays the stone as coursed ashlar, each block its own draw of the stone's
-    parameters, its joints the mortar preset's (docs/model.md §8.5).  Out-of-range or NaN numbers are clamped with a
+    parameters, its joints the mortar preset's (docs/model.md §8.5); a ``stones.MeshBlocks`` takes
+    the blocks the mesh knows (an integer face attribute), each its own draw.  Out-of-range or NaN numbers are clamped with a
     ``PorousInputWarning``; a key light that is not a light, or an unknown stone, raises
     ``ValueError`` before anything is created.
     """
@@ -73,21 +74,22 @@ def make_porous_material(
 
 
 def stone_structure(
-    stone: str | None, variation: float, masonry: "stones.Ashlar | None" = None
-) -> "tuple[stones.Stone, float, stones.Ashlar | None] | None":
+    stone: str | None, variation: float, masonry: "stones.Ashlar | stones.MeshBlocks | None" = None
+) -> "tuple[stones.Stone, float, stones.Ashlar | stones.MeshBlocks | None] | None":
     """(the stone's structure, variation, masonry) for ``stone`` (a preset key), ``variation`` and
     ``masonry``, or None when the material is uniform (no stone, or variation 0 or a preset without
     a structure and no masonry); ValueError naming an unknown stone or mortar, a variation that is
-    not a number, or masonry that is not an ``Ashlar`` or has no stone."""
+    not a number, or masonry that is not an ``Ashlar`` or a ``MeshBlocks`` or has no stone."""
     from .presets import PRESETS
 
     variation = float(model.sanitize("variation", real_number("variation", variation), 0.0, 1.0))
     if masonry is not None:
-        if not isinstance(masonry, stones.Ashlar):
-            raise ValueError(f"masonry must be a stones.Ashlar or None, not {masonry!r}")
+        if not isinstance(masonry, (stones.Ashlar, stones.MeshBlocks)):
+            raise ValueError(f"masonry must be a stones.Ashlar, a stones.MeshBlocks or None, not {masonry!r}")
         if stone is None:
             raise ValueError("masonry needs a stone (stone='LIMESTONE', say): its blocks are the stone's")
-        choice("mortar", masonry.mortar, PRESETS)
+        if isinstance(masonry, stones.Ashlar):
+            choice("mortar", masonry.mortar, PRESETS)
     if stone is None:
         return None
     preset = PRESETS[choice("stone", stone, PRESETS)]
@@ -107,11 +109,16 @@ def connect_stone(graph, group_node, key, structure, variation, masonry, base_co
     """The stone group of ``key`` between the material's values and ``group_node``: it takes the
     base colour (or image), porosity, pore depth and roughness set on ``group_node`` as its means
     and feeds their per-point values (and, to a receptive weathered group, the receptivity).
-    With ``masonry`` (an ``Ashlar``) the stone's masonry group, given the ashlar's lengths in
-    metres and its mortar preset's values."""
+    With ``masonry`` an ``Ashlar``, the stone's masonry group, given the ashlar's lengths in
+    metres and its mortar preset's values; a ``MeshBlocks``, the stone's group of the mesh's blocks."""
     from .presets import PRESETS
 
-    group = nodes.masonry_group(key, structure) if masonry else nodes.stone_group(key, structure)
+    if isinstance(masonry, stones.Ashlar):
+        group = nodes.masonry_group(key, structure)
+    elif isinstance(masonry, stones.MeshBlocks):
+        group = nodes.mesh_blocks_group(key, structure, masonry.attribute)
+    else:
+        group = nodes.stone_group(key, structure)
     node = graph.node("ShaderNodeGroup", depth=1, node_tree=group)
     node.name = node.label = STONE_NODE
     inputs = group_node.inputs
@@ -123,7 +130,7 @@ def connect_stone(graph, group_node, key, structure, variation, masonry, base_co
         node.inputs["Base Color"].default_value = inputs["Base Color"].default_value
     node.inputs["Variation"].default_value = variation
     node.inputs["Metres Per Unit"].default_value = metres_per_unit()
-    if masonry:
+    if isinstance(masonry, stones.Ashlar):
         node.inputs["Course Height"].default_value = masonry.course_height
         node.inputs["Block Length"].default_value = masonry.block_length
         node.inputs["Joint Width"].default_value = masonry.joint_width

@@ -318,10 +318,15 @@ def stone_group(key, stone):
     return _reuse(name) or _build(name, body, STONE_INPUTS, STONE_OUTPUTS)
 
 
-def stone_body(graph, inputs, stone):
+def stone_body(graph, inputs, stone, block_draw_at=None):
+    """The stone's per-point values (STONE_OUTPUTS); with ``block_draw_at(graph, metres)``, each
+    block's own draw b (docs/model.md §8.5) mixed into its fields, and the "Block Field" output."""
     metres = point_in_metres(graph, inputs)
     values = [texture_value(graph, metres, texture) for texture in stone.textures]
+    draw = block_draw_at(graph, metres) if block_draw_at else None
     z_p, z_c = stones.fields(NODE_OPS, stone, values)
+    if draw is not None:
+        z_p, z_c = stones.block_fields(NODE_OPS, stone, z_p, z_c, draw)
     variation = inputs["Variation"]
     kd, alpha, sp, m = stones.point_parameters(
         NODE_OPS,
@@ -334,7 +339,7 @@ def stone_body(graph, inputs, stone):
         z_c,
         variation,
     )
-    return {
+    outputs = {
         "Base Color": kd,
         "Porosity": alpha,
         "Pore Depth Ratio": sp,
@@ -343,6 +348,7 @@ def stone_body(graph, inputs, stone):
         "Porosity Field": z_p,
         "Colour Field": z_c,
     }
+    return outputs if draw is None else {**outputs, "Block Field": draw}
 
 
 # --- masonry (docs/model.md §8.5) -----------------------------------------------------------
@@ -365,6 +371,10 @@ MASONRY_OUTPUTS = {
 MORTAR_SOCKETS = ("Mortar Color", "Mortar Porosity", "Mortar Pore Depth Ratio", "Mortar Roughness")
 
 
+#: The stone's outputs the mortar takes over in the joints, in ``stones.jointed``'s order.
+JOINTED = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", RECEPTIVITY)
+
+
 def masonry_group_name(key):
     return f"{stone_group_name(key)} Ashlar"
 
@@ -378,37 +388,44 @@ def masonry_group(key, stone):
 
 
 def masonry_body(graph, inputs, stone):
-    metres = point_in_metres(graph, inputs)
-    values = [texture_value(graph, metres, texture) for texture in stone.textures]
-    axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": metres})
-    x, y, z = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
-    course, block, joint = stones.ashlar(
-        NODE_OPS, x, y, z, inputs["Course Height"], inputs["Block Length"], inputs["Joint Width"]
-    )
-    draw = block_draw(graph, course, block)
-    z_p, z_c = stones.block_fields(NODE_OPS, stone, *stones.fields(NODE_OPS, stone, values), draw)
-    variation = inputs["Variation"]
-    alpha, m = inputs["Porosity"], inputs["Roughness"]
-    kd, point_alpha, sp, point_m = stones.point_parameters(
-        NODE_OPS, stone, inputs["Base Color"], alpha, inputs["Pore Depth Ratio"], m, z_p, z_c, variation
-    )
-    r = stones.receptivity(NODE_OPS, stone, z_p, variation)
+    layout = {}
+
+    def ashlar_draw(graph, metres):
+        axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": metres})
+        x, y, z = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
+        course, block, layout["joint"] = stones.ashlar(
+            NODE_OPS, x, y, z, inputs["Course Height"], inputs["Block Length"], inputs["Joint Width"]
+        )
+        return block_draw(graph, course, block)
+
+    outputs = stone_body(graph, inputs, stone, ashlar_draw)
     mortar = [inputs[socket] for socket in MORTAR_SOCKETS]
-    mortar_r = stones.mortar_receptivity(NODE_OPS, mortar[1], mortar[3], alpha, m)
-    kd, point_alpha, sp, point_m, r = stones.jointed(
-        NODE_OPS, joint, (kd, point_alpha, sp, point_m, r), (*mortar, mortar_r)
-    )
-    return {
-        "Base Color": kd,
-        "Porosity": point_alpha,
-        "Pore Depth Ratio": sp,
-        "Roughness": point_m,
-        RECEPTIVITY: r,
-        "Porosity Field": z_p,
-        "Colour Field": z_c,
-        "Block Field": draw,
-        "Joint": joint,
-    }
+    mortar_r = stones.mortar_receptivity(NODE_OPS, mortar[1], mortar[3], inputs["Porosity"], inputs["Roughness"])
+    jointed = stones.jointed(NODE_OPS, layout["joint"], [outputs[name] for name in JOINTED], (*mortar, mortar_r))
+    return {**outputs, **dict(zip(JOINTED, jointed)), "Joint": layout["joint"]}
+
+
+def mesh_blocks_group_name(key, attribute):
+    suffix = "" if attribute == stones.BLOCK_ATTRIBUTE else f" ({attribute})"
+    return f"{stone_group_name(key)} Blocks{suffix}"
+
+
+def mesh_blocks_group(key, stone, attribute):
+    """The node group of the stone ``key`` laid in the blocks the mesh knows (docs/model.md §8.5):
+    the stone group's textures and maths, each block (a whole number of the face attribute
+    ``attribute``) its own draw; the joints are the mesh's."""
+    name = mesh_blocks_group_name(key, attribute)
+    body = lambda graph, inputs: mesh_blocks_body(graph, inputs, stone, attribute)  # noqa: E731
+    outputs = {**STONE_OUTPUTS, "Block Field": MASONRY_OUTPUTS["Block Field"]}
+    return _reuse(name) or _build(name, body, STONE_INPUTS, outputs)
+
+
+def mesh_blocks_body(graph, inputs, stone, attribute):
+    def face_block_draw(graph, metres):
+        block = graph.node("ShaderNodeAttribute", depth=0, attribute_type="GEOMETRY", attribute_name=attribute)
+        return block_draw(graph, 0.0, graph.wrap(block.outputs["Fac"]))
+
+    return stone_body(graph, inputs, stone, face_block_draw)
 
 
 def block_draw(graph, course, block):

@@ -10,11 +10,24 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from ..blender import mesh_arrays
 from ..contracts import PRESET_PROPERTY
 from ..core import colorimetry
+from ..core.arguments import choice
 from ..core import modes as weathering_modes
 from ..core.environments import DEFAULT_ENVIRONMENT, ENVIRONMENTS, Environment  # noqa: F401  (public: docs/api.md)
-from ..core.stones import CELLS, DEFAULT_VARIATION, NOISE, WAVE, Ashlar, Stone, Texture  # noqa: F401  (Ashlar: docs/api.md)
+from ..core.stones import (  # noqa: F401  (Ashlar, MeshBlocks: docs/api.md)
+    CELLS,
+    DEFAULT_VARIATION,
+    NOISE,
+    WAVE,
+    Ashlar,
+    MeshBlocks,
+    Stone,
+    Texture,
+)
 
 if TYPE_CHECKING:
     import bpy
@@ -289,6 +302,33 @@ def weathering_values(source: str, environment: str = DEFAULT_ENVIRONMENT) -> di
     values = preset.panel_weathering() if preset else {item.name: item.default for item in panel_inputs()}
     site = ENVIRONMENTS[environment].weathering(crust=values["crust"])
     return {name: site.get(name, value) for name, value in values.items()}
+
+
+#: Where mark_blocks finds each face's block: its loose part, or its sculpt face set.
+BLOCK_SOURCES = ("ISLANDS", "FACE_SETS")
+#: The face attribute Blender keeps the sculpt face sets in.
+FACE_SET_ATTRIBUTE = ".sculpt_face_set"
+
+
+def mark_blocks(obj: "bpy.types.Object", source: str = "ISLANDS", attribute: str = MeshBlocks.attribute) -> int:
+    """Write each face's block into the integer face attribute ``attribute`` of ``obj``'s mesh,
+    for ``MeshBlocks`` (docs/model.md §8.5): its loose part ("ISLANDS": a wall modelled block by
+    block) or its sculpt face set ("FACE_SETS"); returns the number of blocks. ValueError before
+    anything is written for an object without a mesh, an unknown source, or a mesh without face
+    sets."""
+    if getattr(obj, "type", None) != "MESH":
+        raise ValueError(f"{getattr(obj, 'name', obj)!r} is not a mesh object: its blocks come from its faces")
+    mesh = obj.data
+    if choice("source", source, BLOCK_SOURCES) == "FACE_SETS":
+        if FACE_SET_ATTRIBUTE not in mesh.attributes:
+            raise ValueError(f"{obj.name!r} has no face sets: make them in Sculpt mode, or use source='ISLANDS'")
+        blocks = mesh_arrays.attribute(mesh, FACE_SET_ATTRIBUTE, np.int32)
+    else:
+        blocks = mesh_arrays.face_islands(mesh)
+    if attribute in mesh.attributes:
+        mesh.attributes.remove(mesh.attributes[attribute])
+    mesh.attributes.new(attribute, "INT", "FACE").data.foreach_set("value", blocks)
+    return len(np.unique(blocks))
 
 
 def make_preset_material(

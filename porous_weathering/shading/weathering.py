@@ -43,7 +43,7 @@ def make_weathered_material(
     environment: str | None = environments.DEFAULT_ENVIRONMENT,
     stone: str | None = None,
     variation: float = stones.DEFAULT_VARIATION,
-    masonry: stones.Ashlar | None = None,
+    masonry: stones.Ashlar | stones.MeshBlocks | None = None,
     **weathering: MaskValue | Sequence[float],
 ) -> "bpy.types.Material":
     """A new material: the porous BRDF (as make_porous_material) weathered by ``modes``.
@@ -62,7 +62,8 @@ def make_weathered_material(
     given explicitly win; None leaves the API defaults.  ``stone`` and ``variation`` give the
     stone's structure as in make_porous_material, and through its receptivity every front follows
     it (docs/model.md §8.3); ``stone=None`` or ``variation=0`` is the uniform material.
-    ``masonry`` lays the stone as ashlar with mortar joints, as in make_porous_material.
+    ``masonry`` lays the stone as ashlar with mortar joints, or in the mesh's own blocks, as in
+    make_porous_material.
     """
     modes = model.weathering_modes(modes)
     weathering = {**environments.weathering_inputs(environment, modes), **weathering}
