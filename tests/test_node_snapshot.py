@@ -2,9 +2,10 @@
 
 Every group the package builds is one case: the porous group in each light mode, the
 weathered group of every non-empty set of registered weathering modes in each light mode (with
-and without the receptivity of a stone's structure) the group of every preset's stone, its masonry group and its group of the mesh's blocks, read
-from the registries (``modes.names()``, ``nodes.LIGHT_MODES``, ``presets.PRESETS``), so a new mode or light mode is
-covered by construction. ``group_data`` turns a group into plain data (its interface, its
+and without the receptivity of a stone's structure), the group of every preset's stone, its
+masonry group and its group of the mesh's blocks, read from the registries (``modes.names()``,
+``nodes.LIGHT_MODES``, ``presets.PRESETS``), so a new mode or light mode is covered by
+construction. ``group_data`` turns a group into plain data (its interface, its
 properties and its nodes: type, settings, constants and links) that syrupy compares with
 tests/__snapshots__/test_node_snapshot.ambr; one snapshot serves Blender 4.5 and 5.2. If a group
 is meant to change, regenerate it in the same commit:

@@ -46,8 +46,8 @@ def make_porous_material(
     ``variation=0`` builds the uniform material.  ``masonry`` (a ``stones.Ashlar``, with a
     ``stone``) lays the stone as coursed ashlar, each block its own draw of the stone's
     parameters, its joints the mortar preset's (docs/model.md §8.5); a ``stones.MeshBlocks`` takes
-    the blocks the mesh knows (an integer face attribute), each its own draw.  Out-of-range or NaN numbers are clamped with a
-    ``PorousInputWarning``; a key light that is not a light, or an unknown stone, raises
+    the blocks the mesh knows (an integer face attribute), each its own draw.  Out-of-range or
+    NaN numbers are clamped with a ``PorousInputWarning``; a key light that is not a light, or an unknown stone, raises
     ``ValueError`` before anything is created.
     """
     base_color, values = porous_parameters(base_color, ks, roughness, porosity, pore_depth_ratio)

@@ -15,8 +15,8 @@ import numpy as np
 from ..blender import mesh_arrays
 from ..contracts import PRESET_PROPERTY
 from ..core import colorimetry
-from ..core.arguments import choice
 from ..core import modes as weathering_modes
+from ..core.arguments import choice
 from ..core.environments import DEFAULT_ENVIRONMENT, ENVIRONMENTS, Environment  # noqa: F401  (public: docs/api.md)
 from ..core.stones import (  # noqa: F401  (Ashlar, MeshBlocks: docs/api.md)
     CELLS,
