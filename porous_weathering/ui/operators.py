@@ -144,7 +144,7 @@ class PW_OT_make_efflorescence_map(bpy.types.Operator):
             return {"FINISHED"}
         photo = (bpy.path.abspath(self.photo) if self.photo else "") if self.source == "PHOTO" else None
         try:
-            image = maps.EFFLORESCENCE.make(
+            image = efflorescence_map.MAP.make(
                 obj,
                 photo=photo,
                 size=self.resolution,
@@ -163,7 +163,7 @@ class PW_OT_make_efflorescence_map(bpy.types.Operator):
 
 
 #: The Make-map operator of each map that is made, not baked (``registry.made_kinds``).
-MAKE_MAP_OPERATORS = {maps.EFFLORESCENCE.name: PW_OT_make_efflorescence_map}
+MAKE_MAP_OPERATORS = {efflorescence_map.MAP.name: PW_OT_make_efflorescence_map}
 
 
 def make_map_operators() -> list[type]:
