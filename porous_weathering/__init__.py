@@ -46,7 +46,7 @@ _LAZY = {
     "make_porous_material": "shading.material",
     "make_base_material": "shading.material",
     "make_weathered_material": "shading.weathering",
-    "make_preset_material": "shading.presets",
+    "make_preset_material": "shading.material",
 }
 
 

@@ -8,16 +8,11 @@ docs/presets.md gives the source of every range and value and the reasoning behi
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
-from ..contracts import PRESET_PROPERTY
 from ..core import colorimetry
 from ..core import modes as weathering_modes
 from ..core.environments import DEFAULT_ENVIRONMENT, ENVIRONMENTS, Environment  # noqa: F401  (public: docs/api.md)
 from ..core.stones import CELLS, DEFAULT_VARIATION, NOISE, WAVE, Ashlar, Stone, Texture  # noqa: F401  (Ashlar: docs/api.md)
-
-if TYPE_CHECKING:
-    import bpy
 
 
 @dataclass(frozen=True)
@@ -289,33 +284,6 @@ def weathering_values(source: str, environment: str = DEFAULT_ENVIRONMENT) -> di
     values = preset.panel_weathering() if preset else {item.name: item.default for item in panel_inputs()}
     site = ENVIRONMENTS[environment].weathering(crust=values["crust"])
     return {name: site.get(name, value) for name, value in values.items()}
-
-
-def make_preset_material(
-    preset_name: str,
-    name: str | None = None,
-    key_light: "bpy.types.Object | str | None" = None,
-    variation: float = DEFAULT_VARIATION,
-) -> "bpy.types.Material":
-    """A new porous material (see ``make_porous_material``) with the values of a preset.
-
-    ``preset_name`` is a key of PRESETS (e.g. "LIMESTONE"); ``name`` defaults to the
-    preset's label; ``key_light`` as in ``make_porous_material`` (None: ambient mode).  The
-    material has the preset's stone structure (docs/model.md §8) at ``variation`` (0: uniform).
-    """
-    from .material import make_porous_material
-
-    try:
-        preset = PRESETS[preset_name]
-    except KeyError:
-        raise ValueError(f"unknown preset {preset_name!r}: choose one of {', '.join(PRESETS)}") from None
-    params = preset.material_params()
-    material = make_porous_material(
-        name or preset.label, **params, key_light=key_light, stone=preset_name, variation=variation
-    )
-    material.diffuse_color = params["base_color"]  # the viewport's solid-mode colour
-    material[PRESET_PROPERTY] = preset_name
-    return material
 
 
 def from_colorimetry(
