@@ -110,6 +110,20 @@ def test_a_layer_without_bpy_loads_no_bpy(layer):
     assert done.stdout.strip() == "[]", f"importing {modules} loads {done.stdout.strip()}"
 
 
+#: The modules of maps/ that import no bpy (maps/__init__.py says which), so that the numpy maths
+#: and the unwrap's child process run without Blender.
+MAPS_WITHOUT_BPY = ("curvature", "runoff_flow", "lightmap_check", "lightmap_child")
+
+
+def test_the_maps_numpy_modules_load_no_bpy():
+    script = "import sys\n"
+    script += "".join(f"import porous_weathering.maps.{name}\n" for name in MAPS_WITHOUT_BPY)
+    script += f"print(sorted(set(sys.modules) & {BPY!r}))\n"
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]", f"importing maps.{MAPS_WITHOUT_BPY} loads {done.stdout.strip()}"
+
+
 def import_graph():
     """{module: {module it imports: first line}} among the package's modules; a documented name at
     the package's top (``porous_weathering.uv``) is the layer's module it serves."""
