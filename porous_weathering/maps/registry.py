@@ -93,19 +93,20 @@ _DISCOVERING = False
 
 def discover() -> None:
     """Find the records again: the ``MAP`` of every module of the ``maps`` package (its
-    ``__path__``), in the order of the modules' names. Done on first use; again only after a
-    module was added to the package's path."""
+    ``__path__``). Done on first use; again only after a module was added to the package's path."""
     global _DISCOVERED, _DISCOVERING
     _DISCOVERED, _DISCOVERING = None, True
-    package = importlib.import_module(__package__)
     found = {}
-    for module in pkgutil.iter_modules(package.__path__):
-        record = getattr(importlib.import_module(f"{__package__}.{module.name}"), "MAP", None)
-        if isinstance(record, MapKind | MadeMap):
-            if record.name in found:
-                raise ValueError(f"two maps are named {record.name!r}")
-            found[record.name] = record
-    _DISCOVERED, _DISCOVERING = found, False
+    try:
+        for module in pkgutil.iter_modules(importlib.import_module(__package__).__path__):
+            record = getattr(importlib.import_module(f"{__package__}.{module.name}"), "MAP", None)
+            if isinstance(record, MapKind | MadeMap):
+                if record.name in found or record.name in _REGISTERED:
+                    raise ValueError(f"two maps are named {record.name!r}")
+                found[record.name] = record
+    finally:
+        _DISCOVERING = False
+    _DISCOVERED = found
 
 
 def _records() -> dict[str, MapKind | MadeMap]:
