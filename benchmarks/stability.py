@@ -31,6 +31,7 @@ import numpy as np  # noqa: E402
 from porous_weathering.blender import compat, render
 from porous_weathering.contracts import socket_name
 from porous_weathering.core import model
+from porous_weathering.core import modes as weathering_modes
 from porous_weathering.core.shader_math import Graph, dot  # noqa: E402
 from porous_weathering.samples import studio  # noqa: E402
 from porous_weathering.shading import nodes
@@ -51,35 +52,27 @@ POROUS_VALUES = {
     "n_dot_l": (1.0, 0.5, 1e-3, 0.0, -0.5),
     "n_dot_v": (1.0, 0.5, 1e-2, 1e-3),
 }
-#: Hard values of the weathering inputs: bounds, beyond the bounds (clamped), the middle.
-STATE_VALUES = {
-    "time": (0.0, 1.0, -0.5, 1.5, 0.5),
-    "front_width": (0.0, 0.01, 1.0),
-    "rain_map": (0.0, 1.0, -0.5, 2.0, 0.5),
-    "runoff_map": (0.0, 1.0, -0.5, 2.0, 0.5),
-    "runoff": (0.0, 1.0, -0.5, 2.0),
-    "rain_threshold": (0.0, 1.0, 0.5),
-    "edge_map": (0.0, 1.0, -0.5, 2.0, 0.5),
-    "soiling_level": (0.0, 1.0),
-    "pollution_color": ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (0.03, 0.03, 0.03)),
-    "deposit_color": ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)),
-    "crust": (0.0, 1.0, -0.5, 2.0, 0.8),
-    "streaks": (0.0, 1.0, -0.5, 2.0, 0.5),
-    "wet_level": (0.0, 1.0),
-    "water_specular": (0.0, 1.0),
-    "wet_darkening": (0.0, 1.0, -0.5, 2.0, 0.5),
-    "efflorescence_map": (0.0, 1.0, -0.5, 2.0, 0.5),
-    "efflorescence_level": (0.0, 1.0),
-    "salt_color": ((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (0.8, 0.8, 0.8)),
-}
+
+
+def hard_values(item):
+    """The hard values of a weathering input, from its record: its bounds, beyond them (clamped),
+    the middle and its default (a colour: black, white and its default)."""
+    if item.is_colour:
+        values = ((item.low,) * 3, (item.high,) * 3, item.default)
+    else:
+        span = item.high - item.low
+        values = (item.low, item.high, item.low - 0.5 * span, item.high + span, item.low + 0.5 * span, item.default)
+    return tuple(dict.fromkeys(values))
+
+
+#: Hard values of every weathering input of every mode (the mode registry).
+STATE_VALUES = {item.name: hard_values(item) for item in weathering_modes.inputs().values()}
 #: Groups under test: label -> (weathering modes, light mode).
 GROUPS = {
     "porous (key sun)": ((), nodes.SUN),
     "porous (ambient)": ((), nodes.AMBIENT),
-    "soiling": ((model.SOILING,), nodes.SUN),
-    "wet": ((model.WET,), nodes.SUN),
-    "efflorescence": ((model.EFFLORESCENCE,), nodes.SUN),
-    "all three": (model.MODES, nodes.SUN),
+    **{mode: ((mode,), nodes.SUN) for mode in model.MODES},
+    "every mode": (model.MODES, nodes.SUN),
 }
 PORE_SOCKETS = {"kd": "Base Color", "ks": "Specular", "m": "Roughness", "alpha": "Porosity", "sp": "Pore Depth Ratio"}
 

@@ -7,7 +7,8 @@ The public API (docs/api.md):
     porous_weathering.make_weathered_material  soiling / wet / efflorescence over time
     porous_weathering.make_preset_material  a porous material from a preset (docs/presets.md)
 and the modules of ``PUBLIC_MODULES`` at their documented places (``porous_weathering.bake``,
-``porous_weathering.export``, ...): each is the module of its layer (docs/architecture.md).
+``porous_weathering.export``, ...): each is the module of its layer (docs/architecture.md), served
+from that table by a finder this package installs; no file stands in for them.
 
 Importing this package does not import bpy; the names that need it load on first use,
 so ``porous_weathering.model`` works in plain Python too.
@@ -15,34 +16,63 @@ so ``porous_weathering.model`` works in plain Python too.
 
 import atexit
 import importlib
+import importlib.abc
+import importlib.util
+import sys
 
-#: The documented modules (a file each beside this one, the module of its layer under its
-#: public name), loaded on first use as attributes: ``pw.weathering.animate_weathering``.
-PUBLIC_MODULES = (
-    "bake",
-    "demo",
-    "edges",
-    "efflorescence_map",
-    "export",
-    "maps",
-    "model",
-    "modes",
-    "options",
-    "presets",
-    "rain",
-    "runoff",
-    "runoff_flow",
-    "scan_checks",
-    "uv",
-    "weathering",
-)
+#: The documented modules (docs/api.md): each public name at the top of the package and the
+#: module of its layer it is (docs/architecture.md, "The public API"). ``porous_weathering.uv``
+#: *is* ``porous_weathering.maps.lightmap``: one module with one state under both names.
+PUBLIC_MODULES = {
+    "bake": "maps.bake",
+    "demo": "samples.demo",
+    "edges": "maps.edges",
+    "efflorescence_map": "maps.efflorescence_map",
+    "export": "publish.export",
+    "maps": "maps",
+    "model": "core.model",
+    "modes": "core.modes",
+    "options": "common.options",
+    "presets": "shading.presets",
+    "rain": "maps.rain",
+    "runoff": "maps.runoff",
+    "runoff_flow": "maps.runoff_flow",
+    "scan_checks": "maps.scan_checks",
+    "uv": "maps.lightmap",
+    "weathering": "shading.weathering",
+}
 
 _LAZY = {
     "make_porous_material": "shading.material",
     "make_base_material": "shading.material",
     "make_weathered_material": "shading.weathering",
-    "make_preset_material": "shading.presets",
+    "make_preset_material": "shading.material",
 }
+
+
+class _PublicModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Imports ``<package>.<public name>`` (``import porous_weathering.uv``, ``from
+    porous_weathering.bake import X``) as the module of its layer, loaded on first use: the
+    placeholder module the import makes puts the layer's module in its place in ``sys.modules``,
+    which the import then returns and sets on the package."""
+
+    def __init__(self, package: str):
+        self.package = package
+
+    def find_spec(self, fullname, path=None, target=None):
+        package, _, name = fullname.rpartition(".")
+        if package != self.package or PUBLIC_MODULES.get(name, name) == name:
+            return None
+        return importlib.util.spec_from_loader(fullname, self)
+
+    def exec_module(self, module):
+        name = module.__name__.rpartition(".")[2]
+        sys.modules[module.__name__] = importlib.import_module(f"{self.package}.{PUBLIC_MODULES[name]}")
+
+
+# one finder for this package, also when the add-on is loaded again
+sys.meta_path[:] = [finder for finder in sys.meta_path if getattr(finder, "package", None) != __name__]
+sys.meta_path.append(_PublicModules(__name__))
 
 
 def __getattr__(name):

@@ -39,7 +39,7 @@ import scan_generator  # noqa: E402  (sample_blends/scan_generator.py)
 
 from porous_weathering.blender import compat
 from porous_weathering.samples import studio  # noqa: E402
-from porous_weathering.shading.presets import make_preset_material  # noqa: E402
+from porous_weathering.shading.material import make_preset_material  # noqa: E402
 
 # --- building blocks -------------------------------------------------------------------
 

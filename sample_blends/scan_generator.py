@@ -668,7 +668,7 @@ def build_scene(scene, *, triangles=200_000, unit="mm", seed=0, material="limest
     if material == "limestone":
         if str(HERE.parent) not in sys.path:
             sys.path.insert(0, str(HERE.parent))
-        from porous_weathering.shading.presets import make_preset_material
+        from porous_weathering.shading.material import make_preset_material
 
         stone = make_preset_material("LIMESTONE", key_light=sun)
         concrete = make_preset_material("CONCRETE", name="Ground Concrete")

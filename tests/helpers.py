@@ -17,6 +17,8 @@
   and the white GGX lobe of its per-point roughness (docs/model.md §8).
 - ``run_cli``: ``python -m porous_weathering COMMAND ...`` in a subprocess, as users run it.
 - ``corner_values``: a baked colour attribute's value at every corner of a mesh.
+- ``registered_toys``: the toy mode and map of tests/toys/ added as a mode and a map are (the
+  ``toys`` fixture).
 - ``bust_mesh``, ``add_bust``: the scan-like bust of sample_blends/scan_generator.py, in
   millimetres, and the same bust added to the scene (the ``bust`` fixture of conftest.py).
 """
@@ -34,14 +36,13 @@ import bpy
 import numpy as np
 
 import porous_weathering as pw
+import porous_weathering.maps as maps_package
 from porous_weathering.blender import mesh_arrays, render
-from porous_weathering.common.options import option
-from porous_weathering.contracts import STONE_NODE, map_attribute
+from porous_weathering.contracts import STONE_NODE
 from porous_weathering.core import model
 from porous_weathering.core import modes as weathering_modes
 from porous_weathering.core.modes import base as mode_base
 from porous_weathering.core.modes import soiling, wet
-from porous_weathering.core.modes.base import TIME, Input, Layer, Mode
 from porous_weathering.maps import registry as maps
 from porous_weathering.samples import studio
 from porous_weathering.shading import nodes, weathering
@@ -372,66 +373,28 @@ def corner_values(obj, name):
     return values
 
 
-# --- a toy mode and a toy map: one declaration each is enough (the ``toys`` fixture) -----------
+# --- a toy mode and a toy map: one module each is enough (the ``toys`` fixture) ---------------
 
-GRIME = Input("grime", 0.0, 0.0, 1.0, "Toy grime: darkens the diffuse where the toy map is high", mask=True, map="toy")
-STRENGTH = Input("grime_strength", 0.5, 0.0, 1.0, "How much the grime darkens at t = 1")
-
-
-def darken_with_grime(xp, point):
-    """Written once: evaluated by numpy in the model, built as nodes in the group."""
-    s = point.state
-    point.kd_w = point.kd_w * (1.0 - xp.channel(s["grime"] * s["grime_strength"] * s["time"]))
-
-
-TOY_MODE = Mode(
-    "grime",
-    "Grime",
-    "Toy mode of the registry tests",
-    (TIME, GRIME, STRENGTH),
-    (Layer(50, darken_with_grime),),
-    catalog="Grime",
-    asset_summary="Toy grime",
-)
-
-
-@dataclasses.dataclass(frozen=True)
-class ToySettings:
-    level: float = option(
-        0.75, label="Toy Level", flag="--toy-level", low=0.0, high=1.0, tooltip="The value the toy map is baked to"
-    )
-
-
-def toy_image(obj, uv_map, options, margin):
-    return np.full((options.resolution, options.resolution), options.toy_settings.level, np.float32)
-
-
-def toy_attribute(obj, options):
-    values = np.full(len(obj.data.loops), options.toy_settings.level)
-    mesh_arrays.write_corner_attribute(obj.data, map_attribute("toy"), values)
-
-
-TOY_MAP = maps.MapKind(
-    "toy",
-    "Toy Map",
-    "Toy map of the registry tests",
-    attribute=map_attribute("toy"),
-    settings=ToySettings,
-    options_field="toy_settings",
-    bake_image=toy_image,
-    bake_attribute=toy_attribute,
-)
+#: The toy mode's module (modes/grime.py) and the toy map's (maps/toy.py).
+TOYS = pathlib.Path(__file__).resolve().parent / "toys"
 
 
 @contextlib.contextmanager
 def registered_toys():
-    weathering_modes.register(TOY_MODE)
-    maps.register(TOY_MAP)
+    """The toy mode and the toy map added as a mode and a map are: their folders put on the paths
+    of core/modes/ and maps/, where the registries find each module's record."""
+    folders = ((weathering_modes, str(TOYS / "modes")), (maps_package, str(TOYS / "maps")))
+    for package, folder in folders:
+        package.__path__.append(folder)
     try:
+        weathering_modes.discover()
+        maps.discover()
         yield
     finally:
-        weathering_modes.unregister(TOY_MODE.name)
-        maps.unregister(TOY_MAP.name)
+        for package, folder in folders:
+            package.__path__.remove(folder)
+        weathering_modes.discover()
+        maps.discover()
 
 
 # --- every node group the package builds ----------------------------------------------------

@@ -46,7 +46,9 @@ def test_the_docs_table_is_the_registry():
     assert set(documented) == set(environments.ENVIRONMENTS) >= {"URBAN", "SUBURBAN", "RURAL", "COASTAL"}
     for key, row in documented.items():
         site = environments.ENVIRONMENTS[key]
-        assert {column: getattr(site, column) for column in row} == row, key
+        assert {
+            column: site.values[column] if column in site.values else getattr(site, column) for column in row
+        } == row, key
 
 
 def test_the_default_environment_is_urban_and_documented():
@@ -77,9 +79,11 @@ def test_every_sites_grey_area_loses_thirty_percent_at_full_age(key):
     deposit gives it to the limestone preset's grey area (no carbon), face on, ambient light."""
     site = environments.ENVIRONMENTS[key]
     clean = luminance(colorimetry.appearance(limestone(), "clean"))
-    grey = luminance(colorimetry.appearance(limestone(), "soiled", deposit_color=site.deposit_color))
+    grey = luminance(colorimetry.appearance(limestone(), "soiled", deposit_color=site.values["deposit_color"]))
     assert grey / clean == pytest.approx(1.0 - aging.LOSS_AT_FULL_AGE, abs=0.01)
-    half = luminance(colorimetry.appearance(limestone(), "soiled", deposit_color=site.deposit_color, time=0.5))
+    half = luminance(
+        colorimetry.appearance(limestone(), "soiled", deposit_color=site.values["deposit_color"], time=0.5)
+    )
     assert half / clean == pytest.approx(1.0 - aging.LOSS_AT_FULL_AGE / 2, abs=0.01)  # linear in t
 
 
@@ -217,7 +221,9 @@ def test_panel_environment_sets_the_sliders_and_make_uses_it(registered, fresh_s
     settings.soiling = settings.efflorescence = True
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
     made = socket_values(plane.active_material)
-    assert made["deposit_color"] == pytest.approx(environments.ENVIRONMENTS["COASTAL"].deposit_color, abs=1e-6)
+    assert made["deposit_color"] == pytest.approx(
+        environments.ENVIRONMENTS["COASTAL"].values["deposit_color"], abs=1e-6
+    )
     assert made["crust"] == pytest.approx(settings.crust) and made["efflorescence_level"] == pytest.approx(1.0)
 
 

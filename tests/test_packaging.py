@@ -21,6 +21,8 @@ import bpy
 
 import pytest
 
+from porous_weathering.maps import registry
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 MANIFEST = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
 ZIP_NAME = f"{MANIFEST['id']}-{MANIFEST['version']}.zip"
@@ -69,6 +71,14 @@ def plain_zip(tmp_path_factory):
     output = tmp_path_factory.mktemp("dist") / ZIP_NAME
     run_ext("build", "--source-dir", str(source), "--output-filepath", str(output))
     return output
+
+
+def test_the_permission_text_names_no_map():
+    """The manifest's reason to use files covers every map without naming one: a map's module is
+    all a new map needs (docs/architecture.md, "Add a map")."""
+    text = MANIFEST["permissions"]["files"].lower()
+    named = [kind.name for kind in (*registry.all_kinds(), *registry.made_kinds()) if kind.name in text]
+    assert not named and "maps" in text, (text, named)
 
 
 def test_zip_is_valid_and_holds_only_the_extension(plain_zip):

@@ -1,13 +1,17 @@
-"""One declaration is enough: the toy mode and toy map of tests/helpers.py, registered by the
-``toys`` fixture, appear in the model, the node group (its Cycles render matches its numpy
-backend), the node-group snapshot's cases, the panel, the bake operator's properties,
-BakeOptions, ``bake --help``, the input hash (a changed setting re-bakes) and the export; the
-docs tables' check sees them too (tests/test_docs_tables.py)."""
+"""One module is enough: the toy mode and toy map of tests/toys/ (modes/grime.py, maps/toy.py),
+each one module holding one record, put where a mode's and a map's module go by the ``toys``
+fixture, appear in the registries (after the shipped ones, in their order), the model, the node
+group (its Cycles render matches its numpy backend), the node-group snapshot's cases, the panel,
+the bake operator's properties, BakeOptions, ``bake --help``, the input hash (a changed setting
+re-bakes) and the export, and a group of an older build without the toy's input is built again;
+the docs tables' check sees them too (tests/test_docs_tables.py)."""
 
+import ast
 import contextlib
 import io
 import json
 import pathlib
+import sys
 
 import bpy
 
@@ -17,9 +21,8 @@ import pytest
 import porous_weathering
 from helpers import (
     STONE,
-    TOY_MAP,
+    TOYS,
     LitSphere,
-    ToySettings,
     assert_matches,
     expected_image,
     lobes,
@@ -29,11 +32,40 @@ from helpers import (
 )
 from porous_weathering.cli import entry
 from porous_weathering.core import model
+from porous_weathering.core import modes as weathering_modes
 from porous_weathering.maps import bake
 from porous_weathering.maps import registry as maps
 from porous_weathering.publish import export
 from porous_weathering.shading import nodes
 from porous_weathering.ui import panel as ui
+
+
+def test_a_module_is_all_a_mode_and_a_map_need(toys):
+    """The registries find the toys' modules, nothing else names them, and they go once their
+    modules are no longer on the packages' paths."""
+    assert weathering_modes.names() == ("soiling", "wet", "efflorescence", "grime")
+    assert maps.names() == ("rain", "edges", "runoff", "toy")
+    assert weathering_modes.get("grime") is sys.modules["porous_weathering.core.modes.grime"].MODE
+    assert maps.get("toy") is sys.modules["porous_weathering.maps.toy"].MAP
+    for toy in (TOYS / "modes" / "grime.py", TOYS / "maps" / "toy.py"):
+        names = [name.id for name in ast.walk(ast.parse(toy.read_text())) if isinstance(name, ast.Name)]
+        assert "register" not in names, f"{toy.name}: a module needs no register call"
+
+
+def test_the_toys_go_with_their_modules():
+    assert "grime" not in weathering_modes.names() and "toy" not in maps.names()
+
+
+def test_a_group_of_an_older_build_without_the_toy_input_is_built_again(toys, fresh_scene):
+    """No build number to bump for a new input: a group whose sockets are not those of the
+    records (here one without Grime Strength, as a file saved before the input came) is set aside
+    as "(old)" and built again; one that is, is reused."""
+    group = nodes.weathered_group(("grime",), nodes.SUN)
+    assert nodes.weathered_group(("grime",), nodes.SUN) is group
+    group.interface.remove(group.interface.items_tree["Grime Strength"])
+    rebuilt = nodes.weathered_group(("grime",), nodes.SUN)
+    assert rebuilt is not group and group.name.endswith(" (old)")
+    assert "Grime Strength" in rebuilt.interface.items_tree
 
 
 def test_toy_mode_is_in_the_model(toys):
@@ -44,7 +76,7 @@ def test_toy_mode_is_in_the_model(toys):
     clean, clean_ks = model.porous_coefficients((0.6, 0.5, 0.4), 0.1, 0.4, 0.3, 2.0, 0.8, 0.9)
     np.testing.assert_allclose(kd, clean * (1.0 - 0.4))
     assert ks == pytest.approx(clean_ks) and not water.any()
-    assert maps.get("toy").feeds == ["grime"] and maps.feeding("grime") is TOY_MAP
+    assert maps.get("toy").feeds == ["grime"] and maps.feeding("grime") is maps.get("toy")
 
 
 def test_toy_mode_renders_as_its_numpy_backend(toys, fresh_scene):
@@ -70,11 +102,11 @@ def test_toy_mode_renders_as_its_numpy_backend(toys, fresh_scene):
 
 
 def test_toy_map_is_in_the_options_and_the_command_line(toys):
-    options = bake.BakeOptions(toy_settings=ToySettings(level=0.25))
+    options = bake.BakeOptions(toy_settings=maps.get("toy").settings(level=0.25))
     assert options.maps == (*maps.names()[:-1], "toy") and options.toy_settings.level == 0.25
     assert ["--toy-level", "0.25"] == options.to_argv()[-2:]
     with pytest.raises(ValueError, match="toy level"):
-        bake.BakeOptions(toy_settings=ToySettings(level=2.0))
+        bake.BakeOptions(toy_settings=maps.get("toy").settings(level=2.0))
     help_text = io.StringIO()
     with contextlib.redirect_stdout(help_text), pytest.raises(SystemExit):
         entry.main(["bake", "--help"])
@@ -121,13 +153,13 @@ def test_toy_map_rebakes_when_its_setting_changes(toys, fresh_scene, tmp_path):
     """Every setting of a map is in its input hash by default: the record lists none by hand."""
     bpy.ops.mesh.primitive_plane_add()
     plane = bpy.context.active_object
-    options = bake.BakeOptions(maps=("toy",), target="attribute", toy_settings=ToySettings(level=0.25))
+    options = bake.BakeOptions(maps=("toy",), target="attribute", toy_settings=maps.get("toy").settings(level=0.25))
     assert [o.status for o in bake.bake_maps([plane], options)] == ["written"]
     assert [o.status for o in bake.bake_maps([plane], options)] == ["unchanged"]
-    changed = bake.BakeOptions(maps=("toy",), target="attribute", toy_settings=ToySettings(level=0.5))
+    changed = bake.BakeOptions(maps=("toy",), target="attribute", toy_settings=maps.get("toy").settings(level=0.5))
     assert [o.status for o in bake.bake_maps([plane], changed)] == ["written"]
     values = np.zeros(len(plane.data.loops) * 4, np.float32)
-    plane.data.color_attributes[TOY_MAP.attribute].data.foreach_get("color", values)
+    plane.data.color_attributes[maps.get("toy").attribute].data.foreach_get("color", values)
     assert np.allclose(values.reshape(-1, 4)[:, 0], 0.5)
 
 

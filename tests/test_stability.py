@@ -12,7 +12,7 @@ from benchmarks import stability
 FLOAT32_TOLERANCE = 1e-3
 
 
-@pytest.mark.parametrize("label", ["porous (key sun)", "porous (ambient)", "all three"])
+@pytest.mark.parametrize("label", ["porous (key sun)", "porous (ambient)", "every mode"])
 def test_node_groups_agree_with_the_model_on_hard_cases(label):
     result = stability.compare(label, size=12)
     assert result["model non-finite"] == 0
@@ -23,7 +23,7 @@ def test_node_groups_agree_with_the_model_on_hard_cases(label):
 
 def test_hard_cases_cover_every_bound():
     """The draw reaches each hard value of each input at least once."""
-    cases = stability.draw_cases(stability.GROUPS["all three"][0], 12 * 12)
+    cases = stability.draw_cases(stability.GROUPS["every mode"][0], 12 * 12)
     for name, values in {**stability.POROUS_VALUES, **stability.STATE_VALUES}.items():
         drawn = cases[name].reshape(len(cases[name]), -1)
         for value in values:

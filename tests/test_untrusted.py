@@ -15,7 +15,7 @@ import porous_weathering
 from porous_weathering.blender import render
 from porous_weathering.maps import bake, rain
 from porous_weathering.samples import studio
-from porous_weathering.shading import presets
+from porous_weathering.shading import material, presets
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "porous_weathering"
@@ -36,7 +36,7 @@ def every_material_kind(scene):
         studio.add_point_light(scene, (1.0, 1.0, 3.0), name=kind.title(), kind=kind)
     made = [porous_weathering.make_porous_material("Ambient"), porous_weathering.make_base_material("Base")]
     made += [porous_weathering.make_porous_material(name, key_light=name) for name in ("Sun", "Point", "Spot", "Area")]
-    made += [presets.make_preset_material(name, key_light="Sun") for name in presets.PRESETS]
+    made += [material.make_preset_material(name, key_light="Sun") for name in presets.PRESETS]
     return made
 
 

@@ -46,7 +46,7 @@ from ..common.imageio import (  # noqa: F401  (public: docs/api.md)
 )
 from ..common.options import Entry, check, check_value, declared, entries, folder_path, option, to_argv
 from ..contracts import map_image_property
-from . import edges, lightmap, scan_checks
+from . import edges, lightmap, rain, scan_checks
 from . import registry as maps
 from .provenance import ForeignInput, OverwriteRefused, Provenance, refuse_overwrite  # noqa: F401  (public: docs/api.md)
 
@@ -454,7 +454,7 @@ def _steps(objects, options, dry_run, force):
     per_object = len(options.maps) + unwraps
     total = len(objects) * per_object
     for number, obj in enumerate(objects):
-        scan_checks.warn(obj, rain=maps.RAIN.name in options.maps)
+        scan_checks.warn(obj, rain=rain.MAP.name in options.maps)
         undo = None
         if unwraps:
             uv_map, uvs, undo = yield from _unwrap(obj, options, number * per_object, total, dry_run)

@@ -51,6 +51,7 @@ from .curvature import (  # noqa: F401  (public: docs/api.md, the ``edges`` modu
     unit,
 )
 from .lightmap_check import surface_points
+from .registry import MapKind
 
 #: The colour attribute that carries the curvature mask C (per point, grey).
 EDGE_ATTRIBUTE = map_attribute("edges")
@@ -368,3 +369,40 @@ def bake_texel_geometry(
         prepare=(lambda mesh: mesh.shade_smooth()) if smooth_normals else None,
     )
     return position[..., :3].copy(), normal[..., :3].copy(), position[..., 3] > 0
+
+
+# --- the record (docs/architecture.md, "Add a map") ---------------------------------------------------------
+
+
+def _edges_image(obj, uv_map, options, margin):
+    return edge_mask_image(obj, uv_map, options.resolution, options.edge_settings, margin=margin)
+
+
+def _edges_attribute(obj, options):
+    write_curvature_attribute(obj, settings=options.edge_settings)
+
+
+def _edges_hash(obj, options, digests):
+    # the radius the mask is smoothed over, given or scale times the object's size: the same
+    # radius given either way is the same map
+    return dict(radius=effective_radius(obj, options.edge_settings), scale=None)
+
+
+MAP = MapKind(
+    name="edges",
+    label="Edges",
+    description="Edge/cavity mask: the surface's curvature smoothed over a radius relative to the object's size",
+    attribute=EDGE_ATTRIBUTE,
+    settings=EdgeSettings,
+    options_field="edge_settings",
+    bake_image=_edges_image,
+    bake_attribute=_edges_attribute,
+    hash_inputs=_edges_hash,
+    aliases={
+        "edge_radius": "radius",
+        "edge_scale": "scale",
+        "cavity_weight": "cavity_weight",
+        "edge_weight": "edge_weight",
+    },
+    order=20,
+)

@@ -3,9 +3,9 @@ where salt fills the pores first (highest first).  Either generated, concentrate
 mortar joints of a running-bond brick pattern (where brick/mortar migration brings the salt),
 or made from a user's photograph of efflorescence: luminance, denoised and normalised with
 OpenImageIO.  Maps are float32 (H, W) arrays, top row first, written atomically as EXR
-beside the .blend by ``save_map``; ``make_map`` makes an object's map and links it, the map
-registry's ``make`` of the efflorescence record (``registry.EFFLORESCENCE``: a map that is made,
-not baked).  Nothing here needs bpy at import time: only ``default_path`` and ``make_map`` use it.
+beside the .blend by ``save_map``; ``make_map`` makes an object's map and links it, the
+``make`` of this module's record, ``MAP`` (a ``MadeMap``: a map that is made, not baked).
+Nothing here needs bpy at import time: only ``default_path`` and ``make_map`` use it.
 """
 
 import os
@@ -16,6 +16,7 @@ import numpy as np
 from ..common import imageio
 from ..core.arguments import whole_number
 from ..core.modes.efflorescence import EFFLORESCENCE_MAP
+from .registry import MadeMap
 
 if TYPE_CHECKING:
     import bpy
@@ -172,3 +173,12 @@ def _buffer(pixels):
     buffer = oiio.ImageBuf(oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], oiio.FLOAT))
     buffer.set_pixels(oiio.ROI(), pixels)
     return buffer
+
+
+MAP = MadeMap(
+    name=MAP_NAME,
+    label="Efflorescence",
+    description="Efflorescence location map: where salt fills the pores first, from brick joints or a photograph",
+    make=make_map,
+    order=10,
+)

@@ -31,6 +31,7 @@ from ..common.options import check, option
 from ..contracts import map_attribute
 from ..core.shader_math import Graph, dot
 from . import edges, lightmap
+from .registry import MapKind
 
 #: The colour attribute a rain bake writes (per face corner).
 RAIN_ATTRIBUTE = map_attribute("rain")
@@ -356,3 +357,38 @@ def _add_sky(scene, settings, made):
     world.cycles.sampling_method = "MANUAL"
     world.cycles.sample_map_resolution = 2048  # the cone is small: the importance map must resolve it
     scene.world = world
+
+
+# --- the record (docs/architecture.md, "Add a map") ---------------------------------------------------------
+
+
+def _occluders(obj, options):
+    return default_occluders(obj, options.occluder_collection())
+
+
+def _rain_image(obj, uv_map, options, margin):
+    settings = options.rain_settings
+    return bake_rain_image(obj, uv_map, options.resolution, settings, _occluders(obj, options), margin=margin)
+
+
+def _rain_attribute(obj, options):
+    values = bake_rain_corners(obj, options.rain_settings, _occluders(obj, options))
+    mesh_arrays.write_corner_attribute(obj.data, RAIN_ATTRIBUTE, values)
+
+
+def _rain_hash(obj, options, digests):
+    return dict(occluders=sorted((o.name, digests(o)) for o in _occluders(obj, options)))
+
+
+MAP = MapKind(
+    name="rain",
+    label="Rain Exposure",
+    description="Cosine-weighted fraction of the rain cone that reaches the surface",
+    attribute=RAIN_ATTRIBUTE,
+    settings=RainSettings,
+    options_field="rain_settings",
+    bake_image=_rain_image,
+    bake_attribute=_rain_attribute,
+    hash_inputs=_rain_hash,
+    order=10,
+)

@@ -1,18 +1,25 @@
-"""The registry of baked maps: one ``MapKind`` record per map, with its bake functions.
+"""The registry of maps: one ``MapKind`` record per baked map and one ``MadeMap`` per map the
+artist makes, each the ``MAP`` of its own module of the ``maps`` package.
 
-The command line's options, the bake operator's properties, the panel's map list,
-``BakeOptions`` and the options forwarded to Dask workers are all generated from these
-records and the option fields of their settings dataclasses (``options.py``), so adding a
-map is one record and its bake function (docs/architecture.md, "Add a map").
+The registry finds the records itself (``discover``): it imports every module of the package
+and keeps each module's ``MAP``, in the order of their ``order`` field, then their name. So
+adding a map is one module with its bake functions and its record, and no list to edit
+(docs/architecture.md, "Add a map"). The command line's options, the bake operator's
+properties, the panel's map list, ``BakeOptions`` and the options forwarded to Dask workers
+are all generated from these records and the option fields of their settings dataclasses
+(``common/options.py``). This module imports no map module by name: the maps import it.
 """
 
+import importlib
+import pkgutil
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from ..blender import mesh_arrays
 from ..core import modes as weathering_modes
-from . import edges, efflorescence_map, rain, runoff
+
+#: The ``order`` of a record that gives none: after the shipped maps, by name.
+LAST = 1000
 
 
 @dataclass(frozen=True)
@@ -36,6 +43,9 @@ class MapKind:
     #: The maps whose baked result this map's bake reads (the run-off reads the rain): baked
     #: before it in the same bake, or already for the object; their input hashes are in its own.
     reads: tuple[str, ...] = ()
+    #: Where the map comes in the registry's lists (the panel, ``--maps``, the bake): rain 10,
+    #: edges 20, runoff 30; a new map takes the next free ten
+    order: int = LAST
 
     def inputs(self, obj: Any, options: Any, digests: Callable[[Any], str]) -> dict:
         """What the map's input hash holds besides the geometry and the bake's own options, under
@@ -53,144 +63,7 @@ class MapKind:
         return [item.name for item in weathering_modes.inputs().values() if item.map == self.name]
 
 
-_REGISTRY: dict[str, MapKind] = {}
-
-
-def register(kind: MapKind) -> None:
-    if kind.name in _REGISTRY:
-        raise ValueError(f"a map named {kind.name!r} is registered already")
-    _REGISTRY[kind.name] = kind
-
-
-def unregister(name: str) -> None:
-    del _REGISTRY[name]
-
-
-def names() -> tuple[str, ...]:
-    return tuple(_REGISTRY)
-
-
-def get(name: str) -> MapKind:
-    return _REGISTRY[name]
-
-
-def all_kinds() -> tuple[MapKind, ...]:
-    return tuple(_REGISTRY.values())
-
-
-def feeding(input_name: str) -> MapKind | None:
-    """The map that feeds the weathering input ``input_name``, if a bake makes one."""
-    item = weathering_modes.inputs().get(input_name)
-    return _REGISTRY.get(item.map) if item is not None and item.map else None
-
-
-# --- rain exposure E (docs/model.md §5) --------------------------------------------------------------------
-
-
-def _occluders(obj, options):
-    return rain.default_occluders(obj, options.occluder_collection())
-
-
-def _rain_image(obj, uv_map, options, margin):
-    settings = options.rain_settings
-    return rain.bake_rain_image(obj, uv_map, options.resolution, settings, _occluders(obj, options), margin=margin)
-
-
-def _rain_attribute(obj, options):
-    values = rain.bake_rain_corners(obj, options.rain_settings, _occluders(obj, options))
-    mesh_arrays.write_corner_attribute(obj.data, rain.RAIN_ATTRIBUTE, values)
-
-
-def _rain_hash(obj, options, digests):
-    return dict(occluders=sorted((o.name, digests(o)) for o in _occluders(obj, options)))
-
-
-RAIN = MapKind(
-    name="rain",
-    label="Rain Exposure",
-    description="Cosine-weighted fraction of the rain cone that reaches the surface",
-    attribute=rain.RAIN_ATTRIBUTE,
-    settings=rain.RainSettings,
-    options_field="rain_settings",
-    bake_image=_rain_image,
-    bake_attribute=_rain_attribute,
-    hash_inputs=_rain_hash,
-)
-
-
-# --- edge/cavity mask C (docs/model.md §5) -------------------------------------------------------------------
-
-
-def _edges_image(obj, uv_map, options, margin):
-    return edges.edge_mask_image(obj, uv_map, options.resolution, options.edge_settings, margin=margin)
-
-
-def _edges_attribute(obj, options):
-    edges.write_curvature_attribute(obj, settings=options.edge_settings)
-
-
-def _edges_hash(obj, options, digests):
-    # the radius the mask is smoothed over, given or scale times the object's size: the same
-    # radius given either way is the same map
-    return dict(radius=edges.effective_radius(obj, options.edge_settings), scale=None)
-
-
-EDGES = MapKind(
-    name="edges",
-    label="Edges",
-    description="Edge/cavity mask: the surface's curvature smoothed over a radius relative to the object's size",
-    attribute=edges.EDGE_ATTRIBUTE,
-    settings=edges.EdgeSettings,
-    options_field="edge_settings",
-    bake_image=_edges_image,
-    bake_attribute=_edges_attribute,
-    hash_inputs=_edges_hash,
-    aliases={
-        "edge_radius": "radius",
-        "edge_scale": "scale",
-        "cavity_weight": "cavity_weight",
-        "edge_weight": "edge_weight",
-    },
-)
-
-
-# --- run-off R (docs/model.md §7) ------------------------------------------------------------------
-
-
-def _runoff_image(obj, uv_map, options, margin):
-    return runoff.bake_runoff_image(obj, uv_map, options, margin)
-
-
-def _runoff_attribute(obj, options):
-    mesh_arrays.write_corner_attribute(obj.data, runoff.RUNOFF_ATTRIBUTE, runoff.bake_runoff_corners(obj, options))
-
-
-def _runoff_hash(obj, options, digests):
-    # the drops fall along the rain's mean direction; unset lengths are fractions of the object's size
-    size = edges.object_size(obj)
-    return dict(lengths=options.runoff_settings.lengths(size), fall=options.rain_settings.towards_rain())
-
-
-RUNOFF = MapKind(
-    name="runoff",
-    label="Run-off",
-    description="Where the rain that lands runs: R = 1 - exp(-Q / L), Q the water collected along its path",
-    attribute=runoff.RUNOFF_ATTRIBUTE,
-    settings=runoff.RunoffSettings,
-    options_field="runoff_settings",
-    bake_image=_runoff_image,
-    bake_attribute=_runoff_attribute,
-    hash_inputs=_runoff_hash,
-    reads=("rain",),
-)
-
-
-register(RAIN)
-register(EDGES)
-register(RUNOFF)
-
-
-# --- maps made, not baked: the efflorescence location map (docs/model.md §4) ------------------------------
+# --- maps made, not baked (the efflorescence location map, docs/model.md §4) -----------------------------
 
 
 @dataclass(frozen=True)
@@ -204,6 +77,8 @@ class MadeMap:
     description: str  #: the Make-map operator's tooltip
     #: make(obj, **params) -> bpy.types.Image: makes obj's map and points obj at it (pw_<map>_image)
     make: Callable[..., Any]
+    #: Where the map comes among the made maps (efflorescence 10)
+    order: int = LAST
 
     @property
     def feeds(self) -> list[str]:
@@ -211,25 +86,80 @@ class MadeMap:
         return [item.name for item in weathering_modes.inputs().values() if item.map == self.name]
 
 
-_MADE: dict[str, MadeMap] = {}
+_DISCOVERED: dict[str, MapKind | MadeMap] | None = None  #: the modules' records, once found
+_REGISTERED: dict[str, MapKind | MadeMap] = {}  #: the records given to ``register``
+_DISCOVERING = False
 
 
-def register_made(kind: MadeMap) -> None:
-    if kind.name in _MADE or kind.name in _REGISTRY:
+def discover() -> None:
+    """Find the records again: the ``MAP`` of every module of the ``maps`` package (its
+    ``__path__``). Done on first use; again only after a module was added to the package's path."""
+    global _DISCOVERED, _DISCOVERING
+    _DISCOVERED, _DISCOVERING = None, True
+    found = {}
+    try:
+        for module in pkgutil.iter_modules(importlib.import_module(__package__).__path__):
+            record = getattr(importlib.import_module(f"{__package__}.{module.name}"), "MAP", None)
+            if isinstance(record, MapKind | MadeMap):
+                if record.name in found or record.name in _REGISTERED:
+                    raise ValueError(f"two maps are named {record.name!r}")
+                found[record.name] = record
+    finally:
+        _DISCOVERING = False
+    _DISCOVERED = found
+
+
+def _records() -> dict[str, MapKind | MadeMap]:
+    if _DISCOVERING:  # else a module's import would see only the records found before it
+        raise RuntimeError("a module of the maps package reads the map registry while it is imported")
+    if _DISCOVERED is None:
+        discover()
+    return {**_DISCOVERED, **_REGISTERED}
+
+
+def _ordered(kind: type) -> tuple:
+    return tuple(sorted((r for r in _records().values() if isinstance(r, kind)), key=lambda r: (r.order, r.name)))
+
+
+def register(kind: MapKind | MadeMap) -> None:
+    """Add a record from outside the package (a map's module in the package needs no call)."""
+    if kind.name in _records():
         raise ValueError(f"a map named {kind.name!r} is registered already")
-    _MADE[kind.name] = kind
+    _REGISTERED[kind.name] = kind
+
+
+#: A map made, not baked, is registered the same way.
+register_made = register
+
+
+def unregister(name: str) -> None:
+    del _REGISTERED[name]
+
+
+def names() -> tuple[str, ...]:
+    """The baked maps, in their order."""
+    return tuple(kind.name for kind in all_kinds())
+
+
+def get(name: str) -> MapKind:
+    kind = _records()[name]
+    if not isinstance(kind, MapKind):
+        raise KeyError(name)
+    return kind
+
+
+def all_kinds() -> tuple[MapKind, ...]:
+    """The baked maps, in their order."""
+    return _ordered(MapKind)
 
 
 def made_kinds() -> tuple[MadeMap, ...]:
-    """The maps that are made, not baked, in the order registered."""
-    return tuple(_MADE.values())
+    """The maps that are made, not baked, in their order."""
+    return _ordered(MadeMap)
 
 
-EFFLORESCENCE = MadeMap(
-    name=efflorescence_map.MAP_NAME,
-    label="Efflorescence",
-    description="Efflorescence location map: where salt fills the pores first, from brick joints or a photograph",
-    make=efflorescence_map.make_map,
-)
-
-register_made(EFFLORESCENCE)
+def feeding(input_name: str) -> MapKind | None:
+    """The map that feeds the weathering input ``input_name``, if a bake makes one."""
+    item = weathering_modes.inputs().get(input_name)
+    kind = _records().get(item.map) if item is not None and item.map else None
+    return kind if isinstance(kind, MapKind) else None

@@ -25,6 +25,7 @@ from ..common.options import check, option
 from ..contracts import map_attribute
 from . import edges, lightmap, runoff_flow
 from .rain import RAIN_ATTRIBUTE
+from .registry import MapKind
 
 RUNOFF_ATTRIBUTE = map_attribute("runoff")
 #: Unset lengths, as fractions of the object's size (``edges.object_size``): L, the run that
@@ -273,3 +274,35 @@ def _bilinear(image, uv, size):
     top = image[y0, x0] * (1 - fx) + image[y0, x1] * fx
     bottom = image[y1, x0] * (1 - fx) + image[y1, x1] * fx
     return top * (1 - fy) + bottom * fy
+
+
+# --- the record (docs/architecture.md, "Add a map") ---------------------------------------------------------
+
+
+def _runoff_image(obj, uv_map, options, margin):
+    return bake_runoff_image(obj, uv_map, options, margin)
+
+
+def _runoff_attribute(obj, options):
+    mesh_arrays.write_corner_attribute(obj.data, RUNOFF_ATTRIBUTE, bake_runoff_corners(obj, options))
+
+
+def _runoff_hash(obj, options, digests):
+    # the drops fall along the rain's mean direction; unset lengths are fractions of the object's size
+    size = edges.object_size(obj)
+    return dict(lengths=options.runoff_settings.lengths(size), fall=options.rain_settings.towards_rain())
+
+
+MAP = MapKind(
+    name="runoff",
+    label="Run-off",
+    description="Where the rain that lands runs: R = 1 - exp(-Q / L), Q the water collected along its path",
+    attribute=RUNOFF_ATTRIBUTE,
+    settings=RunoffSettings,
+    options_field="runoff_settings",
+    bake_image=_runoff_image,
+    bake_attribute=_runoff_attribute,
+    hash_inputs=_runoff_hash,
+    reads=("rain",),
+    order=30,
+)

@@ -37,6 +37,7 @@ from ..blender import render
 from ..common.progress import ProgressBar
 from ..contracts import EXTENSION_ROOT, GROUP_NODE, SAMPLES_DIR
 from ..core import environments, model
+from ..core import modes as weathering_modes
 from ..maps import bake, efflorescence_map, rain
 from ..maps import registry as maps
 from ..shading import material, presets, weathering
@@ -83,9 +84,11 @@ class Recipe:
     (a key of presets.PRESETS, whose structure the materials have at the default variation:
     docs/model.md §8) and ``environment`` (a key of environments.ENVIRONMENTS), the panel's Stone
     and Environment choices; ``masonry``: if not None, the ``presets.Ashlar`` the stone is laid
-    in (docs/model.md §8.5), a fact of the building; for each mode the map each mask reads: "rain",
-    "runoff" or "edges" (baked as colour attributes with the bake's defaults, as the command
-    line bakes them) or "joints" (JOINT_MAP, an image on the bricks' UV map); the ``rain`` of the
+    in (docs/model.md §8.5), a fact of the building; its ``modes``, whose masks read what the
+    panel's Make wires (``masks``): each its baked map (baked as colour attributes with the bake's
+    defaults, as the command line bakes them), and for a map that is made, not baked, the one
+    ``made`` names ("joints": JOINT_MAP, an image on the bricks' UV map), else its fallback map
+    (docs/model.md §7.2); the ``rain`` of the
     site (rain.RainSettings fields: its wind); the main job's ``view`` (None: the scene's own
     camera, sun and aspect); and how the scene's geometry is prepared for per-corner maps:
     ``unite``: if not None, the name of the one object the weathered objects are united into (a
@@ -98,7 +101,8 @@ class Recipe:
 
     objects: tuple
     stone: str
-    masks: dict
+    modes: tuple
+    made: dict = field(default_factory=dict)
     rain: dict = field(default_factory=lambda: DRIVEN_RAIN)
     environment: str = environments.DEFAULT_ENVIRONMENT
     view: View | None = None
@@ -106,10 +110,20 @@ class Recipe:
     cell: float | None = None
     masonry: presets.Ashlar | None = None
 
+    @property
+    def masks(self) -> dict:
+        """{mode: {mask input: the map it reads}}, from the mode and map registries."""
+        baked = set(maps.names())
+        return {
+            mode: {
+                item.name: item.map if item.map in baked else self.made.get(item.map, item.fallback_map)
+                for item in weathering_modes.inputs_of((mode,))
+                if item.map
+            }
+            for mode in self.modes
+        }
 
-#: What the panel's Make wires for soiling and wetting: every baked map the mode reads.
-WATER = dict(rain_map="rain", runoff_map="runoff")
-RAIN_AND_EDGES = dict(WATER, edge_map="edges")
+
 #: The façade from the front left at eye height (the undersides of the cornice and the sills
 #: show), 16:9. A low sun from the front right (10.5 degrees up) lights the wall and the band the
 #: cornice shelters, and its mirror direction meets the wall at the right-hand pilaster (x = 3.6 m,
@@ -129,11 +143,7 @@ RECIPES = {
     FACADE: Recipe(
         None,
         "LIMESTONE",
-        {
-            model.SOILING: RAIN_AND_EDGES,
-            model.WET: WATER,
-            model.EFFLORESCENCE: dict(efflorescence_map="runoff"),
-        },
+        (model.SOILING, model.WET, model.EFFLORESCENCE),
         view=FACADE_VIEW,
         unite="Facade",
         cell=0.1,
@@ -142,20 +152,17 @@ RECIPES = {
     "brick_wall": Recipe(
         ("Bricks",),
         "BRICK",
-        {
-            model.SOILING: RAIN_AND_EDGES,
-            model.WET: WATER,
-            model.EFFLORESCENCE: dict(efflorescence_map="joints"),
-        },
+        (model.SOILING, model.WET, model.EFFLORESCENCE),
+        made={efflorescence_map.MAP_NAME: "joints"},
     ),
     # Vertical rain: the hollows and the undersides of the ridges are the sheltered places.
-    "sculpted_stone": Recipe(("Sculpted Stone",), "LIMESTONE", {model.SOILING: RAIN_AND_EDGES}, rain={}),
+    "sculpted_stone": Recipe(("Sculpted Stone",), "LIMESTONE", (model.SOILING,), rain={}),
     # The scan-like bust (millimetres, no UV map): driven rain reaches the hat and the chest,
     # the brim shelters the face.
     "bust": Recipe(
         ("Bust",),
         "LIMESTONE",
-        {model.SOILING: RAIN_AND_EDGES, model.WET: WATER},
+        (model.SOILING, model.WET),
         view=View(location=(-520.0, -900.0, 200.0), target=(0.0, 0.0, 300.0), lens=55.0, aspect=1.0, sun_strength=2.5),
     ),
 }

@@ -8,11 +8,12 @@ import bpy
 import numpy as np
 
 from ..blender import compat
-from ..contracts import GROUP_NODE, KEY_LIGHT_PROPERTY, LIGHT_MODE_PROPERTY, STONE_NODE, STONE_PROPERTY
+from ..contracts import GROUP_NODE, KEY_LIGHT_PROPERTY, LIGHT_MODE_PROPERTY, PRESET_PROPERTY, STONE_NODE, STONE_PROPERTY
 from ..core import model, stones
 from ..core.arguments import choice, real_number
 from ..core.shader_math import Graph
 from . import nodes
+from .presets import PRESETS
 
 #: k_d as a colour (RGB or RGBA), an image, or an image file's path.
 ColorSource = Sequence[float] | bpy.types.Image | str | os.PathLike
@@ -73,6 +74,31 @@ def make_porous_material(
     return material
 
 
+def make_preset_material(
+    preset_name: str,
+    name: str | None = None,
+    key_light: "bpy.types.Object | str | None" = None,
+    variation: float = stones.DEFAULT_VARIATION,
+) -> "bpy.types.Material":
+    """A new porous material (see ``make_porous_material``) with the values of a preset.
+
+    ``preset_name`` is a key of PRESETS (e.g. "LIMESTONE"); ``name`` defaults to the
+    preset's label; ``key_light`` as in ``make_porous_material`` (None: ambient mode).  The
+    material has the preset's stone structure (docs/model.md §8) at ``variation`` (0: uniform).
+    """
+    try:
+        preset = PRESETS[preset_name]
+    except KeyError:
+        raise ValueError(f"unknown preset {preset_name!r}: choose one of {', '.join(PRESETS)}") from None
+    params = preset.material_params()
+    material = make_porous_material(
+        name or preset.label, **params, key_light=key_light, stone=preset_name, variation=variation
+    )
+    material.diffuse_color = params["base_color"]  # the viewport's solid-mode colour
+    material[PRESET_PROPERTY] = preset_name
+    return material
+
+
 def stone_structure(
     stone: str | None, variation: float, masonry: "stones.Ashlar | stones.MeshBlocks | None" = None
 ) -> "tuple[stones.Stone, float, stones.Ashlar | stones.MeshBlocks | None] | None":
@@ -80,8 +106,6 @@ def stone_structure(
     ``masonry``, or None when the material is uniform (no stone, or variation 0 or a preset without
     a structure and no masonry); ValueError naming an unknown stone or mortar, a variation that is
     not a number, or masonry that is not an ``Ashlar`` or a ``MeshBlocks`` or has no stone."""
-    from .presets import PRESETS
-
     variation = float(model.sanitize("variation", real_number("variation", variation), 0.0, 1.0))
     if masonry is not None:
         if not isinstance(masonry, (stones.Ashlar, stones.MeshBlocks)):
@@ -111,8 +135,6 @@ def connect_stone(graph, group_node, key, structure, variation, masonry, base_co
     and feeds their per-point values (and, to a receptive weathered group, the receptivity).
     With ``masonry`` an ``Ashlar``, the stone's masonry group, given the ashlar's lengths in
     metres and its mortar preset's values; a ``MeshBlocks``, the stone's group of the mesh's blocks."""
-    from .presets import PRESETS
-
     if isinstance(masonry, stones.Ashlar):
         group = nodes.masonry_group(key, structure)
     elif isinstance(masonry, stones.MeshBlocks):

@@ -5,7 +5,7 @@ are written once against a backend, and this module evaluates them with ``NODE_O
 operations add nodes (``shader_math.Expr``) instead of computing numbers.  What is here is
 what only a shader has: the shading cosines, the closures, and the group's sockets.  A group
 is built with only the inputs and nodes its light mode and modes need, and is reused when a
-group of the same name and build version is already in the file.
+group of the same name, build version and sockets is already in the file.
 """
 
 import math
@@ -18,9 +18,10 @@ from ..core import porous, stones
 from ..core.backends import NODE_OPS
 from ..core.shader_math import Graph, dot, normalize
 
-#: Bumped whenever the maths or the interface of a group changes, so old files rebuild.  (The
-#: stone groups and the receptive weathered groups of docs/model.md §8 came new in build 7, which
-#: left every other group as it was.)
+#: The node builder's build: bumped when it builds the same sockets with other maths, so old
+#: files rebuild. A new mode, input or map needs no bump: a group is reused only if its sockets
+#: are those the registries give it now (``_reuse``).  (The stone groups and the receptive
+#: weathered groups of docs/model.md §8 came new in build 7, which left every other group as it was.)
 BUILD_VERSION = 7
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
@@ -64,7 +65,7 @@ def porous_group_name(light_mode):
 def porous_group(light_mode):
     """The porous BRDF node group for ``light_mode``, built on first use."""
     name = porous_group_name(light_mode)
-    return _reuse(name) or _build(
+    return _build(
         name, lambda graph, inputs: porous_bsdf(graph, inputs, light_mode), {**PORE_INPUTS, **_light_input(light_mode)}
     )
 
@@ -78,9 +79,40 @@ def _light_input(light_mode):
     return {name: (socket_type, default, None, None, tooltip)}
 
 
-def _reuse(name):
+def _close(values, expected):
+    values = tuple(values) if hasattr(values, "__len__") else (values,)
+    expected = expected if isinstance(expected, tuple) else (expected,)
+    return len(values) == len(expected) and all(math.isclose(a, b, abs_tol=1e-6) for a, b in zip(values, expected))
+
+
+def _has_sockets(group, inputs, outputs):
+    """Whether ``group``'s sockets are those ``_build`` gives a group of ``inputs`` and ``outputs``:
+    the same names, types and tooltips in the same order, and the same defaults and ranges."""
+    items = [item for item in group.interface.items_tree if item.item_type == "SOCKET"]
+    items.sort(key=lambda item: item.in_out != "INPUT")  # Blender lists the outputs first
+    wanted = [("INPUT", name, spec) for name, spec in inputs.items()]
+    wanted += [
+        ("OUTPUT", name, (socket_type, None, None, None, tooltip)) for name, (socket_type, tooltip) in outputs.items()
+    ]
+    if len(items) != len(wanted):
+        return False
+    for item, (in_out, name, (socket_type, default, low, high, tooltip)) in zip(items, wanted):
+        if (item.in_out, item.name, item.socket_type, item.description) != (in_out, name, socket_type, tooltip):
+            return False
+        if in_out == "INPUT" and not _close(item.default_value, default):
+            return False
+        if low is not None and not _close((item.min_value, item.max_value), (low, high)):
+            return False
+    return True
+
+
+def _reuse(name, inputs, outputs):
     group = bpy.data.node_groups.get(name)
-    if group is not None and group.get(BUILD_VERSION_PROPERTY) == BUILD_VERSION:
+    if (
+        group is not None
+        and group.get(BUILD_VERSION_PROPERTY) == BUILD_VERSION
+        and _has_sockets(group, inputs, outputs)
+    ):
         return group
     if group is not None:  # an older build: rename it away so materials using it keep working
         group.name = name + " (old)"
@@ -88,8 +120,12 @@ def _reuse(name):
 
 
 def _build(name, body, inputs, outputs=OUTPUTS, varying=()):
-    """A new shader node group with ``inputs`` and ``outputs`` whose maths ``body`` writes;
-    the inputs named in ``varying`` change from point to point (masks)."""
+    """The shader node group ``name`` with ``inputs`` and ``outputs`` whose maths ``body`` writes,
+    the one in the file if it is that group (``_reuse``), else a new one; the inputs named in
+    ``varying`` change from point to point (masks)."""
+    reused = _reuse(name, inputs, outputs)
+    if reused is not None:
+        return reused
     tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
     for socket_name, (socket_type, default, low, high, tooltip) in inputs.items():
         item = tree.interface.new_socket(socket_name, in_out="INPUT", socket_type=socket_type)
@@ -218,7 +254,7 @@ def weathered_group(modes, light_mode, receptive=False):
         return porous_group(light_mode)
     name = weathered_group_name(modes, light_mode, receptive)
     outputs = {**OUTPUTS, **(WATER_OUTPUT if weathering_modes.has_water_lobe(modes) else {})}
-    return _reuse(name) or _build(
+    return _build(
         name,
         lambda graph, inputs: weathered_bsdf(graph, inputs, light_mode, modes),
         {
@@ -315,7 +351,7 @@ def stone_group(key, stone):
     ``core/stones.py``."""
     name = stone_group_name(key)
     body = lambda graph, inputs: stone_body(graph, inputs, stone)  # noqa: E731
-    return _reuse(name) or _build(name, body, STONE_INPUTS, STONE_OUTPUTS)
+    return _build(name, body, STONE_INPUTS, STONE_OUTPUTS)
 
 
 def stone_body(graph, inputs, stone, block_draw_at=None):
@@ -384,7 +420,7 @@ def masonry_group(key, stone):
     stone group's textures and maths, each block's own draw, and the mortar in the joints."""
     name = masonry_group_name(key)
     body = lambda graph, inputs: masonry_body(graph, inputs, stone)  # noqa: E731
-    return _reuse(name) or _build(name, body, {**STONE_INPUTS, **MASONRY_INPUTS}, {**STONE_OUTPUTS, **MASONRY_OUTPUTS})
+    return _build(name, body, {**STONE_INPUTS, **MASONRY_INPUTS}, {**STONE_OUTPUTS, **MASONRY_OUTPUTS})
 
 
 def masonry_body(graph, inputs, stone):

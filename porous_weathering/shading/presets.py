@@ -13,7 +13,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..blender import mesh_arrays
-from ..contracts import PRESET_PROPERTY
 from ..core import colorimetry
 from ..core import modes as weathering_modes
 from ..core.arguments import choice
@@ -329,33 +328,6 @@ def mark_blocks(obj: "bpy.types.Object", source: str = "ISLANDS", attribute: str
         mesh.attributes.remove(mesh.attributes[attribute])
     mesh.attributes.new(attribute, "INT", "FACE").data.foreach_set("value", blocks)
     return len(np.unique(blocks))
-
-
-def make_preset_material(
-    preset_name: str,
-    name: str | None = None,
-    key_light: "bpy.types.Object | str | None" = None,
-    variation: float = DEFAULT_VARIATION,
-) -> "bpy.types.Material":
-    """A new porous material (see ``make_porous_material``) with the values of a preset.
-
-    ``preset_name`` is a key of PRESETS (e.g. "LIMESTONE"); ``name`` defaults to the
-    preset's label; ``key_light`` as in ``make_porous_material`` (None: ambient mode).  The
-    material has the preset's stone structure (docs/model.md §8) at ``variation`` (0: uniform).
-    """
-    from .material import make_porous_material
-
-    try:
-        preset = PRESETS[preset_name]
-    except KeyError:
-        raise ValueError(f"unknown preset {preset_name!r}: choose one of {', '.join(PRESETS)}") from None
-    params = preset.material_params()
-    material = make_porous_material(
-        name or preset.label, **params, key_light=key_light, stone=preset_name, variation=variation
-    )
-    material.diffuse_color = params["base_color"]  # the viewport's solid-mode colour
-    material[PRESET_PROPERTY] = preset_name
-    return material
 
 
 def from_colorimetry(

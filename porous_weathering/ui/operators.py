@@ -9,14 +9,13 @@ import warnings
 import bpy
 
 from ..blender import scratch_scene
-from ..contracts import GROUP_NODE
 from ..core import model
 from ..maps import efflorescence_map, linking
 from ..maps import registry as maps
 from ..maps.provenance import OverwriteRefused
 from ..shading import material, weathering
 from . import bake_operator as ops_bake
-from .settings import key_light
+from .settings import active_material, key_light, time_socket
 
 
 class NeedsMaterialObject:
@@ -144,7 +143,7 @@ class PW_OT_make_efflorescence_map(bpy.types.Operator):
             return {"FINISHED"}
         photo = (bpy.path.abspath(self.photo) if self.photo else "") if self.source == "PHOTO" else None
         try:
-            image = maps.EFFLORESCENCE.make(
+            image = efflorescence_map.MAP.make(
                 obj,
                 photo=photo,
                 size=self.resolution,
@@ -163,7 +162,7 @@ class PW_OT_make_efflorescence_map(bpy.types.Operator):
 
 
 #: The Make-map operator of each map that is made, not baked (``registry.made_kinds``).
-MAKE_MAP_OPERATORS = {maps.EFFLORESCENCE.name: PW_OT_make_efflorescence_map}
+MAKE_MAP_OPERATORS = {efflorescence_map.MAP.name: PW_OT_make_efflorescence_map}
 
 
 def make_map_operators() -> list[type]:
@@ -259,18 +258,6 @@ class PW_OT_make_from_colorimetry(MakeMaterial, bpy.types.Operator):
 
     def measured_stone(self, settings) -> dict:
         return {name: value for name, value in self._found.items() if name not in model.WEATHERING_INPUTS}
-
-
-def active_material(context: "bpy.types.Context") -> "bpy.types.Material | None":
-    """The material the panel shows: the Properties editor's, else the active object's."""
-    obj = context.active_object
-    return getattr(context, "material", None) or (obj.active_material if obj is not None else None)
-
-
-def time_socket(mat: "bpy.types.Material | None") -> "bpy.types.NodeSocket | None":
-    """The Time input of ``mat``'s Porous group node; None for a material that does not age."""
-    group = mat.node_tree.nodes.get(GROUP_NODE) if mat and mat.node_tree else None
-    return group.inputs.get("Time") if group is not None else None
 
 
 class PW_OT_keyframe_aging(bpy.types.Operator):

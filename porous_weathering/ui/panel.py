@@ -13,7 +13,7 @@ from ..maps.linking import discover_maps, known_maps, missing_maps
 from . import bake_operator as ops_bake
 from . import export_operator as ops_export
 from . import operators
-from .settings import scene_sun
+from .settings import active_material, scene_sun, time_socket
 
 
 def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> None:
@@ -68,7 +68,7 @@ def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> No
         col.operator(make_map.bl_idname, icon="IMAGE_DATA")
 
     col = layout.column(heading="Age")
-    socket = operators.time_socket(operators.active_material(context))
+    socket = time_socket(active_material(context))
     if socket is None:
         col.label(text="Make a weathered material to age it", icon="INFO")
     else:

@@ -1,10 +1,12 @@
 """The scene's Porous Weathering settings (``Scene.porous_weathering``): what the panel's Make
 button builds. Generated from the registries at registration: the stone, the environment, the key
 light, one switch per weathering mode and one slider per weathering input marked for the panel;
-the age in years; the measured colours of a survey."""
+the age in years; the measured colours of a survey; the material they act on (``active_material``,
+``time_socket``), which the panel and the operators read."""
 
 import bpy
 
+from ..contracts import GROUP_NODE
 from ..core import aging, environments, stones
 from ..core import modes as weathering_modes
 from ..shading import presets
@@ -24,10 +26,20 @@ def _apply_source(settings, _context):
         setattr(settings, name, value)
 
 
+def active_material(context: "bpy.types.Context") -> "bpy.types.Material | None":
+    """The material the panel shows: the Properties editor's, else the active object's."""
+    obj = context.active_object
+    return getattr(context, "material", None) or (obj.active_material if obj is not None else None)
+
+
+def time_socket(mat: "bpy.types.Material | None") -> "bpy.types.NodeSocket | None":
+    """The Time input of ``mat``'s Porous group node; None for a material that does not age."""
+    group = mat.node_tree.nodes.get(GROUP_NODE) if mat and mat.node_tree else None
+    return group.inputs.get("Time") if group is not None else None
+
+
 def _apply_years(settings, context):
     """Setting Years sets the active material's Time by the soiling law at the environment's soot."""
-    from .operators import active_material, time_socket  # the operators import these settings
-
     socket = time_socket(active_material(context))
     if socket is not None:
         socket.default_value = settings.age()

@@ -1,15 +1,20 @@
-"""The registry of weathering modes: one module per mode, each one ``Mode`` record.
+"""The registry of weathering modes: one module per mode, each holding one ``Mode`` record, its
+``MODE``.
 
-Everything that lists modes or their inputs (the model, the node groups, the panel, the
-asset library, the docs' tables) reads this registry, so adding a mode is one new module
-registered here (docs/architecture.md, "Add a mode").
+The registry finds the records itself (``discover``, on import): it imports every module of
+this package and keeps each one's ``MODE``, in the order of their ``order`` field, then their
+name. Everything that lists modes or their inputs (the model, the node groups, the panel, the
+asset library, the docs' tables) reads this registry, so adding a mode is one new module and
+no list to edit (docs/architecture.md, "Add a mode").
 """
 
+import importlib
+import pkgutil
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 from .. import porous
-from . import base, efflorescence, soiling, wet
+from . import base
 from .base import WATER_ROUGHNESS, Input, Layer, Mode, Point
 
 __all__ = [
@@ -17,6 +22,7 @@ __all__ = [
     "Layer",
     "Mode",
     "Point",
+    "discover",
     "register",
     "unregister",
     "names",
@@ -29,26 +35,55 @@ __all__ = [
     "weathered_weights",
 ]
 
-_REGISTRY: dict[str, Mode] = {}
+_REGISTRY: dict[str, Mode] = {}  #: every mode, in order: those found, then those registered
+_FOUND: dict[str, Mode] = {}  #: the ``MODE`` of each module of this package
+_REGISTERED: dict[str, Mode] = {}  #: the modes given to ``register``
+
+
+def _update(found: Mapping[str, Mode], registered: Mapping[str, Mode]) -> None:
+    """Make the registry of ``found`` and ``registered``: names unique, and each input the same
+    in every mode that declares it."""
+    for name in set(found) & set(registered):
+        raise ValueError(f"a weathering mode named {name!r} is registered already")
+    modes = sorted([*found.values(), *registered.values()], key=lambda mode: (mode.order, mode.name))
+    known: dict[str, Input] = {}
+    for mode in modes:
+        for item in mode.inputs:
+            if known.setdefault(item.name, item) != item:
+                raise ValueError(f"mode {mode.name!r}: input {item.name!r} differs from the one other modes declare")
+    _FOUND.clear()
+    _FOUND.update(found)
+    _REGISTERED.clear()
+    _REGISTERED.update(registered)
+    _REGISTRY.clear()
+    _REGISTRY.update((mode.name, mode) for mode in modes)
+
+
+def discover() -> None:
+    """Find the modes again: the ``MODE`` of every module of this package (its ``__path__``).
+    Done on import; again only after a module was added to the package's path."""
+    found = {}
+    for module in pkgutil.iter_modules(__path__):
+        record = getattr(importlib.import_module(f"{__name__}.{module.name}"), "MODE", None)
+        if isinstance(record, Mode):
+            found[record.name] = record
+    _update(found, _REGISTERED)
 
 
 def register(mode: Mode) -> None:
-    """Add ``mode``; its inputs must agree with those of the same name in other modes."""
+    """Add ``mode`` from outside the package (a mode's module in the package needs no call); its
+    inputs must agree with those of the same name in other modes."""
     if mode.name in _REGISTRY:
         raise ValueError(f"a weathering mode named {mode.name!r} is registered already")
-    known = inputs()
-    for item in mode.inputs:
-        if item.name in known and known[item.name] != item:
-            raise ValueError(f"mode {mode.name!r}: input {item.name!r} differs from the one other modes declare")
-    _REGISTRY[mode.name] = mode
+    _update(_FOUND, {**_REGISTERED, mode.name: mode})
 
 
 def unregister(name: str) -> None:
-    del _REGISTRY[name]
+    _update(_FOUND, {key: mode for key, mode in _REGISTERED.items() if key != name})
 
 
 def names() -> tuple[str, ...]:
-    """The registered modes, in registration order (the panel's and the groups' order)."""
+    """The registered modes, in their order (the panel's and the groups' order)."""
     return tuple(_REGISTRY)
 
 
@@ -125,5 +160,4 @@ def weathered_weights(
     return point.kd_w, point.ks_w, point.water_w
 
 
-for _mode in (soiling.MODE, wet.MODE, efflorescence.MODE):
-    register(_mode)
+discover()

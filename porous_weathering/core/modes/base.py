@@ -87,6 +87,9 @@ class Mode:
     preview: dict = field(default_factory=dict)
     #: The mode adds the near-mirror water lobe (its group has Water Roughness / Water Weight).
     water_lobe: bool = False
+    #: Where the mode comes in the registry's lists (the panel's switches, the groups' names and
+    #: sockets): soiling 10, wet 20, efflorescence 30; a new mode takes the next free ten.
+    order: int = 1000
 
 
 # --- inputs every mode shares -----------------------------------------------------------------

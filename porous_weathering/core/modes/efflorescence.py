@@ -45,4 +45,5 @@ MODE = Mode(
     catalog="Efflorescence",
     asset_summary="Efflorescence: salt fills the pores where the location map is highest first",
     preview=dict(time=1.0, efflorescence_map=1.0),
+    order=30,
 )

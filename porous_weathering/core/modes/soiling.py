@@ -179,4 +179,5 @@ MODE = Mode(
     catalog="Soiling",
     asset_summary="Soiling (white, grey and black areas) from a rain map and an edge map",
     preview=dict(time=1.0, rain_map=0.0, edge_map=1.0),
+    order=10,
 )

@@ -117,4 +117,5 @@ MODE = Mode(
     asset_summary="Wet surface: water fills the pores where the rain map is highest first",
     preview=dict(time=1.0, rain_map=1.0),
     water_lobe=True,
+    order=20,
 )
