@@ -453,7 +453,7 @@ def mesh_blocks_group(key, stone, attribute):
     name = mesh_blocks_group_name(key, attribute)
     body = lambda graph, inputs: mesh_blocks_body(graph, inputs, stone, attribute)  # noqa: E731
     outputs = {**STONE_OUTPUTS, "Block Field": MASONRY_OUTPUTS["Block Field"]}
-    return _reuse(name) or _build(name, body, STONE_INPUTS, outputs)
+    return _build(name, body, STONE_INPUTS, outputs)
 
 
 def mesh_blocks_body(graph, inputs, stone, attribute):
