@@ -7,6 +7,7 @@ gives an SVG of bounded size; bad input fails in one line and leaves no file."""
 import dataclasses
 import os
 import re
+import sys
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -203,9 +204,12 @@ def test_north_names_the_views(tmp_path):
         assert colour_at(png, root, (x0 + x1) / 2, (y0 + y1) / 2) == pytest.approx(PATTERNS[pattern][1], abs=0.02)
 
 
-def test_nearer_surfaces_are_drawn_over_farther_ones(tmp_path):
+@pytest.mark.parametrize("chunk", [sheet._CHUNK, 1000], ids=["one batch", "batches of 1000 cells"])
+def test_nearer_surfaces_are_drawn_over_farther_ones(tmp_path, monkeypatch, chunk):
     """A small slab in front of the north face of a big one: from the north its colour shows at the
-    centre and the big one's around it, whatever the order of the triangles."""
+    centre and the big one's around it, whatever the order of the triangles, in one batch of
+    candidate cells or several."""
+    monkeypatch.setattr(sheet, "_CHUNK", chunk)
     big, big_names = box((4.0, 1.0, 4.0))
     small, small_names = box((1.0, 1.0, 1.0), offset=(1.5, 2.0, 1.5))
     triangles = np.concatenate([small, big])  # the nearer first, then again last
@@ -220,27 +224,21 @@ def test_nearer_surfaces_are_drawn_over_farther_ones(tmp_path):
 
 def test_hatch_lines_are_2_mm_apart_on_paper_at_1_to_50(box_sheet):
     _, root, _, _ = box_sheet
-    for group_id, spacing_mm in (
-        ("hatch-south-2", None),
-        ("hatch-east-1", 2.0),
-        ("hatch-north-4", 2.0),
-        ("hatch-north-0", 2.0),
-    ):
-        lines = path_points(groups(root, group_id)[group_id]) if spacing_mm else []
-        if not spacing_mm:  # efflorescence is dotted: no lines
-            assert group_id not in groups(root, "hatch-")
-            continue
-        offsets = {}
-        for line in lines:
-            direction = (line[1] - line[0]) / np.linalg.norm(line[1] - line[0])
+    hatches = groups(root, "hatch-")
+    assert "hatch-south-2" not in hatches and "hatch-south-2-dots" in hatches  # efflorescence: dots only
+    for group_id, families in (("hatch-east-1", 1), ("hatch-north-4", 1), ("hatch-north-0", 2)):
+        offsets = {}  # direction: distances of the lines from the origin, across them
+        for start, end in path_points(hatches[group_id]):
+            direction = (end - start) / np.linalg.norm(end - start)
             direction *= np.sign(direction[0] or direction[1])
-            key = tuple(np.round(direction, 3))
-            offsets.setdefault(key, []).append(float(direction[0] * line[0, 1] - direction[1] * line[0, 0]))
-        assert offsets
+            offsets.setdefault(tuple(np.round(direction, 3)), []).append(
+                direction[0] * start[1] - direction[1] * start[0]
+            )
+        assert len(offsets) == families, group_id
         for family in offsets.values():
-            gaps = np.diff(np.sort(family)) * mm_per_unit(root)
-            assert len(gaps) > 10
-            assert gaps == pytest.approx(spacing_mm, abs=1e-3)
+            gaps_mm = np.diff(np.sort(family)) * mm_per_unit(root)
+            assert len(gaps_mm) > 10
+            assert gaps_mm == pytest.approx(2.0, abs=1e-3)
     lichen = sheet.hatch_lines("\\\\", (0.0, 0.0, 20.0, 20.0))  # a letter twice: lines twice as close
     offsets = (lichen[:, 0, 0] + lichen[:, 0, 1]) / np.sqrt(2)  # across the lines at 135°
     assert np.diff(np.sort(offsets)) == pytest.approx(1.0)
@@ -312,3 +310,11 @@ def test_a_sheet_replaces_the_files_whole_and_leaves_no_temporary_file(tmp_path)
     assert (tmp_path / "sheet.png").read_bytes().startswith(b"\x89PNG")
     with pytest.raises(FileNotFoundError, match="no folder"):
         sheet.write_sheets(data_for(triangles, names, {}), tmp_path / "missing" / "a.svg", tmp_path / "a.png")
+
+
+def test_without_matplotlib_a_sheet_fails_in_one_line(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib raises ImportError
+    triangles, names = box((4.0, 3.0, 2.5))
+    with pytest.raises(ImportError, match="^the condition-map drawings need matplotlib, which this Python lacks"):
+        write(tmp_path, data_for(triangles, names, {"north": 0}))
+    assert os.listdir(tmp_path) == []

@@ -158,6 +158,10 @@ def check(data: SheetData, svg_path: str, png_path: str) -> None:
             raise FileNotFoundError(f"no folder {folder} to write {os.path.basename(path)} in")
 
 
+def unit(north: tuple[float, float]) -> np.ndarray:
+    return np.asarray(north, float) / math.hypot(*north)
+
+
 def view_axes(north: tuple[float, float], name: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(toward the viewer, right, up) of a view, unit vectors in world coordinates. An elevation is
     seen from the side it names, looking horizontally at the object ("north": the side facing
@@ -165,13 +169,13 @@ def view_axes(north: tuple[float, float], name: str) -> tuple[np.ndarray, np.nda
     as the key plan with the north arrow is drawn."""
     if name == "plan":
         return np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
-    nx, ny = np.asarray(north, float) / math.hypot(*north)
+    nx, ny = unit(north)
     angle = math.radians(ELEVATIONS[name])
     toward = math.cos(angle) * np.array([nx, ny, 0.0]) + math.sin(angle) * np.array([ny, -nx, 0.0])
     return toward, np.array([-toward[1], toward[0], 0.0]), np.array([0.0, 0.0, 1.0])
 
 
-def project(data: SheetData, name: str):
+def project(data: SheetData, name: str) -> tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The triangles that face the view's viewer: (name, view coordinates (m, 3, 2) in metres,
     depth (m, 3) away from the viewer, pattern index (m,), lower and upper corner of the view)."""
     triangles = np.asarray(data.triangles_m, float)
@@ -199,8 +203,8 @@ def fit_scale(extents_m: list[np.ndarray], asked: int) -> tuple[int, list[tuple[
 
 
 def arrange(sizes_mm: list[np.ndarray], area: tuple[float, float]) -> list[tuple[float, float]] | None:
-    """Lay the views out in a grid of rows (each with its name above it) in ``area``: of the row
-    counts that fit, the one that leaves the most room. None if none fits."""
+    """Lay the views out in a grid (each with its name above it) in ``area``: of the column counts
+    that fit, the one that leaves the most room. None if none fits."""
     best = None
     count = len(sizes_mm)
     cells_mm = [(max(size[0], LABEL_WIDTH_MM), size[1]) for size in sizes_mm]  # room for each view's name
@@ -226,7 +230,9 @@ def arrange(sizes_mm: list[np.ndarray], area: tuple[float, float]) -> list[tuple
     return None if best is None else best[1]
 
 
-def rasterise(name, uv, depth, labels, lo, hi, cell_m) -> View:
+def rasterise(
+    name: str, uv: np.ndarray, depth: np.ndarray, labels: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell_m: float
+) -> View:
     """The pattern seen in each cell of a grid of side ``cell_m`` over the view (one empty cell of
     margin around it): of the triangles covering the cell's centre, the nearest's."""
     columns, rows = (np.ceil((hi - lo) / cell_m).astype(int) + 2).tolist()
@@ -399,7 +405,6 @@ def draw(data: SheetData, views: list[View], scale: int, corners: list[tuple[flo
 
 def draw_view(axes, data: SheetData, view: View, corner: tuple[float, float]) -> set[int]:
     """Draw one view with its lower-left corner at ``corner`` (paper mm); the patterns drawn."""
-    from matplotlib.collections import LineCollection
     from matplotlib.patches import PathPatch
 
     x0, y0 = corner[0] - PIXEL_MM, corner[1] - PIXEL_MM  # the margin cell
@@ -416,7 +421,7 @@ def draw_view(axes, data: SheetData, view: View, corner: tuple[float, float]) ->
         name, colour, code = data.patterns[index]
         region = PathPatch(path, facecolor=colour, edgecolor="none", gid=f"region-{view.name}-{index}")
         axes.add_artist(region)
-        draw_hatch(axes, code, colour, path.get_extents().extents, region, f"hatch-{view.name}-{index}", LineCollection)
+        draw_hatch(axes, code, colour, path.get_extents().extents, region, f"hatch-{view.name}-{index}")
         drawn.add(index)
     outline = trace(labels != BACKGROUND, x0, y0, PIXEL_MM)
     if outline is not None:
@@ -426,13 +431,16 @@ def draw_view(axes, data: SheetData, view: View, corner: tuple[float, float]) ->
     return drawn
 
 
-def draw_hatch(axes, code: str, colour, box, clip, gid: str, line_collection) -> None:
+def draw_hatch(axes, code: str, colour, box, clip, gid: str) -> None:
     """The hatch of ``code`` over ``box``, clipped to the patch ``clip``, in a darker shade of the
-    pattern's colour."""
-    ink = tuple(0.45 * channel for channel in colour)
+    pattern's colour (a lighter one on a dark colour, so that it shows on a black-and-white copy)."""
+    from matplotlib.collections import LineCollection
+
+    dark = 0.2126 * colour[0] + 0.7152 * colour[1] + 0.0722 * colour[2] < 0.3
+    ink = tuple(channel + 0.45 * (1.0 - channel) if dark else 0.45 * channel for channel in colour)
     segments = hatch_lines(code, box)
     if len(segments):
-        lines = line_collection(segments, colors=[ink], linewidths=HATCH_LINE_MM * _PT_PER_MM, gid=gid)
+        lines = LineCollection(segments, colors=[ink], linewidths=HATCH_LINE_MM * _PT_PER_MM, gid=gid)
         axes.add_collection(lines)
         lines.set_clip_path(clip)
     dots = hatch_dots(code, box)
@@ -447,7 +455,6 @@ def draw_legend(axes, data: SheetData, drawn: set[int], x: float, top: float) ->
     """The legend: a swatch, the glossary's name and the area of each pattern drawn, in the
     patterns' order, and a line for the patterns with an area that no view shows. Returns the y
     of its bottom."""
-    from matplotlib.collections import LineCollection
     from matplotlib.patches import Rectangle
 
     axes.text(x, top, "Legend", fontsize=10, weight="bold", va="top")
@@ -456,7 +463,7 @@ def draw_legend(axes, data: SheetData, drawn: set[int], x: float, top: float) ->
         name, colour, code = data.patterns[index]
         swatch = Rectangle((x, y - 5.0), 14.0, 6.0, facecolor=colour, edgecolor="black", lw=0.2 * _PT_PER_MM)
         axes.add_patch(swatch)
-        draw_hatch(axes, code, colour, (x, y - 5.0, x + 14.0, y + 1.0), swatch, f"legend-hatch-{index}", LineCollection)
+        draw_hatch(axes, code, colour, (x, y - 5.0, x + 14.0, y + 1.0), swatch, f"legend-hatch-{index}")
         axes.text(x + 17.0, y - 2.0, name, va="center", fontsize=9, gid=f"legend-name-{index}")
         area = format_area(data.areas_m2[index])
         axes.text(x + PANEL_MM, y - 2.0, area, va="center", ha="right", fontsize=9, gid=f"legend-area-{index}")
@@ -487,6 +494,7 @@ def format_area(area_m2: float) -> str:
 
 
 def format_year(year: float | None) -> str:
+    """A forecast year to a tenth; "—" for none within the forecast."""
     return "—" if year is None else f"{round(year, 1):g}"
 
 
@@ -497,15 +505,16 @@ def draw_forecast(axes, forecast, x: float, top: float, bottom: float) -> None:
         return
     axes.text(x, top, "Forecast (years)", fontsize=10, weight="bold", va="top")
     columns = (x, x + 28.0, x + 85.0, x + PANEL_MM)
+    aligns = ("left", "left", "right", "right")
     y = top - 7.0
-    for text, column in zip(("face", "pattern", "first shows", "cleaning threshold"), columns):
-        axes.text(column, y, text, fontsize=7, weight="bold", ha="left" if column < x + 80 else "right", va="top")
+    for text, column, align in zip(("face", "pattern", "first shows", "cleaning threshold"), columns, aligns):
+        axes.text(column, y, text, fontsize=7, weight="bold", ha=align, va="top")
     rows = int((y - 4.0 - bottom) // 4.0)
     shown = forecast if len(forecast) <= rows else forecast[: rows - 1]
     for face, pattern, shows, cleaning in shown:
         y -= 4.0
-        for text, column in zip((face, pattern, format_year(shows), format_year(cleaning)), columns):
-            axes.text(column, y, text, fontsize=7, ha="left" if column < x + 80 else "right", va="top")
+        for text, column, align in zip((face, pattern, format_year(shows), format_year(cleaning)), columns, aligns):
+            axes.text(column, y, text, fontsize=7, ha=align, va="top")
     if len(shown) < len(forecast):
         axes.text(x, y - 4.0, f"… {len(forecast) - len(shown)} more rows in the survey's tables", fontsize=7, va="top")
     axes.text(
@@ -522,7 +531,7 @@ def draw_north_arrow(axes, north: tuple[float, float], centre: tuple[float, floa
     """A north arrow in plan (world x to the right, y up), pointing along ``north``."""
     from matplotlib.patches import Circle, Polygon
 
-    direction = np.asarray(north, float) / math.hypot(*north)
+    direction = unit(north)
     across = np.array([-direction[1], direction[0]])
     c = np.asarray(centre)
     radius = 11.0
