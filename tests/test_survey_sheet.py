@@ -215,11 +215,12 @@ def test_nearer_surfaces_are_drawn_over_farther_ones(tmp_path, monkeypatch, chun
     triangles = np.concatenate([small, big])  # the nearer first, then again last
     names = [f"small {n}" for n in small_names] + [f"big {n}" for n in big_names]
     for order in (slice(None), slice(None, None, -1)):
-        data = data_for(triangles[order], names[order], {"small north": 4, "big north": 1}, views=("north",))
+        data = data_for(triangles[order], names[order], {"small north": 1, "big north": 4}, views=("north",))
         root, _, png = write(tmp_path, data)
         x0, y0, x1, y1 = extent_mm(root, "outline-north")
-        assert colour_at(png, root, (x0 + x1) / 2, (y0 + y1) / 2) == pytest.approx(PATTERNS[4][1], abs=0.02)
-        assert colour_at(png, root, x0 + 5, y0 + 5) == pytest.approx(PATTERNS[1][1], abs=0.02)
+        # the small one's pattern comes first: the big one's region, drawn after it, has a hole there
+        assert colour_at(png, root, (x0 + x1) / 2, (y0 + y1) / 2) == pytest.approx(PATTERNS[1][1], abs=0.02)
+        assert colour_at(png, root, x0 + 5, y0 + 5) == pytest.approx(PATTERNS[4][1], abs=0.02)
 
 
 def test_hatch_lines_are_2_mm_apart_on_paper_at_1_to_50(box_sheet):
@@ -291,6 +292,8 @@ def test_a_scan_sized_mesh_gives_a_bounded_svg(tmp_path):
         (dict(scale=0), "scale must be a whole number ≥ 1"),
         (dict(patterns=(*PATTERNS[:5], ("lichen", (1, 1, 1), "#"))), "hatch code '#' has letters not in"),
         (dict(triangles_m=np.zeros((12, 3))), "triangles_m must be (n, 3, 3)"),
+        (dict(years=float("nan")), "the age must be a finite t and years ≥ 0 or None"),
+        (dict(forecast=(("north", "algae", 3.0, float("inf")),)), "forecast rows must be"),
     ],
 )
 def test_bad_input_fails_in_one_line_and_writes_nothing(tmp_path, change, message):

@@ -150,8 +150,13 @@ def check(data: SheetData, svg_path: str, png_path: str) -> None:
         raise ValueError(f"scale must be a whole number ≥ 1 (the sheet is drawn at 1:scale), not {data.scale!r}")
     if not data.views or len(set(data.views)) != len(data.views) or set(data.views) - set(VIEWS):
         raise ValueError(f"views must be some of {', '.join(VIEWS)}, each once, not {data.views}")
-    if any(len(row) != 4 for row in data.forecast):
-        raise ValueError("forecast rows must be (face, pattern, first-shows year, threshold year)")
+    if not math.isfinite(data.t) or (data.years is not None and not (math.isfinite(data.years) and data.years >= 0)):
+        raise ValueError(f"the age must be a finite t and years ≥ 0 or None, not t = {data.t}, years = {data.years}")
+    years = [year for row in data.forecast if len(row) == 4 for year in row[2:]]
+    if any(len(row) != 4 for row in data.forecast) or not all(y is None or math.isfinite(y) for y in years):
+        raise ValueError(
+            "forecast rows must be (face, pattern, first-shows year, threshold year), a year finite or None"
+        )
     for path in (svg_path, png_path):
         folder = os.path.dirname(os.path.abspath(path))
         if not os.path.isdir(folder):
