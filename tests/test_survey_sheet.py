@@ -17,13 +17,13 @@ from porous_weathering.survey import sheet
 
 SVG = "{http://www.w3.org/2000/svg}"
 PATTERNS = (
-    ("black crust", (0.15, 0.15, 0.15), "x"),
+    ("black crust", (0.15, 0.15, 0.15), "cross"),
     ("soiling", (0.70, 0.58, 0.40), "-"),
-    ("efflorescence", (0.95, 0.95, 0.95), "."),
-    ("moist area", (0.30, 0.45, 0.85), "|"),
-    ("algae", (0.30, 0.62, 0.25), "/"),
+    ("efflorescence", (0.95, 0.95, 0.95), "dots"),
+    ("moist area", (0.30, 0.45, 0.85), "vertical"),
+    ("algae", (0.30, 0.62, 0.25), "lines"),
     ("lichen", (0.85, 0.75, 0.15), "\\\\"),
-)
+)  # hatch codes by name and in letters
 #: The faces of a box as quads of its corners (corner i at x = i >> 2, y = (i >> 1) & 1, z = i & 1),
 #: counter-clockwise seen from outside.
 QUADS = {
@@ -240,6 +240,10 @@ def test_hatch_lines_are_2_mm_apart_on_paper_at_1_to_50(box_sheet):
             gaps_mm = np.diff(np.sort(family)) * mm_per_unit(root)
             assert len(gaps_mm) > 10
             assert gaps_mm == pytest.approx(2.0, abs=1e-3)
+    box = (0.0, 0.0, 20.0, 20.0)
+    for name, letters in (("lines", "/"), ("cross", "x"), ("grid", "+"), ("solid", ""), ("none", "")):
+        assert np.array_equal(sheet.hatch_lines(name, box), sheet.hatch_lines(letters, box)), name
+    assert np.array_equal(sheet.hatch_dots("dots", box), sheet.hatch_dots(".", box)) and len(sheet.hatch_dots(".", box))
     lichen = sheet.hatch_lines("\\\\", (0.0, 0.0, 20.0, 20.0))  # a letter twice: lines twice as close
     offsets = (lichen[:, 0, 0] + lichen[:, 0, 1]) / np.sqrt(2)  # across the lines at 135°
     assert np.diff(np.sort(offsets)) == pytest.approx(1.0)
@@ -290,7 +294,8 @@ def test_a_scan_sized_mesh_gives_a_bounded_svg(tmp_path):
         (dict(views=("north", "up")), "views must be some of north, east, south, west, plan"),
         (dict(north=(0.0, 0.0)), "north must be a non-zero vector"),
         (dict(scale=0), "scale must be a whole number ≥ 1"),
-        (dict(patterns=(*PATTERNS[:5], ("lichen", (1, 1, 1), "#"))), "hatch code '#' has letters not in"),
+        (dict(patterns=(*PATTERNS[:5], ("lichen", (1, 1, 1), "#"))), "hatch code '#' is neither one of none, solid"),
+        (dict(patterns=(*PATTERNS[:5], ("lichen", (1, 1, 1), "stripes"))), "hatch code 'stripes' is neither"),
         (dict(triangles_m=np.zeros((12, 3))), "triangles_m must be (n, 3, 3)"),
         (dict(years=float("nan")), "the age must be a finite t and years ≥ 0 or None"),
         (dict(forecast=(("north", "algae", 3.0, float("inf")),)), "forecast rows must be"),

@@ -9,9 +9,10 @@ each pattern are then traced as vector outlines (contourpy, which matplotlib dra
 contours with), filled with the pattern's colour, and hatched with lines at a spacing fixed in
 paper millimetres, clipped to the region.
 
-Hatch codes follow matplotlib's letters: ``/`` ``\\`` ``-`` ``|`` are line families at 45°, 135°,
-0° and 90°, ``x`` is ``/`` and ``\\``, ``+`` is ``-`` and ``|``, ``.`` is dots; a letter repeated n
-times draws its lines n times closer (``HATCH_SPACING_MM / n``); ``""`` is no hatch.
+Hatch codes are names (``HATCH_NAMES``: "lines", "cross", "dots", ...) or matplotlib's letters:
+``/`` ``\\`` ``-`` ``|`` are line families at 45°, 135°, 0° and 90°, ``x`` is ``/`` and ``\\``,
+``+`` is ``-`` and ``|``, ``.`` is dots; a letter repeated n times draws its lines n times closer
+(``HATCH_SPACING_MM / n``); ``""`` is no hatch.
 
 matplotlib is imported when a sheet is drawn, not with this module: the survey's areas and tables
 work in a Blender without it (docs/survey.md says how to add it).
@@ -52,6 +53,18 @@ ELEVATIONS = {"north": 0.0, "east": 90.0, "south": 180.0, "west": 270.0}
 VIEWS = (*ELEVATIONS, "plan")
 HATCH_ANGLES = {"/": (45.0,), "\\": (135.0,), "-": (0.0,), "|": (90.0,), "x": (45.0, 135.0), "+": (0.0, 90.0)}
 HATCH_DOTS = "."
+#: Hatch codes by name, as the patterns give them: "solid" is the colour alone.
+HATCH_NAMES = {
+    "none": "",
+    "solid": "",
+    "lines": "/",
+    "back lines": "\\",
+    "horizontal": "-",
+    "vertical": "|",
+    "cross": "x",
+    "grid": "+",
+    "dots": ".",
+}
 #: Raster cells that no triangle covers; -1 is the object with no pattern.
 BACKGROUND = -2
 #: Candidate (triangle, cell) pairs tested at once: bounds the rasteriser's memory (~200 bytes each).
@@ -137,10 +150,10 @@ def check(data: SheetData, svg_path: str, png_path: str) -> None:
     for name, colour, hatch in data.patterns:
         if len(colour) != 3 or not all(0.0 <= channel <= 1.0 for channel in colour):
             raise ValueError(f"pattern {name!r}: its colour must be three sRGB values in 0-1, not {colour}")
-        unknown = set(hatch) - set(HATCH_ANGLES) - set(HATCH_DOTS)
-        if unknown:
+        if set(hatch_letters(hatch)) - set(HATCH_ANGLES) - set(HATCH_DOTS):
             raise ValueError(
-                f"pattern {name!r}: hatch code {hatch!r} has letters not in / \\ - | x + . ({''.join(sorted(unknown))})"
+                f"pattern {name!r}: hatch code {hatch!r} is neither one of {', '.join(HATCH_NAMES)} "
+                "nor letters of / \\ - | x + ."
             )
     if len(data.areas_m2) != len(data.patterns) or not all(math.isfinite(a) and a >= 0 for a in data.areas_m2):
         raise ValueError(f"areas_m2 must be {len(data.patterns)} finite areas ≥ 0, one per pattern")
@@ -348,12 +361,17 @@ def trace(inside: np.ndarray, x0: float, y0: float, cell_mm: float):
     return Path(points[keep], codes[keep])
 
 
+def hatch_letters(code: str) -> str:
+    """A hatch code as matplotlib's letters."""
+    return HATCH_NAMES.get(code, code)
+
+
 def hatch_lines(code: str, box: tuple[float, float, float, float]) -> np.ndarray:
     """The segments (k, 2, 2) in paper mm of ``code``'s line families over ``box`` (x0, y0, x1,
     y1). Lines sit at whole multiples of their spacing from the sheet's corner, so a pattern's
     hatch runs on from one view to the next and into its legend swatch."""
     corners = np.array([[box[0], box[1]], [box[2], box[1]], [box[0], box[3]], [box[2], box[3]]])
-    segments = []
+    code, segments = hatch_letters(code), []
     for letter, angles in HATCH_ANGLES.items():
         spacing = HATCH_SPACING_MM / code.count(letter) if letter in code else None
         for angle in angles if spacing else ():
@@ -369,7 +387,7 @@ def hatch_lines(code: str, box: tuple[float, float, float, float]) -> np.ndarray
 
 def hatch_dots(code: str, box: tuple[float, float, float, float]) -> np.ndarray:
     """The dots (k, 2) in paper mm of ``code`` over ``box``: a staggered grid at the hatch spacing."""
-    count = sum(code.count(letter) for letter in HATCH_DOTS)
+    count = sum(hatch_letters(code).count(letter) for letter in HATCH_DOTS)
     if not count:
         return np.zeros((0, 2))
     spacing = HATCH_SPACING_MM / count
