@@ -321,7 +321,9 @@ def test_a_sheet_replaces_the_files_whole_and_leaves_no_temporary_file(tmp_path)
 
 
 def test_without_matplotlib_a_sheet_fails_in_one_line(tmp_path, monkeypatch):
+    assert sheet.cannot_draw() is None
     monkeypatch.setitem(sys.modules, "matplotlib", None)  # import matplotlib raises ImportError
+    assert sheet.cannot_draw().startswith("the condition-map drawings need matplotlib")
     triangles, names = box((4.0, 3.0, 2.5))
     with pytest.raises(ImportError, match="^the condition-map drawings need matplotlib, which this Python lacks"):
         write(tmp_path, data_for(triangles, names, {"north": 0}))

@@ -127,14 +127,21 @@ def write_sheets(data: SheetData, svg_path: str | os.PathLike, png_path: str | o
         move_into_place_together([(svg_temporary, svg_path), (png_temporary, png_path)])
 
 
-def check(data: SheetData, svg_path: str, png_path: str) -> None:
-    """Raise on the first thing wrong with the input, in one line."""
+def cannot_draw() -> str | None:
+    """Why sheets cannot be drawn in this Python (the line to show), or None when they can: a
+    survey asks before any work, to skip the drawings or refuse."""
     try:
         import matplotlib  # noqa: F401
     except ImportError:
-        raise ImportError(
-            "the condition-map drawings need matplotlib, which this Python lacks (docs/survey.md, 'The drawings')"
-        ) from None
+        return "the condition-map drawings need matplotlib, which this Python lacks (docs/survey.md, 'The drawings')"
+    return None
+
+
+def check(data: SheetData, svg_path: str, png_path: str) -> None:
+    """Raise on the first thing wrong with the input, in one line."""
+    missing = cannot_draw()
+    if missing:
+        raise ImportError(missing)
     triangles = np.asarray(data.triangles_m)
     if triangles.ndim != 3 or triangles.shape[1:] != (3, 3) or len(triangles) == 0:
         raise ValueError(f"triangles_m must be (n, 3, 3) with n > 0, not {triangles.shape}")
