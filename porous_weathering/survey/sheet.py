@@ -77,6 +77,8 @@ STYLE = {"svg.fonttype": "none", "svg.hashsalt": "porous-weathering", "font.size
 
 @dataclasses.dataclass(frozen=True)
 class SheetData:
+    """What one sheet draws: one object at one age (the survey fills it in)."""
+
     object_name: str
     environment: str
     years: float | None
