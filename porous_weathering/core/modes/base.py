@@ -87,6 +87,8 @@ class Mode:
     preview: dict = field(default_factory=dict)
     #: The mode adds the near-mirror water lobe (its group has Water Roughness / Water Weight).
     water_lobe: bool = False
+    #: The condition-survey patterns the mode produces (``patterns.Pattern``; docs/model.md §10).
+    patterns: tuple = ()
 
 
 # --- inputs every mode shares -----------------------------------------------------------------
