@@ -33,6 +33,7 @@ PUBLIC_MODULES = (
     "runoff",
     "runoff_flow",
     "scan_checks",
+    "survey",
     "uv",
     "weathering",
 )

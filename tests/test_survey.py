@@ -10,9 +10,9 @@ import signal
 import subprocess
 import sys
 
-import bmesh
 import bpy
 
+import bmesh
 import numpy as np
 import pytest
 
@@ -60,7 +60,7 @@ def test_soiling_is_where_the_reflectance_has_fallen_by_thirty_percent():
     for deposit, expected in (((0.15, 0.15, 0.15), "soiling"), ((0.6, 0.6, 0.6), "no visible change")):
         clean = colorimetry.appearance(STONE, "clean") @ colorimetry.RGB_TO_XYZ[1]
         grey = colorimetry.appearance(STONE, "soiled", deposit_color=deposit) @ colorimetry.RGB_TO_XYZ[1]
-        index = condition.classify(
+        index, _ = condition.classify(
             STONE["kd"], STONE["ks"], STONE["m"], STONE["alpha"], STONE["sp"], ("soiling",),
             time=1.0, rain_map=0.0, edge_map=0.0, runoff_map=0.0, soiling_level=1.0, deposit_color=deposit,
         )  # fmt: skip
@@ -71,7 +71,7 @@ def test_soiling_is_where_the_reflectance_has_fallen_by_thirty_percent():
 def test_black_crust_is_where_the_crust_covers_half_the_point():
     state = dict(time=1.0, rain_map=0.0, runoff_map=0.0, crust=0.8, soiling_level=1.0, front_width=0.1)
     edges = np.linspace(0.0, 1.0, 201)
-    index = condition.classify(STONE["kd"], STONE["ks"], STONE["m"], STONE["alpha"], STONE["sp"], ("soiling",),
+    index, _ = condition.classify(STONE["kd"], STONE["ks"], STONE["m"], STONE["alpha"], STONE["sp"], ("soiling",),
                                edge_map=edges, **state)  # fmt: skip
     coverage = soiling.crust_coverage(
         model.numpy_ops(edges), 1.0, edges, 1.0, 1.0, 0.1, 0.8
@@ -128,7 +128,7 @@ def expected_per_face(modes, masks, t, **inputs):
     totals = dict.fromkeys((pattern.name for pattern in found), 0.0)
     for face in FACES:
         values = {mask: by_face[face] for mask, by_face in masks.items()}
-        index = condition.classify(STONE["kd"], STONE["ks"], STONE["m"], STONE["alpha"], STONE["sp"], modes,
+        index, _ = condition.classify(STONE["kd"], STONE["ks"], STONE["m"], STONE["alpha"], STONE["sp"], modes,
                                    time=t, **values, **inputs)  # fmt: skip
         totals[found[int(index)].name] += EDGE**2
     return totals
@@ -177,7 +177,8 @@ def test_the_csv_has_its_columns_and_an_objects_shares_sum_to_one(tmp_path):
     with open(result.csv, newline="", encoding="utf-8") as stream:
         reader = csv.DictReader(stream)
         rows = list(reader)
-    assert tuple(reader.fieldnames) == survey.condition.COLUMNS == ("object", "years", "t", "pattern", "area_m2", "share")
+    assert tuple(reader.fieldnames) == survey.condition.COLUMNS
+    assert survey.condition.COLUMNS == ("object", "years", "t", "pattern", "area_m2", "share")
     assert len(rows) == 3 * 4  # three ages, four patterns (black crust, efflorescence, soiling, none)
     carbon = environments.get("URBAN").elemental_carbon
     for years in (10, 25, 50):
@@ -241,13 +242,13 @@ def outcomes(done):
 def test_the_command_writes_then_says_unchanged(saved_box, tmp_path):
     out = tmp_path / "out"
     first = run_cli("survey", saved_box, "--years", "10,25", "--out", out)
-    assert first.returncode == 0 and outcomes(first) == ["written", "written"], first.stderr
-    assert sorted(os.listdir(out)) == ["box.survey.csv", "box.survey.json"]
+    assert first.returncode == 0 and outcomes(first) == ["written"] * 3, first.stderr
+    assert sorted(os.listdir(out)) == ["box.forecast.csv", "box.survey.csv", "box.survey.json"]
     second = run_cli("survey", saved_box, "--years", "10,25", "--out", out)
     assert second.returncode == 0, second.stderr
-    assert outcomes(second) == ["unchanged", "unchanged"]
+    assert outcomes(second) == ["unchanged"] * 3
     named = run_cli("survey", saved_box, "--years", "10,25", "--out", out, "--objects", "Box", "--name", "box")
-    assert named.returncode == 0 and outcomes(named) == ["unchanged", "unchanged"]  # the same objects, named
+    assert named.returncode == 0 and outcomes(named) == ["unchanged"] * 3  # the same objects, named
     (out / "box.survey.json").write_text("{}", encoding="utf-8")  # not a survey paradata any more
     refused = run_cli("survey", saved_box, "--years", "10,25", "--out", out)
     assert refused.returncode == 3 and "--force" in refused.stderr
@@ -278,10 +279,72 @@ def test_an_interrupted_survey_leaves_no_temporary_file(saved_box, tmp_path):
     )
     try:
         assert any(line.strip() == "TEMPORARY WRITTEN" for line in iter(child.stdout.readline, ""))
-        assert len([name for name in os.listdir(out) if name.startswith(".pw_")]) == 2
+        assert len([name for name in os.listdir(out) if name.startswith(".pw_")]) == 3  # two tables, paradata
         child.send_signal(signal.SIGINT)
         _, stderr = child.communicate(timeout=60)
     finally:
         child.kill()
     assert child.returncode == 130 and "interrupted by SIGINT" in stderr
     assert os.listdir(out) == []
+
+
+# --- the forecast ------------------------------------------------------------------------------------
+
+
+def test_faces_are_read_from_north():
+    normals = np.array([[1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [0, 0, 1], [0.6, 0, -0.8]])
+    assert [condition.FACES[i] for i in condition.faces_of(normals)] == [
+        "east",
+        "north",
+        "west",
+        "south",
+        "up",
+        "down",
+    ]
+    options = survey.SurveyOptions(ages=(0.5,), north=90.0)  # north along the scene's -X
+    assert options.north_vector() == pytest.approx((-1.0, 0.0))
+    assert [condition.FACES[i] for i in condition.faces_of(normals[:4], options.north_vector())] == [
+        "south",
+        "east",  # east is north turned clockwise seen from above: +Y
+        "north",
+        "west",
+    ]
+
+
+def test_the_forecast_gives_the_age_a_front_first_shows_on_each_face(tmp_path):
+    """The salt front on the 'height' mask half fills the top (mask 1) at t = width / 2 = 0.045 and
+    covers 1% of a side at t = width / 2 + 0.01 = 0.055: the first forecast ages at or after those
+    are 0.05 and 0.1; the bottom (mask 0) never; salt brightens: no face reaches the cleaning
+    threshold."""
+    obj = box(1.0, {"efflorescence_map": "height"}, modes=("efflorescence",), front_width=0.09)
+    result = survey.condition_survey([obj], years=(10,), out_dir=tmp_path, name="box")
+    rows = {(row["face"], row["pattern"]): row for row in result.forecast_rows}
+    assert set(rows) == {(face, "efflorescence") for face in ("north", "east", "south", "west", "up")}
+    assert float(rows[("up", "efflorescence")]["first_shows_t"]) == pytest.approx(0.05)
+    carbon = environments.get("URBAN").elemental_carbon
+    for face in ("north", "east", "south", "west"):
+        assert float(rows[(face, "efflorescence")]["first_shows_t"]) == pytest.approx(0.1)
+        years = float(rows[(face, "efflorescence")]["first_shows_years"])
+        assert aging.age_for_years(years, carbon) == pytest.approx(0.1, rel=1e-3)
+        assert rows[(face, "efflorescence")]["cleaning_years"] == ""
+    with open(result.forecast, newline="", encoding="utf-8") as stream:
+        assert tuple(csv.DictReader(stream).fieldnames) == survey.forecast.COLUMNS
+
+
+def test_a_face_under_a_dark_deposit_crosses_the_cleaning_threshold(tmp_path):
+    """The sheltered sides lose reflectance linearly in t under the deposit: the face's mean loss
+    reaches 30% at the first forecast age where the model's own loss does."""
+    masks = {"rain_map": dict.fromkeys(FACES, 0.0), "edge_map": dict.fromkeys(FACES, 0.0)}
+    inputs = dict(runoff_map=0.0, deposit_color=(0.05, 0.05, 0.05))
+    obj = box(1.0, masks, modes=("soiling",), **inputs)
+    result = survey.condition_survey([obj], ages=(1.0,), out_dir=tmp_path, name="d")
+    ages = survey.forecast.FORECAST_AGES
+    losses = [
+        condition.classify(STONE["kd"], STONE["ks"], STONE["m"], STONE["alpha"], STONE["sp"], ("soiling",),
+                           time=t, rain_map=0.0, edge_map=0.0, **inputs)[1]
+        for t in ages
+    ]  # fmt: skip
+    expected = next(t for t, loss in zip(ages, losses) if loss >= patterns.CLEANING_LOSS)
+    row = next(row for row in result.forecast_rows if row["face"] == "north" and row["pattern"] == "soiling")
+    assert float(row["cleaning_t"]) == pytest.approx(expected)
+    assert float(row["first_shows_t"]) == pytest.approx(expected)  # soiling is the cleaning threshold itself

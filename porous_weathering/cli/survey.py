@@ -90,8 +90,8 @@ def run(args):
             bar.finish()
             return _error(f"{path}: {one_line(error)}", EXIT_FAILED)
     bar.finish()
-    print(f"{result.status:9} {result.csv}")
-    print(f"{result.status:9} {result.paradata}")
+    for path in (result.csv, result.forecast, result.paradata, *result.drawings):
+        print(f"{result.status:9} {path}")
     return EXIT_OK
 
 

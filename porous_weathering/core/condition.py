@@ -39,10 +39,11 @@ def classify(
     *,
     receptivity: ArrayLike | None = None,
     **state: ArrayLike,
-) -> np.ndarray:
-    """The index into ``survey_patterns(modes)`` of each point's pattern: the first, in
-    precedence order, whose rule holds (``NO_VISIBLE_CHANGE`` where none does). The arguments
-    are ``model.weathered_point``'s (per point, broadcast), seen face on in ambient light."""
+) -> tuple[np.ndarray, np.ndarray]:
+    """(index, loss) per point: the index into ``survey_patterns(modes)`` of its pattern, the
+    first in precedence order whose rule holds (``NO_VISIBLE_CHANGE`` where none does), and the
+    fraction of the clean stone's visible reflectance it has lost. The arguments are
+    ``model.weathered_point``'s (per point, broadcast), seen face on in ambient light."""
     modes = model.weathering_modes(modes)
     point = model.weathered_point(kd, ks, m, alpha, sp, None, 1.0, modes, receptivity=receptivity, **state)
     clean_kd, clean_ks = model.porous_coefficients(point.kd, np.asarray(ks), m, alpha, sp, None, 1.0)
@@ -53,4 +54,20 @@ def classify(
     index = np.full(np.shape(loss), len(found) - 1, dtype=np.int64)
     for number, pattern in reversed(list(enumerate(found[:-1]))):
         index = np.where(np.broadcast_to(pattern.rule(reading), index.shape), number, index)
-    return index
+    return index, loss
+
+
+#: The faces a forecast reports (docs/model.md §10): the four sides by the bearing of their outward
+#: normal, and the surfaces facing up and down (more than 45° from the vertical plane).
+FACES = ("north", "east", "south", "west", "up", "down")
+
+
+def faces_of(normals: ArrayLike, north: ArrayLike = (0.0, 1.0)) -> np.ndarray:
+    """The index into FACES of each unit normal (n, 3), for ``north`` a unit vector in world xy."""
+    normals = np.asarray(normals, dtype=np.float64)
+    north = np.asarray(north, dtype=np.float64)
+    east = np.array([north[1], -north[0]])  # north turned clockwise, seen from above
+    bearing = np.degrees(np.arctan2(normals[:, :2] @ east, normals[:, :2] @ north)) % 360.0
+    side = np.floor(((bearing + 45.0) % 360.0) / 90.0).astype(np.int64)
+    vertical = np.abs(normals[:, 2]) > np.sqrt(0.5)
+    return np.where(vertical, np.where(normals[:, 2] > 0, 4, 5), side)

@@ -7,10 +7,7 @@ A pair made from another .blend or other objects, or not by this extension, is n
 silently (``OverwriteRefused``, unless ``force``); a pair that would be written again as it is
 is left alone and reported "unchanged"."""
 
-import csv
 import datetime
-import io
-import json
 import math
 import numbers
 import os
@@ -21,23 +18,24 @@ import bpy
 
 import numpy as np
 
-from ..common import atomic
 from ..common.options import check, entries, option
+from ..contracts import safe_file_name
 from ..core import aging, condition, environments
-from ..core.patterns import CLEANING_LOSS
+from ..core.patterns import CLEANING_LOSS, NO_VISIBLE_CHANGE
 from ..maps.bake import _Digests
-from ..maps.provenance import OverwriteRefused, Provenance
 from ..publish.paradata import extension_version, json_value
 from ..publish.textures import porous_node
 from ..shading.material import metres_per_unit
-from . import points
+from . import files, forecast, points, tally
 
-CSV_SUFFIX, JSON_SUFFIX = ".survey.csv", ".survey.json"
-#: The CSV's columns, in order (docs/survey.md).
+try:  # the drawings (survey/sheet.py) land with their own branch; until then a survey draws none
+    from . import sheet
+except ImportError:
+    sheet = None
+
+#: The survey table's columns, in order (docs/survey.md).
 COLUMNS = ("object", "years", "t", "pattern", "area_m2", "share")
 SURVEY_VERSION = 1
-#: Sample points classified per call of the model (bounds the memory a scan takes).
-CHUNK = 250_000
 
 STATEMENT = (
     "A forecast of the visible weathering patterns of the objects, classified from a physically based model "
@@ -110,6 +108,17 @@ class SurveyOptions:
         metavar="NAME",
         tooltip="Name of the survey's files, NAME.survey.csv and NAME.survey.json (default: the .blend's name)",
     )
+    north: float = option(
+        0.0,
+        label="North",
+        flag="--north",
+        low=-360.0,
+        high=360.0,
+        unit="degrees",
+        metavar="DEGREES",
+        tooltip="Where north lies: its angle from the scene's +Y axis, counter-clockwise seen from above "
+        "(the forecast's faces and the drawings' views)",
+    )
     force: bool = option(
         False,
         label="Replace",
@@ -144,6 +153,11 @@ class SurveyOptions:
         carbon = environments.get(self.environment).elemental_carbon
         return tuple((years, aging.age_for_years(years, carbon)) for years in self.years)
 
+    def north_vector(self) -> tuple[float, float]:
+        """North as a unit vector in the scene's xy plane."""
+        angle = math.radians(self.north)
+        return (-math.sin(angle), math.cos(angle))
+
 
 def option_entries() -> list:
     """The survey options as front ends see them (``options.Entry``)."""
@@ -152,10 +166,13 @@ def option_entries() -> list:
 
 @dataclass(frozen=True)
 class SurveyResult:
-    csv: str
+    csv: str  #: the survey table
+    forecast: str  #: its companion, the forecast table
     paradata: str
     status: str  #: "written" or "unchanged"
-    rows: tuple  #: the CSV's rows, as dicts of COLUMNS
+    rows: tuple  #: the survey table's rows, as dicts of COLUMNS
+    forecast_rows: tuple  #: the forecast table's rows, as dicts of forecast.COLUMNS
+    drawings: tuple  #: the drawings' paths (none until the drawings' module is there)
 
 
 @dataclass(frozen=True)
@@ -173,26 +190,27 @@ def condition_survey(
     out_dir: str,
     environment: str = environments.DEFAULT_ENVIRONMENT,
     name: str | None = None,
+    north: float = 0.0,
     force: bool = False,
     progress: Callable[[float, str], None] | None = None,
 ) -> SurveyResult:
     """Survey the weathered ``objects`` at ``years`` of exposure in ``environment`` (or at ``ages``
-    t directly): the area in m² of each pattern, per object and age, in ``OUT/<name>.survey.csv``
-    and its paradata ``OUT/<name>.survey.json`` (docs/survey.md). ValueError before any work for
+    t directly): the area in m² of each pattern, per object and age, in ``OUT/<name>.survey.csv``,
+    the forecast per face and pattern in ``OUT/<name>.forecast.csv`` and the paradata in
+    ``OUT/<name>.survey.json`` (docs/survey.md); ``north`` is north's angle from the scene's +Y,
+    counter-clockwise, in degrees. ValueError before any work for
     bad input (negative years, ages outside [0, 1], an object without a Porous Weathering
     material); OverwriteRefused (a ValueError) when ``out_dir`` holds a survey of that name made
     from another .blend or other objects, unless ``force``."""
-    options = SurveyOptions(years=years, ages=ages, environment=environment, out_dir=out_dir, name=name, force=force)
+    options = SurveyOptions(
+        years=years, ages=ages, environment=environment, out_dir=out_dir, name=name, north=north, force=force
+    )
     result = None
     for step in iter_survey(objects, options):
         if progress is not None:
             progress(step.fraction, step.message)
         result = step.result or result
     return result
-
-
-def output_paths(out_dir: str, name: str) -> tuple[str, str]:
-    return os.path.join(out_dir, name + CSV_SUFFIX), os.path.join(out_dir, name + JSON_SUFFIX)
 
 
 def iter_survey(objects: Sequence["bpy.types.Object"], options: SurveyOptions) -> Iterator[Step]:
@@ -203,131 +221,136 @@ def iter_survey(objects: Sequence["bpy.types.Object"], options: SurveyOptions) -
     for obj in objects:
         if obj.type != "MESH":
             raise ValueError(f"object '{obj.name}' has no mesh (its type is {obj.type}): only meshes can be surveyed")
-        if not obj.material_slots or not any(slot.material for slot in obj.material_slots):
+        if not obj.material_slots:
             raise ValueError(f"object '{obj.name}' has no material: give it a Porous Weathering material (Make)")
-        for index in range(len(obj.material_slots)):
-            material = obj.material_slots[index].material
-            if porous_node(material) is None:
-                what = f"material '{material.name}'" if material else "an empty slot"
+        for index, slot in enumerate(obj.material_slots):
+            if porous_node(slot.material) is None:
+                what = f"material '{slot.material.name}'" if slot.material else "an empty slot"
                 raise ValueError(f"object '{obj.name}', slot {index + 1} has {what}, not a Porous Weathering material")
     out_dir = os.path.abspath(bpy.path.abspath(options.out_dir))
     name = options.name or os.path.splitext(os.path.basename(bpy.data.filepath))[0] or "untitled"
-    paths = output_paths(out_dir, name)
+    paths = files.output_paths(out_dir, name)
     if not options.force:
-        refuse_overwrite(paths, [obj.name for obj in objects])
-    return _steps(list(objects), options, out_dir, paths)
+        files.refuse_overwrite(paths, [obj.name for obj in objects])
+    return _steps(list(objects), options, out_dir, name, paths)
 
 
-def _steps(objects, options, out_dir, paths):
+@dataclass
+class _Surveyed:
+    """What the survey found on one object: its surface, materials and patterns, and the tally
+    at each surveyed age and at each age of the forecast."""
+
+    obj: "bpy.types.Object"
+    surface: points.Surface
+    materials: dict
+    patterns: tuple
+    tallies: list
+    forecast: list
+
+
+def _steps(objects, options, out_dir, name, paths):
     stages = options.stages()
-    total = len(objects) * (1 + len(stages)) + 1
+    total = len(objects) * (1 + len(stages) + len(forecast.FORECAST_AGES)) + 1
     done = 0
-    digests = _Digests()
-    rows, records, seen = [], [], {}
+    surveyed = []
     for obj in objects:
         yield Step(done / total, f"{obj.name}: surface")
         found = points.surface(obj)
-        if not len(found.areas_m2) or not found.areas_m2.sum() > 0.0:
+        if not found.areas_m2.sum() > 0.0:
             raise ValueError(f"object '{obj.name}': its mesh has no face of non-zero area (after its modifiers)")
-        slots = sorted(set(found.slots.tolist()))
         materials = {
-            slot: points.material_of(obj, min(slot, len(obj.material_slots) - 1), found) for slot in slots
+            slot: points.material_of(obj, min(slot, len(obj.material_slots) - 1), found)
+            for slot in sorted(set(found.slots.tolist()))
         }
-        patterns = _union(materials.values())
-        seen.update((pattern.name, pattern) for pattern in patterns)
+        patterns = tally.union(materials.values())
+        faces = condition.faces_of(found.normals, options.north_vector())
         done += 1
-        areas = []
-        for years, t in stages:
+        tallies = []
+        for _, t in stages:
             yield Step(done / total, f"{obj.name}: t = {t:.4g}")
-            per_pattern = pattern_areas(found, materials, patterns, t)
-            areas.append(per_pattern)
-            total_area = float(per_pattern.sum())
-            for pattern, area in zip(patterns, per_pattern):
+            tallies.append(tally.tally(found, materials, patterns, t, faces, per_triangle=sheet is not None))
+            done += 1
+        ahead, read = [], forecast.triangles(len(found.areas_m2))
+        for t in forecast.FORECAST_AGES:
+            yield Step(done / total, f"{obj.name}: forecast, t = {t:.4g}")
+            ahead.append(
+                tally.tally(found, materials, patterns, t, faces, triangles=read, target=forecast.FORECAST_SAMPLES)
+            )
+            done += 1
+        surveyed.append(_Surveyed(obj, found, materials, patterns, tallies, forecast.forecast(patterns, ahead)))
+    yield Step(done / total, f"writing {os.path.basename(paths['csv'])}")
+    created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
+    rows, ahead_rows = _rows(surveyed, stages), _forecast_rows(surveyed, options)
+    texts = {"csv": files.csv_text(COLUMNS, rows), "forecast": files.csv_text(forecast.COLUMNS, ahead_rows)}
+    record = _paradata(options, stages, surveyed, created)
+    drawings = _drawings(surveyed, options, stages, out_dir, name, created)
+    status = files.write_survey(
+        out_dir, paths, texts, record, drawings, [item.obj.name for item in surveyed], options.force
+    )
+    result = SurveyResult(
+        paths["csv"],
+        paths["forecast"],
+        paths["json"],
+        status,
+        tuple(rows),
+        tuple(ahead_rows),
+        tuple(path for group in drawings for path in group),
+    )
+    yield Step(1.0, f"{status} {paths['csv']}", result)
+
+
+def _rows(surveyed, stages):
+    rows = []
+    for item in surveyed:
+        for (years, t), found in zip(stages, item.tallies):
+            whole = float(found.areas.sum())
+            for pattern, area in zip(item.patterns, found.areas):
                 rows.append(
                     dict(
-                        object=obj.name,
+                        object=item.obj.name,
                         years="" if years is None else f"{years:g}",
                         t=f"{t:.6g}",
                         pattern=pattern.name,
                         area_m2=f"{area:.6g}",
-                        share=f"{area / total_area:.6g}",
+                        share=f"{area / whole:.6g}",
                     )
                 )
-            done += 1
-        records.append(_object_record(obj, found, materials, patterns, stages, areas, digests))
-    yield Step(done / total, f"writing {os.path.basename(paths[0])}")
-    record = _paradata(options, stages, records, sorted(seen.values(), key=lambda pattern: pattern.precedence))
-    status = write_pair(out_dir, paths, _csv_text(rows), record, [obj.name for obj in objects], options.force)
-    yield Step(1.0, f"{status} {paths[0]}", SurveyResult(paths[0], paths[1], status, tuple(rows)))
+    return rows
 
 
-def _union(materials):
-    found = {}
-    for material in materials:
-        for pattern in condition.survey_patterns(material.modes):
-            found.setdefault(pattern.name, pattern)
-    return tuple(sorted(found.values(), key=lambda pattern: pattern.precedence))
+def _forecast_rows(surveyed, options):
+    carbon = environments.get(options.environment).elemental_carbon
+
+    def number(value):
+        return "" if value is None else f"{value:.4g}"
+
+    return [
+        dict(
+            object=item.obj.name,
+            face=row.face,
+            pattern=row.pattern,
+            first_shows_years=number(forecast.years_of(row.first_shows_t, carbon)),
+            first_shows_t=number(row.first_shows_t),
+            cleaning_years=number(forecast.years_of(row.cleaning_t, carbon)),
+            cleaning_t=number(row.cleaning_t),
+        )
+        for item in surveyed
+        for row in item.forecast
+    ]
 
 
-def classify_samples(found, materials, patterns, t):
-    """(triangle indices, pattern index, area m²) of every sample point of ``found`` at age ``t``."""
-    splits = found.splits()
-    names = [pattern.name for pattern in patterns]
-    for k in np.unique(splits):
-        bary = points.barycentric_centroids(int(k))
-        for slot, material in materials.items():
-            chosen = np.flatnonzero((splits == k) & (found.slots == slot))
-            local = np.array([names.index(p.name) for p in condition.survey_patterns(material.modes)])
-            step = max(1, CHUNK // len(bary))
-            for start in range(0, len(chosen), step):
-                triangles = chosen[start : start + step]
-                inputs = {key: read(triangles, bary) for key, read in material.readers.items()}
-                inputs["time"] = np.full((len(triangles), len(bary)), t)
-                stone = {key: inputs.pop(key) for key in points.STONE_INPUTS}
-                index = condition.classify(
-                    stone["kd"], stone["ks"], stone["m"], stone["alpha"], stone["sp"], material.modes, **inputs
-                )
-                weights = np.broadcast_to((found.areas_m2[triangles] / len(bary))[:, None], index.shape)
-                yield triangles, local[index], weights
-
-
-def pattern_areas(found, materials, patterns, t) -> np.ndarray:
-    """The area in m² of each of ``patterns`` on ``found`` at age ``t``."""
-    areas = np.zeros(len(patterns))
-    for _, index, weights in classify_samples(found, materials, patterns, t):
-        areas += np.bincount(index.ravel(), weights.ravel(), minlength=len(patterns))
-    return areas
-
-
-def _object_record(obj, found, materials, patterns, stages, areas, digests):
-    return {
-        "name": obj.name,
-        "geometry_sha256": digests(obj),
-        "triangles": len(found.areas_m2),
-        "area_m2": float(found.areas_m2.sum()),
-        "sample_points": int((found.splits() ** 2).sum()),
-        "materials": [
-            {"slot": slot + 1, "material": material.name, "modes": list(material.modes), "inputs": material.sources}
-            for slot, material in materials.items()
-        ],
-        "patterns": [pattern.name for pattern in patterns],
-        "areas_m2": [
-            {"years": years, "t": t, **{pattern.name: float(area) for pattern, area in zip(patterns, row)}}
-            for (years, t), row in zip(stages, areas)
-        ],
-    }
-
-
-def _paradata(options, stages, records, every):
+def _paradata(options, stages, surveyed, created):
     site = environments.get(options.environment)
+    digests = _Digests()
+    every = {pattern.name: pattern for item in surveyed for pattern in item.patterns}
     return json_value(
         {
             "survey_version": SURVEY_VERSION,
             "kind": "condition survey (forecast)",
             "statement": STATEMENT,
-            "created": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+            "created": created,
             "generator": {"extension": f"Porous Weathering {extension_version()}", "blender": bpy.app.version_string},
-            "model": "docs/model.md §10 (numpy model, face on, ambient light)",
+            "model": "docs/model.md §10: the numpy model at sample points, face on, ambient light",
             "source": {"blend_file": os.path.abspath(bpy.data.filepath) if bpy.data.filepath else ""},
             "unit_scale_m": metres_per_unit(),
             "environment": {
@@ -336,8 +359,15 @@ def _paradata(options, stages, records, every):
                 "law": "sqrt",
                 "years_to_t_1": aging.years_for_full_age(site.elemental_carbon),
             },
+            "north_degrees": options.north,
             "cleaning_threshold_loss": CLEANING_LOSS,
             "ages": [{"years": years, "t": t} for years, t in stages],
+            "forecast": {
+                "ages": list(forecast.FORECAST_AGES),
+                "shows_share": forecast.SHOWS_SHARE,
+                "sample_points": forecast.FORECAST_SAMPLES,
+                "faces": list(condition.FACES),
+            },
             "patterns": [
                 {
                     "name": pattern.name,
@@ -346,83 +376,63 @@ def _paradata(options, stages, records, every):
                     "colour_srgb": list(pattern.colour),
                     "hatch": pattern.hatch,
                 }
-                for pattern in every
+                for pattern in sorted(every.values(), key=lambda pattern: pattern.precedence)
             ],
-            "objects": records,
+            "objects": [_object_record(item, stages, digests) for item in surveyed],
         },
         "the survey's paradata",
     )
 
 
-def _csv_text(rows):
-    stream = io.StringIO()
-    writer = csv.DictWriter(stream, fieldnames=COLUMNS, lineterminator="\n")
-    writer.writeheader()
-    writer.writerows(rows)
-    return stream.getvalue()
+def _object_record(item, stages, digests):
+    return {
+        "name": item.obj.name,
+        "geometry_sha256": digests(item.obj),
+        "triangles": len(item.surface.areas_m2),
+        "area_m2": float(item.surface.areas_m2.sum()),
+        "sample_points": int((item.surface.splits() ** 2).sum()),
+        "materials": [
+            {"slot": slot + 1, "material": material.name, "modes": list(material.modes), "inputs": material.sources}
+            for slot, material in item.materials.items()
+        ],
+        "areas_m2": [
+            {"years": years, "t": t, **{pattern.name: float(area) for pattern, area in zip(item.patterns, found.areas)}}
+            for (years, t), found in zip(stages, item.tallies)
+        ],
+    }
 
 
-# --- the files ------------------------------------------------------------------------------------
+# --- the drawings (survey/sheet.py) ------------------------------------------------------------------
 
 
-def _read_record(path):
-    try:
-        with open(path, encoding="utf-8") as stream:
-            record = json.load(stream)
-        mine = str(record["generator"]["extension"]).startswith("Porous Weathering ")
-        return record if mine and isinstance(record["objects"], list) and "survey_version" in record else None
-    except (OSError, ValueError, KeyError, TypeError):
-        return None
-
-
-def refuse_overwrite(paths: tuple[str, str], objects: Sequence[str]) -> None:
-    """OverwriteRefused when the survey pair at ``paths`` may not be replaced by a survey of
-    ``objects`` from the open .blend: made from another .blend or of other objects, or not
-    written by this extension."""
-    there = [where for where in paths if os.path.lexists(where)]
-    if not there:
-        return
-    for where in there:
-        if os.path.islink(where) or not os.path.isfile(where):
-            raise OverwriteRefused(f"{where} is not a file that Porous Weathering wrote")
-    record = _read_record(paths[1])
-    if record is None:
-        raise OverwriteRefused(f"{there[0]} was not written by Porous Weathering (no survey paradata of its own)")
-    made, wanted = record["source"]["blend_file"], os.path.abspath(bpy.data.filepath) if bpy.data.filepath else ""
-    if not Provenance(made).yields_to(Provenance(wanted)):
-        raise OverwriteRefused(f"{there[0]} was made from {made}, not from {wanted or 'an unsaved .blend'}")
-    made_objects = sorted(str(item.get("name")) for item in record["objects"])
-    if made_objects != sorted(objects):
-        raise OverwriteRefused(f"{there[0]} surveys {', '.join(made_objects)}, not {', '.join(sorted(objects))}")
-
-
-def _same(paths, text, record):
-    """Whether the pair at ``paths`` holds ``text`` and ``record`` already (but for its date)."""
-    try:
-        with open(paths[0], encoding="utf-8") as stream:
-            same_csv = stream.read() == text
-    except OSError:
-        return False
-    there = _read_record(paths[1])
-    return same_csv and there is not None and {**there, "created": ""} == {**record, "created": ""}
-
-
-def write_pair(out_dir, paths, text, record, objects, force) -> str:
-    """Write the CSV and its paradata into place together: "written", or "unchanged" (nothing
-    written) when the pair there holds them already."""
-    if _same(paths, text, record):
-        return "unchanged"
-    try:
-        os.makedirs(out_dir, exist_ok=True)
-    except OSError as error:
-        raise OSError(f"the output folder {out_dir} (--out) cannot be made: {error.strerror}") from None
-    with atomic.temporary_file(out_dir, ".csv") as table, atomic.temporary_file(out_dir, ".json") as sidecar:
-        with open(table, "w", encoding="utf-8", newline="") as stream:
-            stream.write(text)
-        with open(sidecar, "w", encoding="utf-8") as stream:
-            json.dump(record, stream, indent=2, ensure_ascii=False, allow_nan=False)
-            stream.write("\n")
-        if not force:
-            refuse_overwrite(paths, objects)  # a pair that appeared meanwhile
-        atomic.move_into_place_together([(table, paths[0]), (sidecar, paths[1])])
-    return "written"
+def _drawings(surveyed, options, stages, out_dir, name, created):
+    """{(svg path, png path): draw(svg, png)}: one sheet per object and age."""
+    if sheet is None:
+        return {}
+    carbon = environments.get(options.environment).elemental_carbon
+    found = {}
+    for item in surveyed:
+        shown = [pattern for pattern in item.patterns if pattern is not NO_VISIBLE_CHANGE]
+        order = np.array([shown.index(p) if p in shown else -1 for p in item.patterns])
+        ahead = tuple(
+            (row.face, row.pattern, *(forecast.years_of(age, carbon) for age in (row.first_shows_t, row.cleaning_t)))
+            for row in item.forecast
+        )
+        for (years, t), counted in zip(stages, item.tallies):
+            label = f"{years:g}y" if years is not None else f"t{t:g}"
+            stem = os.path.join(out_dir, f"{name}.{safe_file_name(item.obj.name)}.{label}")
+            data = sheet.SheetData(
+                object_name=item.obj.name,
+                environment=options.environment,
+                years=years,
+                t=t,
+                date=created[:10],
+                triangles_m=item.surface.triangles_m,
+                pattern_index=order[counted.dominant],
+                patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
+                areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
+                north=options.north_vector(),
+                forecast=ahead,
+            )
+            found[(stem + ".svg", stem + ".png")] = lambda svg, png, data=data: sheet.write_sheets(data, svg, png)
+    return found

@@ -13,7 +13,7 @@ import bpy
 import numpy as np
 
 from ..blender import scratch_scene
-from ..contracts import MODES_PROPERTY, STONE_NODE, socket_name
+from ..contracts import MODES_PROPERTY, STONE_NODE
 from ..core import model
 from ..core import modes as weathering_modes
 from ..core.colorimetry import srgb_to_linear
@@ -22,9 +22,10 @@ from ..shading.material import metres_per_unit
 from ..shading.weathering import image_uv_map
 
 #: Sample points per object: each triangle gets k² of them, k chosen so that the whole surface
-#: has about this many (at most MAX_SPLIT² per triangle, at least one).
-TARGET_SAMPLES = 2_000_000
-MAX_SPLIT = 256
+#: has about this many (at most MAX_SPLIT² per triangle, at least one). A front crossing a
+#: triangle is then placed to 1/MAX_SPLIT of its height: 0.2% of a box's face (docs/model.md §10).
+TARGET_SAMPLES = 1_000_000
+MAX_SPLIT = 128
 
 #: The stone's own inputs (docs/model.md §1) as the group names them, and the model's names.
 STONE_INPUTS = {"kd": "Base Color", "ks": "Specular", "m": "Roughness", "alpha": "Porosity", "sp": "Pore Depth Ratio"}
@@ -53,10 +54,11 @@ class Surface:
     uv_maps: dict
     colour_attributes: dict
 
-    def splits(self, target: int = TARGET_SAMPLES) -> np.ndarray:
-        """k per triangle: about ``target`` sample points over the surface, by area."""
-        total = float(self.areas_m2.sum())
-        wanted = np.sqrt(target * self.areas_m2 / max(total, 1e-300))
+    def splits(self, target: int = TARGET_SAMPLES, triangles: np.ndarray | None = None) -> np.ndarray:
+        """k per triangle (of ``triangles``, default all): about ``target`` sample points over
+        them, by area."""
+        areas = self.areas_m2 if triangles is None else self.areas_m2[triangles]
+        wanted = np.sqrt(target * areas / max(float(areas.sum()), 1e-300))
         return np.clip(np.ceil(wanted), 1, MAX_SPLIT).astype(np.int64)
 
 
