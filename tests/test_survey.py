@@ -348,3 +348,18 @@ def test_a_face_under_a_dark_deposit_crosses_the_cleaning_threshold(tmp_path):
     row = next(row for row in result.forecast_rows if row["face"] == "north" and row["pattern"] == "soiling")
     assert float(row["cleaning_t"]) == pytest.approx(expected)
     assert float(row["first_shows_t"]) == pytest.approx(expected)  # soiling is the cleaning threshold itself
+
+
+def test_docs_model_tables_the_patterns_as_the_records_say():
+    """docs/model.md §10.1's table: a row per pattern of the registered modes and 'no visible
+    change', each with its precedence, mode and NSD class as the records have them."""
+    text = (ROOT / "docs" / "model.md").read_text(encoding="utf-8")
+    section = text[text.index("### 10.1") : text.index("### 10.2")]
+    rows = [line.split("|")[1:-1] for line in section.splitlines() if line.startswith("| ")][1:]
+    tabled = {cells[1].strip(): [cell.strip() for cell in cells] for cells in rows}
+    for name in weathering_modes.names():
+        for pattern in weathering_modes.get(name).patterns:
+            precedence, _, mode, _, iri = tabled.pop(pattern.name)
+            assert (int(precedence), mode) == (pattern.precedence, name), pattern.name
+            assert iri == f"`nsd:{pattern.nsd_iri.removeprefix(patterns.NSD)}`", pattern.name
+    assert list(tabled) == [patterns.NO_VISIBLE_CHANGE.name]
