@@ -363,3 +363,40 @@ def test_docs_model_tables_the_patterns_as_the_records_say():
             assert (int(precedence), mode) == (pattern.precedence, name), pattern.name
             assert iri == f"`nsd:{pattern.nsd_iri.removeprefix(patterns.NSD)}`", pattern.name
     assert list(tabled) == [patterns.NO_VISIBLE_CHANGE.name]
+
+
+class Recorder:
+    """Records what a panel draws: (layout call, its positional arguments)."""
+
+    def __init__(self, calls):
+        object.__setattr__(self, "calls", calls)
+
+    def __getattr__(self, name):
+        def draw(*args, **kwargs):
+            self.calls.append((name, args))
+            return Recorder(self.calls)
+
+        return draw
+
+    def __setattr__(self, name, value):
+        pass
+
+
+def test_the_condition_survey_button_runs_the_survey(registered, tmp_path):
+    from porous_weathering.ui import panel
+
+    obj = box(1.0, {"efflorescence_map": "height"}, modes=("efflorescence",))
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    calls = []
+    panel.draw_panel(Recorder(calls), bpy.context)
+    assert ("operator", ("porous_weathering.condition_survey",)) in calls
+    operator = bpy.ops.porous_weathering.condition_survey
+    declared = {entry.dest for entry in survey.condition.option_entries() if entry.option.ui}
+    assert declared == {"years", "environment", "out_dir", "name", "north", "force"}
+    assert declared <= {prop.identifier for prop in operator.get_rna_type().properties}
+    assert operator(years="10,25", out_dir=str(tmp_path / "out"), name="panel") == {"FINISHED"}
+    assert sorted(os.listdir(tmp_path / "out")) == ["panel.forecast.csv", "panel.survey.csv", "panel.survey.json"]
+    with pytest.raises(RuntimeError, match="years must be numbers >= 0, not -1"):  # its one-line report
+        operator(years="10,-1", out_dir=str(tmp_path / "bad"))
+    assert not (tmp_path / "bad").exists()
