@@ -8,6 +8,7 @@ silently (``OverwriteRefused``, unless ``force``); a pair that would be written 
 is left alone and reported "unchanged"."""
 
 import datetime
+import hashlib
 import math
 import numbers
 import os
@@ -22,7 +23,6 @@ from ..common.options import check, entries, option
 from ..contracts import safe_file_name
 from ..core import aging, condition, environments
 from ..core.patterns import CLEANING_LOSS, NO_VISIBLE_CHANGE
-from ..maps.bake import _Digests
 from ..publish.paradata import extension_version, json_value
 from ..publish.textures import porous_node
 from ..shading.material import metres_per_unit
@@ -341,7 +341,6 @@ def _forecast_rows(surveyed, options):
 
 def _paradata(options, stages, surveyed, created):
     site = environments.get(options.environment)
-    digests = _Digests()
     every = {pattern.name: pattern for item in surveyed for pattern in item.patterns}
     return json_value(
         {
@@ -378,16 +377,17 @@ def _paradata(options, stages, surveyed, created):
                 }
                 for pattern in sorted(every.values(), key=lambda pattern: pattern.precedence)
             ],
-            "objects": [_object_record(item, stages, digests) for item in surveyed],
+            "objects": [_object_record(item, stages) for item in surveyed],
         },
         "the survey's paradata",
     )
 
 
-def _object_record(item, stages, digests):
+def _object_record(item, stages):
     return {
         "name": item.obj.name,
-        "geometry_sha256": digests(item.obj),
+        # the surface surveyed: its triangles' world corners in metres (float32)
+        "geometry_sha256": hashlib.sha256(item.surface.triangles_m.astype(np.float32).tobytes()).hexdigest(),
         "triangles": len(item.surface.areas_m2),
         "area_m2": float(item.surface.areas_m2.sum()),
         "sample_points": int((item.surface.splits() ** 2).sum()),

@@ -44,7 +44,8 @@ def barycentric_centroids(k: int) -> np.ndarray:
 class Surface:
     """An object's mesh as rendered, in metres: its triangles' world corners ``triangles_m``
     (n, 3, 3), their corners' loop indices (n, 3), material slot (n,), areas in m² (n,) and
-    unit normals (n, 3); the per-loop ``readers`` of its attributes and UV maps."""
+    unit normals (n, 3); its UV maps ({name: (corners, 2)}, "" the active render one) and colour
+    attributes ({name: (corners,)}, the Attribute node's Fac) per corner."""
 
     triangles_m: np.ndarray
     loops: np.ndarray
