@@ -11,10 +11,11 @@ from .steps import SteppedOperator, absolute_folder
 
 
 class ConditionSurveyOperator(SteppedOperator):
-    """Survey the selected meshes: the area in m² of each weathering pattern at each age, with its forecast and paradata (Esc cancels)"""  # noqa: E501
+    """Survey the selected meshes: each weathering pattern's area in m² at each age, and its forecast (Esc cancels)"""
 
     bl_idname = "porous_weathering.condition_survey"
     bl_label = "Condition Survey"
+    bl_options = {"REGISTER", "UNDO"}  # as every operator here; the survey changes nothing in the file
 
     @classmethod
     def poll(cls, context):
