@@ -38,6 +38,7 @@ PUBLIC_MODULES = {
     "runoff": "maps.runoff",
     "runoff_flow": "maps.runoff_flow",
     "scan_checks": "maps.scan_checks",
+    "survey": "survey",
     "uv": "maps.lightmap",
     "weathering": "shading.weathering",
 }

@@ -7,5 +7,5 @@ which imports no bpy; its bake processes do). Exit codes are ``contracts.EXIT_*`
 Thin: every command calls the public functions of the layers below.
 
 May import: every layer below it (``core``, ``common``, ``blender``, ``shading``, ``maps``,
-``publish``) and ``samples`` for the ``demo`` command; not ``ui``.
+``publish``, ``survey``) and ``samples`` for the ``demo`` command; not ``ui``.
 """

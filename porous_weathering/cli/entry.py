@@ -19,6 +19,7 @@ COMMANDS = {
     "bake": (".bake", "bake the weathering maps of .blend files (bake --help lists them)"),
     "demo": ("..samples.demo", "render the bundled sample scene and write pictures"),
     "export": (".export", "publish weathered states as glTF 2.0 with material variants and paradata"),
+    "survey": (".survey", "the condition survey: the area of each weathering pattern per object and age"),
 }
 
 

@@ -49,3 +49,14 @@ def age_for_years(years: float, elemental_carbon: float, law: str = "sqrt") -> f
 def years_for_full_age(elemental_carbon: float) -> float:
     """The years to t = 1 (30% loss) at ``elemental_carbon`` µg/m³: the same dose as the calibration."""
     return REFERENCE_YEARS * REFERENCE_ELEMENTAL_CARBON / elemental_carbon
+
+
+def years_for_age(age: float, elemental_carbon: float, law: str = "sqrt") -> float:
+    """The years of exposure at ``elemental_carbon`` µg/m³ after which t reaches ``age`` in [0, 1]:
+    ``age_for_years`` inverted (the dose whose reflectance loss is ``age`` x 30%)."""
+    loss = LOSS_AT_FULL_AGE * min(max(real_number("age", age), 0.0), 1.0)
+    if choice("soiling law", law, LAWS) == "sqrt":
+        ratio = (loss / LOSS_AT_FULL_AGE) ** 2
+    else:
+        ratio = math.log1p(-loss) / math.log1p(-LOSS_AT_FULL_AGE) if loss else 0.0
+    return ratio * years_for_full_age(elemental_carbon)

@@ -252,13 +252,34 @@ def weathered_coefficients(
     the paper's equations exactly (docs/model.md §6).  ``receptivity`` (docs/model.md §8.3; None:
     without the stone's structure, as r = 1) makes each point's pores fill r times as fast.
     """
+    point = weathered_point(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, receptivity=receptivity, **state)
+    water_w = point.water_w
+    return point.kd_w, point.ks_w, np.zeros_like(point.kd_w) + (0.0 if water_w is None else water_w)
+
+
+def weathered_point(
+    kd: ArrayLike,
+    ks: ArrayLike,
+    m: ArrayLike,
+    alpha: ArrayLike,
+    sp: ArrayLike,
+    n_dot_l: ArrayLike | None,
+    n_dot_v: ArrayLike,
+    modes: Iterable[str] | None = None,
+    *,
+    receptivity: ArrayLike | None = None,
+    **state: ArrayLike,
+) -> _modes.Point:
+    """The weathered point of ``weathered_coefficients`` (same arguments, checked alike): its
+    lobes' weights (``kd_w``, ``ks_w``, ``water_w``: None without a water lobe) and the notes
+    its modes' layers leave (``notes``: the condition survey's rules read them, docs/model.md §10)."""
     modes = weathering_modes(_modes.names() if modes is None else modes)
     state = weathering_state(modes, state)
     kd = np.asarray(kd, dtype=np.float64)
     kd, ks = valid_albedo(kd * np.ones(3) if kd.ndim == 0 else kd, ks)
     alpha = sanitize("alpha", alpha, 0.0, 1.0)
     n_dot_l = None if n_dot_l is None else clamp_cosine("n_dot_l", n_dot_l)
-    kd_w, ks_w, water_w = _modes.weathered_weights(
+    return _modes.weathered_point(
         numpy_ops(kd),
         kd,
         ks,
@@ -271,4 +292,3 @@ def weathered_coefficients(
         state,
         None if receptivity is None else sanitize("receptivity", receptivity),
     )
-    return kd_w, ks_w, np.zeros_like(kd_w) + (0.0 if water_w is None else water_w)

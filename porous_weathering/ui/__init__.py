@@ -1,17 +1,18 @@
 """The artist's front end: the scene's settings (``settings``), the panel that draws them
 (``panel``), its operators (``operators``: add porous material, make material, make
-efflorescence map, keyframe aging), the bake and export operators (``bake_operator``,
-``export_operator``) and the modal stepping they share (``steps``). Thin: every operator calls
+efflorescence map, keyframe aging), the bake, export and condition survey operators
+(``bake_operator``, ``export_operator``, ``survey_operator``) and the modal stepping they share
+(``steps``). Thin: every operator calls
 the public functions of the layers below. ``register``/``unregister`` register every ui class,
 in one place.
 
 May import: bpy and every layer below it (``core``, ``common``, ``blender``, ``shading``,
-``maps``, ``publish``); not ``cli`` or ``samples``.
+``maps``, ``publish``, ``survey``); not ``cli`` or ``samples``.
 """
 
 import bpy
 
-from . import bake_operator, export_operator, operators, panel, settings
+from . import bake_operator, export_operator, operators, panel, settings, survey_operator
 
 
 def classes() -> tuple[type, ...]:
@@ -27,6 +28,7 @@ def classes() -> tuple[type, ...]:
         operators.PW_OT_keyframe_aging,
         bake_operator.operator_class(),
         export_operator.operator_class(),
+        survey_operator.operator_class(),
         panel.PW_PT_material,
         panel.PW_PT_sidebar,
     )

@@ -1,8 +1,8 @@
 """The panel, drawn in two places (the material properties and the 3D viewport's sidebar): the
 scene's settings, the object's maps and the buttons of the operators. Drawing only: the maps
 listed and the Make-map buttons are derived from the map registry (``linking.known_maps``,
-``registry.made_kinds``), what the buttons do is in ``operators``, ``bake_operator`` and
-``export_operator``."""
+``registry.made_kinds``), what the buttons do is in ``operators``, ``bake_operator``,
+``export_operator`` and ``survey_operator``."""
 
 import bpy
 
@@ -13,6 +13,7 @@ from ..maps.linking import discover_maps, known_maps, missing_maps
 from . import bake_operator as ops_bake
 from . import export_operator as ops_export
 from . import operators
+from . import survey_operator as ops_survey
 from .settings import active_material, scene_sun, time_socket
 
 
@@ -89,6 +90,7 @@ def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> No
 
     col = layout.column(heading="Publish")
     col.operator(ops_export.ExportVariantsOperator.bl_idname, icon="EXPORT")
+    col.operator(ops_survey.ConditionSurveyOperator.bl_idname, icon="SPREADSHEET")
 
 
 class PanelBody:

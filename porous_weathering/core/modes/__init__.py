@@ -33,6 +33,8 @@ __all__ = [
     "shader_inputs",
     "has_water_lobe",
     "weathered_weights",
+    "weathered_point",
+    "patterns",
 ]
 
 _REGISTRY: dict[str, Mode] = {}  #: every mode, in order: those found, then those registered
@@ -142,6 +144,25 @@ def weathered_weights(
     ``state`` holds every input they use.  At time 0 the weights are the porous ones exactly.
     ``receptivity`` (the stone's structure, docs/model.md §8.3; None: the model without it) scales
     how fast the point's pores fill: every layer reads the local age min(r t, 1)."""
+    point = weathered_point(xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state, receptivity)
+    return point.kd_w, point.ks_w, point.water_w
+
+
+def weathered_point(
+    xp: Any,
+    kd: Any,
+    ks: Any,
+    m: Any,
+    alpha: Any,
+    sp: Any,
+    n_dot_l: Any,
+    n_dot_v: Any,
+    modes: Iterable[str],
+    state: Mapping[str, Any],
+    receptivity: Any = None,
+) -> Point:
+    """The weathered ``Point`` of ``weathered_weights``: its lobes' weights and the notes its
+    layers leave (what the condition survey reads, docs/model.md §10)."""
     state = {item.name: xp.clip(state[item.name], item.low, item.high) for item in inputs_of(modes)}
     if receptivity is not None and "time" in state:
         state["time"] = base.local_age(xp, state["time"], xp.maximum(receptivity, 0.0))
@@ -157,7 +178,13 @@ def weathered_weights(
     layers = sorted((layer for name in modes for layer in _REGISTRY[name].layers), key=lambda layer: layer.stage)
     for layer in layers:
         layer.apply(xp, point)
-    return point.kd_w, point.ks_w, point.water_w
+    return point
+
+
+def patterns(modes: Iterable[str]) -> tuple:
+    """The condition-survey patterns of ``modes`` (each mode's ``patterns``), in precedence order."""
+    found = {pattern.name: pattern for name in checked(modes) for pattern in _REGISTRY[name].patterns}
+    return tuple(sorted(found.values(), key=lambda pattern: pattern.precedence))
 
 
 discover()

@@ -90,6 +90,8 @@ class Mode:
     #: Where the mode comes in the registry's lists (the panel's switches, the groups' names and
     #: sockets): soiling 10, wet 20, efflorescence 30; a new mode takes the next free ten.
     order: int = 1000
+    #: The condition-survey patterns the mode produces (``patterns.Pattern``; docs/model.md §10).
+    patterns: tuple = ()
 
 
 # --- inputs every mode shares -----------------------------------------------------------------

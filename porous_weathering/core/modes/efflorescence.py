@@ -2,6 +2,7 @@
 map (a height field from a photograph, or generated; without one, the water the stone absorbs,
 docs/model.md §7.2) is highest first."""
 
+from ..patterns import NSD, Pattern, shown
 from .base import FILL_SALT, FRONT_WIDTH, TIME, Input, Layer, Mode, blend, filled_absorption, pore_fill
 
 EFFLORESCENCE_MAP = Input(
@@ -34,6 +35,18 @@ def fill_with_salt(xp, point):
     ap = filled_absorption(xp, point.ka, point.sp, salt, point.theta_i, point.theta_r)
     salty = efflorescence_diffuse(xp, point.kd, s["salt_color"], point.pore, ap, xp.channel(point.ks_w))
     point.kd_w = blend(xp, point.kd_w, salty, xp.channel(salt))
+    point.notes["salt"] = salt
+
+
+EFFLORESCENCE = Pattern(
+    "efflorescence",
+    NSD + "Efflorescence",
+    (0.93, 0.55, 0.80),
+    "cross",
+    shown("salt"),
+    20,
+    "salt fills half the pores or more (fill >= 0.5)",
+)
 
 
 MODE = Mode(
@@ -46,4 +59,5 @@ MODE = Mode(
     asset_summary="Efflorescence: salt fills the pores where the location map is highest first",
     preview=dict(time=1.0, efflorescence_map=1.0),
     order=30,
+    patterns=(EFFLORESCENCE,),
 )

@@ -6,6 +6,7 @@ or run-off, and run-off too weak to wash leaves dirty streaks (``runoff = 0``, `
 model without run-off)."""
 
 from .. import porous
+from ..patterns import NSD, Pattern, darkened, shown
 from .base import (
     COVER_CRUST,
     COVER_DEPOSIT,
@@ -151,6 +152,27 @@ def lay_crust(xp, point):
         xp, point.notes["sheltered"], s["edge_map"], s["time"], s["soiling_level"], s["front_width"], s["crust"]
     )
     cover(xp, point, s["pollution_color"], coverage)
+    point.notes["crust"] = coverage
+
+
+BLACK_CRUST = Pattern(
+    "black crust",
+    NSD + "BlackCrust",
+    (0.12, 0.12, 0.12),
+    "solid",
+    shown("crust"),
+    10,
+    "the black crust covers half the point or more (c >= 0.5, docs/model.md §6.1)",
+)
+SOILING = Pattern(
+    "soiling",
+    NSD + "Soiling",
+    (0.62, 0.52, 0.40),
+    "dots",
+    darkened,
+    40,
+    "the visible reflectance has fallen by 30% or more (the cleaning threshold)",
+)
 
 
 MODE = Mode(
@@ -180,4 +202,5 @@ MODE = Mode(
     asset_summary="Soiling (white, grey and black areas) from a rain map and an edge map",
     preview=dict(time=1.0, rain_map=0.0, edge_map=1.0),
     order=10,
+    patterns=(BLACK_CRUST, SOILING),
 )

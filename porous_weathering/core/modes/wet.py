@@ -6,6 +6,7 @@ the water's surface reflects as water does, by Fresnel (this project's decision:
 The front sweeps the water reaching a point, rain or run-off (docs/model.md §7; ``runoff = 0`` is the
 rain map alone)."""
 
+from ..patterns import NSD, Pattern, shown
 from .base import (
     DARKEN_WET,
     FILL_WATER,
@@ -107,6 +108,17 @@ def darken_under_water(xp, point):
     point.water_w = point.water_w * xp.channel(fresnel_weight(xp, point.n_dot_v, strength))
 
 
+MOIST_AREA = Pattern(
+    "moist area",
+    NSD + "MoistArea",
+    (0.30, 0.50, 0.90),
+    "lines",
+    shown("water"),
+    30,
+    "water fills half the pores or more (fill >= 0.5)",
+)
+
+
 MODE = Mode(
     name="wet",
     label="Wet",
@@ -118,4 +130,5 @@ MODE = Mode(
     preview=dict(time=1.0, rain_map=1.0),
     water_lobe=True,
     order=20,
+    patterns=(MOIST_AREA,),
 )

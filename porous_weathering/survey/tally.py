@@ -1,0 +1,83 @@
+"""An object's patterns counted at one age (docs/model.md §10): every sample point of its surface
+(``points``) classed by the numpy model (``core.condition.classify``) and its area added to its
+pattern's, over the whole object, per face (``core.condition.FACES``), and per triangle (the
+pattern a drawing shows on it: the one covering most of it)."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core import condition
+from . import points
+
+#: Sample points classified per call of the model (bounds the memory a scan takes).
+CHUNK = 250_000
+
+
+@dataclass(frozen=True)
+class Tally:
+    """Areas in m² at one age: per pattern (P,), per face and pattern (F, P), the loss of visible
+    reflectance times area per face (F,), and the pattern covering most of each triangle (n,)."""
+
+    areas: np.ndarray
+    face_areas: np.ndarray
+    face_loss: np.ndarray
+    dominant: np.ndarray | None
+
+
+def union(materials) -> tuple:
+    """The patterns of every material (``points.Material``), each once, in precedence order."""
+    found = {}
+    for material in materials:
+        for pattern in condition.survey_patterns(material.modes):
+            found.setdefault(pattern.name, pattern)
+    return tuple(sorted(found.values(), key=lambda pattern: pattern.precedence))
+
+
+def tally(
+    found,
+    materials: dict,
+    patterns: tuple,
+    t: float,
+    faces: np.ndarray,
+    *,
+    per_triangle: bool = False,
+    triangles: np.ndarray | None = None,
+    target: int = points.TARGET_SAMPLES,
+) -> Tally:
+    """The ``Tally`` of ``found`` (``points.Surface``) at age ``t``; ``materials`` {slot: Material},
+    ``faces`` the face index of each triangle; ``per_triangle``: find each triangle's pattern too.
+    ``triangles`` (default: all) and about ``target`` sample points on them: a coarser tally
+    (the forecast's, which reads shares of faces)."""
+    count, faces_count = len(patterns), len(condition.FACES)
+    areas = np.zeros(count)
+    face_areas = np.zeros(faces_count * count)
+    face_loss = np.zeros(faces_count)
+    per = np.zeros(len(found.areas_m2) * count) if per_triangle else None
+    names = [pattern.name for pattern in patterns]
+    chosen_triangles = np.arange(len(found.areas_m2)) if triangles is None else triangles
+    splits = found.splits(target, chosen_triangles)
+    for k in np.unique(splits):
+        bary = points.barycentric_centroids(int(k))
+        step = max(1, CHUNK // len(bary))
+        for slot, material in materials.items():
+            chosen = chosen_triangles[(splits == k) & (found.slots[chosen_triangles] == slot)]
+            local = np.array([names.index(pattern.name) for pattern in condition.survey_patterns(material.modes)])
+            for start in range(0, len(chosen), step):
+                triangles = chosen[start : start + step]
+                inputs = {key: read(triangles, bary) for key, read in material.readers.items()}
+                if "time" in inputs:  # a material without modes has no age
+                    inputs["time"] = np.full((len(triangles), len(bary)), float(t))
+                stone = [inputs.pop(key) for key in points.STONE_INPUTS]
+                index, loss = condition.classify(*stone, material.modes, **inputs)
+                index = local[index]
+                weight = np.broadcast_to((found.areas_m2[triangles] / len(bary))[:, None], index.shape)
+                areas += np.bincount(index.ravel(), weight.ravel(), minlength=count)
+                face = np.broadcast_to(faces[triangles][:, None], index.shape)
+                face_areas += np.bincount((face * count + index).ravel(), weight.ravel(), minlength=faces_count * count)
+                face_loss += np.bincount(face.ravel(), (loss * weight).ravel(), minlength=faces_count)
+                if per is not None:
+                    cell = np.broadcast_to(triangles[:, None], index.shape) * count + index
+                    per += np.bincount(cell.ravel(), weight.ravel(), minlength=len(per))
+    dominant = None if per is None else per.reshape(-1, count).argmax(axis=1)
+    return Tally(areas, face_areas.reshape(faces_count, count), face_loss, dominant)
