@@ -127,6 +127,7 @@ class Weathered:
         n_dot_l = normals @ np.array(sample.sun.matrix_world.to_3x3().col[2])
         # the stone's per-point parameters, each pixel's mean over its samples as the render's is
         stone = stone_parameters(lambda material: self.probe(sample, material), sample.material(mode))
+        stone["z_p"] = stone_shifted(lambda material: self.probe(sample, material), sample.material(mode), nodes.FIELD)
         ks = sample.stone["ks"]
 
         def diffuse(time):
@@ -140,6 +141,8 @@ class Weathered:
                 n_dot_v,
                 (mode,),
                 receptivity=stone["r"],
+                field=stone["z_p"],
+                variation=stones.DEFAULT_VARIATION,
                 **{**self.inputs, "time": time, **self.maps},
             )
             return luminance(weights[0])
