@@ -193,7 +193,8 @@ def _carbon_from_rain(xp, point):
     """Soiling's black area as docs/model.md §4.1 wrote it before run-off: sheltered from E."""
     s = point.state
     sheltered = soiling.sheltered_fraction(xp, s["rain_map"], s["rain_threshold"], s["front_width"])
-    carbon = sheltered * mode_base.pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
+    fill = mode_base.pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
+    carbon = sheltered * mode_base.local_share(xp, fill, point.spread)
     ap = mode_base.filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
     polluted = soiling.polluted_diffuse(xp, point.kd, s["pollution_color"], point.pore, ap)
     point.kd_w = mode_base.blend(xp, point.kd_w, polluted, xp.channel(carbon))
@@ -201,16 +202,19 @@ def _carbon_from_rain(xp, point):
 
 
 def _deposit_without_streaks(xp, point):
-    """The grey deposit alone (docs/model.md §4.1): one cover of coverage c."""
+    """The grey deposit alone (docs/model.md §4.1): one cover of coverage c (at the point of a stone,
+    docs/model.md §8.6, §8.7)."""
     s = point.state
     coverage = soiling.deposit_coverage(point.notes["sheltered"], point.m, s["time"], s["soiling_level"])
-    mode_base.cover(xp, point, s["deposit_color"], coverage)
+    colour = soiling.deposit_seen(xp, point.kd, s["deposit_color"], point.variation)
+    mode_base.cover(xp, point, colour, mode_base.local_share(xp, coverage, point.spread))
 
 
 def _water_from_rain(xp, point):
     """The wet front as docs/model.md §4.2 wrote it before run-off: it sweeps E."""
     s = point.state
-    water = mode_base.pore_fill(xp, s["rain_map"], s["time"], s["wet_level"], s["front_width"])
+    fill = mode_base.pore_fill(xp, s["rain_map"], s["time"], s["wet_level"], s["front_width"])
+    water = mode_base.local_share(xp, fill, point.spread)
     ap = mode_base.filled_absorption(xp, point.ka, point.sp, water, point.theta_i, point.theta_r)
     kd_wet, water_lobe = wet.wet_weights(xp, point.kd, xp.channel(s["water_specular"]), point.pore, ap)
     point.kd_w = mode_base.blend(xp, point.kd_w, kd_wet, xp.channel(water))

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 
 import porous_weathering
-from helpers import assert_matches, expected_image, stone_glossy_lobe, stone_parameters
+from helpers import assert_matches, expected_image, stone_glossy_lobe, stone_parameters, stone_shifted
 from porous_weathering.blender import render
-from porous_weathering.core import model
+from porous_weathering.core import model, stones
 from porous_weathering.samples import demo, studio
 from porous_weathering.shading import nodes, weathering
 from porous_weathering.ui import panel as ui
@@ -127,6 +127,7 @@ class Weathered:
         n_dot_l = normals @ np.array(sample.sun.matrix_world.to_3x3().col[2])
         # the stone's per-point parameters, each pixel's mean over its samples as the render's is
         stone = stone_parameters(lambda material: self.probe(sample, material), sample.material(mode))
+        stone["z_p"] = stone_shifted(lambda material: self.probe(sample, material), sample.material(mode), nodes.FIELD)
         ks = sample.stone["ks"]
 
         def diffuse(time):
@@ -140,6 +141,8 @@ class Weathered:
                 n_dot_v,
                 (mode,),
                 receptivity=stone["r"],
+                field=stone["z_p"],
+                variation=stones.DEFAULT_VARIATION,
                 **{**self.inputs, "time": time, **self.maps},
             )
             return luminance(weights[0])
@@ -265,7 +268,7 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
     """Every mode of the sample's recipe at t = 0.66 and 1, with the API's defaults (black crust
     and wet darkening on) and with the paper-exact settings (crust = 0, wet_darkening = 0): each
     pixel of the weathered objects is model.py's k_d D + k_s G + k_water W at the stone's
-    per-point k_d, alpha, s_p, m and receptivity (read back from the material's "Stone" node),
+    per-point k_d, alpha, s_p, m, receptivity and porosity field (read back from the material's "Stone" node),
     D, G and W being renders of a white Lambert, a white GGX of the per-point roughness m and one
     of the water's. The sun alone lights it (no sky, no bounce), so that each pixel is one point
     lit one way."""
@@ -298,6 +301,7 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
     # lobe of its per-point roughness, read once.
     first = sample.material(next(iter(sample.recipe.masks)))
     stone = stone_parameters(shade, first, extra=("Joint",) if sample.recipe.masonry else ())
+    stone["z_p"] = stone_shifted(shade, first, nodes.FIELD)  # the uptake's field (docs/model.md §8.7)
     assert np.ptp(stone["alpha"][covered]) > 0.01, "the sample shows its stone"
     if sample.recipe.masonry:  # some pixels land in the mortar (its share of the wall, ~4%)
         assert 0.01 < (stone["Joint"][covered] > 0.5).mean() < 0.2, "the façade is laid in ashlar"
@@ -329,6 +333,8 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
                     n_dot_v,
                     (mode,),
                     receptivity=stone["r"],
+                    field=stone["z_p"],
+                    variation=stones.DEFAULT_VARIATION,
                     **{**inputs, **changes, "time": age, **values},
                 )
                 assert_matches(image, expected_image(weights, lobes), covered)

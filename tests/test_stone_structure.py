@@ -18,10 +18,19 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import MaskedPlane, assert_matches, presets_row, stone_glossy_lobe, stone_parameters, stone_probe
+from helpers import (
+    MaskedPlane,
+    assert_matches,
+    presets_row,
+    stone_glossy_lobe,
+    stone_parameters,
+    stone_probe,
+    stone_shifted,
+)
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.core.backends import NumpyOps
+from porous_weathering.core.modes import base, soiling
 from porous_weathering.samples import studio
 from porous_weathering.shading.presets import PRESETS
 
@@ -119,14 +128,65 @@ def test_a_stone_whose_weights_exceed_one_is_refused():
 
 
 def test_no_receptivity_is_r_one_bit_for_bit():
+    """No stone (None) is r = 1 at the field's mean, and a stone at variation 0, bit for bit."""
     modes = model.MODES
-    state = dict(time=0.6, rain_map=0.3, edge_map=0.7, efflorescence_map=0.65)
+    state = dict(time=0.6, rain_map=0.3, edge_map=0.7, efflorescence_map=0.65, runoff_map=0.3)
     s = STONE
     args = (s["base_color"], s["ks"], s["roughness"], s["porosity"], s["pore_depth_ratio"], 0.8, 0.9, modes)
     plain = model.weathered_coefficients(*args, **state)
     with_one = model.weathered_coefficients(*args, receptivity=1.0, **state)
-    for a, b in zip(plain, with_one):
-        assert np.array_equal(a, b)
+    at_zero = model.weathered_coefficients(
+        *args, receptivity=1.0, field=np.array([-1.0, 0.3, 1.0]), variation=0.0, **state
+    )
+    for a, b, c in zip(plain, with_one, at_zero):
+        assert np.array_equal(a, b) and np.array_equal(np.broadcast_to(a, c.shape), c)
+
+
+def test_local_share_keeps_the_mean_and_the_ends():
+    """docs/model.md §8.7: share + s min(share, 1 - share) stays in [0, 1], is 0 at 0 and 1 at 1 at
+    every point, and its mean over a field symmetric about 0 is the share, for any variation."""
+    z = np.linspace(-1.0, 1.0, 401)
+    share = np.linspace(0.0, 1.0, 51)[:, None]
+    for variation in (0.3, 1.0):
+        local = base.local_share(XP, share, base.uptake_spread(XP, z, variation))
+        assert local.min() >= 0.0 and local.max() <= 1.0
+        assert np.all(local[0] == 0.0) and np.all(local[-1] == 1.0)
+        assert np.abs(local.mean(axis=1) - share[:, 0]).max() < 1e-12
+    spread = base.uptake_spread(XP, z, 1.0)
+    assert np.all(np.diff(base.local_share(XP, 0.3, spread)) >= 0.0)  # the receptive part first
+    assert np.abs(spread).max() == 1.0 and spread[200] == 0.0
+    assert base.local_share(XP, share, None) is share
+
+
+def test_the_deposit_darkens_red_brick():
+    """docs/model.md §8.6: without a stone a grey deposit lightens red brick's green and blue; with
+    the brick's stone it filters the brick's own colour, darker in every channel; on the reference
+    limestone it is the same deposit at any variation (the environments' calibration holds)."""
+    deposit = np.array([0.257, 0.249, 0.231])  # the urban site's
+    grey = dict(time=1.0, rain_map=0.0, edge_map=0.0, deposit_color=deposit, crust=0.0, runoff_map=0.0)
+    preset = PRESETS["BRICK"]
+    brick = np.array(preset.linear_base_color()[:3])
+    args = (brick, preset.ks, preset.roughness, preset.porosity, preset.pore_depth_ratio, None, 1.0, ("soiling",))
+    clean = model.weathered_coefficients(*args, time=0.0)[0]
+    today = model.weathered_coefficients(*args, **grey)[0]
+    stone = model.weathered_coefficients(*args, receptivity=1.0, field=0.0, variation=1.0, **grey)[0]
+    assert today[1] > clean[1] and today[2] > clean[2]
+    assert np.all(stone < clean)
+    limestone = PRESETS["LIMESTONE"]
+    assert np.array_equal(np.array(limestone.linear_base_color()[:3]), soiling.DEPOSIT_REFERENCE_STONE)
+    reference = (
+        soiling.DEPOSIT_REFERENCE_STONE,
+        limestone.ks,
+        limestone.roughness,
+        limestone.porosity,
+        limestone.pore_depth_ratio,
+        None,
+        1.0,
+    )
+    plain = model.weathered_coefficients(*reference, ("soiling",), **grey)[0]
+    for variation in (0.4, 1.0):
+        mixed = model.weathered_coefficients(*reference, ("soiling",), variation=variation, **grey)[0]
+        assert mixed == pytest.approx(plain, abs=1e-12)
 
 
 def test_receptive_points_weather_first():
@@ -212,26 +272,31 @@ def test_porous_render_matches_the_model_per_pixel(fresh_scene):
     assert_matches(image, expected, image[..., 3] > 0.999)
 
 
-def test_weathered_fronts_follow_the_stone(fresh_scene):
-    """With the stone's receptivity the soiling front at t is where the model puts it, per pixel,
-    and it breaks up along the stone: some points are further along than others."""
+@pytest.mark.parametrize("variation", [1.0, 0.5])
+def test_weathered_fronts_follow_the_stone(fresh_scene, variation):
+    """With the stone's receptivity, uptake and deposit mix (docs/model.md §8.3, §8.6, §8.7) the soiling
+    at t is where the model puts it, per pixel (the carbon front, the grey deposit in the stone's
+    colour, the crust), and it breaks up along the stone: some points are further along than others."""
     plane = MaskedPlane(fresh_scene, size=24)
     state = dict(time=0.5, rain_map=0.0, edge_map=0.55, crust=0.5)
     material = pw.make_weathered_material(
-        "Weathered", modes=("soiling",), **STONE, stone="LIMESTONE", key_light=plane.sun, environment=None, **state
-    )
+        "Weathered", modes=("soiling",), **STONE, stone="LIMESTONE", key_light=plane.sun, environment=None,
+        variation=variation, **state,
+    )  # fmt: skip
     got = read_back(plane, material)
+    got["z_p"] = stone_shifted(plane.render, material, "Porosity Field")
     image = plane.render(material)
     diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
     glossy = glossy_lobe(plane, material)
     n_dot_l, n_dot_v = cosines(plane)
     kd_w, ks_w, _ = model.weathered_coefficients(
         got["kd"], STONE["ks"], got["m"], got["alpha"], got["sp"], n_dot_l, n_dot_v, ("soiling",),
-        receptivity=got["r"], **state,
+        receptivity=got["r"], field=got["z_p"], variation=variation, **state,
     )  # fmt: skip
     covered = image[..., 3] > 0.999
     assert_matches(image, kd_w * diffuse + ks_w[..., None] * glossy, covered)
-    fill = model.pore_fill(0.55, np.minimum(0.5 * got["r"], 1.0), 1.0, 0.1)[covered]
+    fill = model.pore_fill(0.55, np.minimum(0.5 * got["r"], 1.0), 1.0, 0.1)
+    fill = base.local_share(XP, fill, base.uptake_spread(XP, got["z_p"], variation))[covered]
     assert fill.min() < 0.25 and fill.max() > 0.75  # the front runs through the stone's structure
 
 

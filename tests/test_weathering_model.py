@@ -59,10 +59,19 @@ def masks(draw):
         runoff_map=draw(unit),
         runoff=draw(unit),
         streaks=draw(unit),
+        # a stone's structure at the point (docs/model.md §8.3, §8.6, §8.7), or none
+        structure=draw(
+            st.one_of(
+                st.none(),
+                st.fixed_dictionaries(
+                    dict(receptivity=st.floats(0.0, 3.0), field=st.floats(-1.0, 1.0), variation=unit)
+                ),
+            )
+        ),
     )
 
 
-def weathered(stone, modes, **state):
+def weathered(stone, modes, structure=None, **state):
     used = set(model.inputs_of(modes))
     return model.weathered_coefficients(
         stone["kd"],
@@ -73,6 +82,7 @@ def weathered(stone, modes, **state):
         stone["n_dot_l"],
         stone["n_dot_v"],
         modes,
+        **(structure or {}),
         **{name: value for name, value in state.items() if name in used},
     )
 
@@ -111,8 +121,10 @@ def test_no_energy_is_created_and_all_is_finite(stone, state, modes):
 @SETTINGS
 @given(stone=stones(), state=masks(), darkness=unit)
 def test_soiling_darkens(stone, state, darkness):
-    """With black carbon and a deposit darker than the stone's pore-free part, every step darkens."""
-    deposit = stone["kd"] * (1.0 - stone["alpha"]) * darkness
+    """With black carbon and a deposit darker than the stone's pore-free part, every step darkens
+    (and so with a stone: the deposit filters k_d by at most the deposit over the reference stone's
+    darkest channel, docs/model.md §8.6)."""
+    deposit = stone["kd"] * (1.0 - stone["alpha"]) * darkness * min(soiling.DEPOSIT_REFERENCE_STONE)
     kd_w, ks_w, _ = over_time(stone, model.SOILING, pollution_color=(0.0, 0.0, 0.0), deposit_color=deposit, **state)
     assert (np.diff(kd_w, axis=0) <= 1e-12).all()
     assert (np.diff(ks_w, axis=0) <= 1e-12).all()

@@ -239,6 +239,8 @@ def weathered_coefficients(
     modes: Iterable[str] | None = None,
     *,
     receptivity: ArrayLike | None = None,
+    field: ArrayLike | None = None,
+    variation: ArrayLike | None = None,
     **state: ArrayLike,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k_d, k_s, k_water): the weights of the diffuse lobe, the glossy lobe (roughness m)
@@ -250,9 +252,25 @@ def weathered_coefficients(
     Pore-filling modes apply first (carbon, salt, water), then the wet darkening, the grey
     deposit over them and the black crust over everything; ``crust=0, wet_darkening=0`` give
     the paper's equations exactly (docs/model.md §6).  ``receptivity`` (docs/model.md §8.3; None:
-    without the stone's structure, as r = 1) makes each point's pores fill r times as fast.
+    without the stone's structure, as r = 1) makes each point's pores fill r times as fast;
+    ``field`` (the stone's porosity field z_p, in [-1, 1]) and ``variation`` (v) take every fill and
+    cover at the point's place in the stone (docs/model.md §8.7), and ``variation`` mixes the deposit
+    with the stone's own colour (docs/model.md §8.6); None: without them.
     """
-    point = weathered_point(kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, receptivity=receptivity, **state)
+    point = weathered_point(
+        kd,
+        ks,
+        m,
+        alpha,
+        sp,
+        n_dot_l,
+        n_dot_v,
+        modes,
+        receptivity=receptivity,
+        field=field,
+        variation=variation,
+        **state,
+    )
     water_w = point.water_w
     return point.kd_w, point.ks_w, np.zeros_like(point.kd_w) + (0.0 if water_w is None else water_w)
 
@@ -268,6 +286,8 @@ def weathered_point(
     modes: Iterable[str] | None = None,
     *,
     receptivity: ArrayLike | None = None,
+    field: ArrayLike | None = None,
+    variation: ArrayLike | None = None,
     **state: ArrayLike,
 ) -> _modes.Point:
     """The weathered point of ``weathered_coefficients`` (same arguments, checked alike): its
@@ -291,4 +311,6 @@ def weathered_point(
         modes,
         state,
         None if receptivity is None else sanitize("receptivity", receptivity),
+        None if field is None else sanitize("field", field, -1.0, 1.0),
+        None if variation is None else sanitize("variation", variation, 0.0, 1.0),
     )

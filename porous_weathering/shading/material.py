@@ -132,7 +132,8 @@ def metres_per_unit(scene: "bpy.types.Scene | None" = None) -> float:
 def connect_stone(graph, group_node, key, structure, variation, masonry, base_color):
     """The stone group of ``key`` between the material's values and ``group_node``: it takes the
     base colour (or image), porosity, pore depth and roughness set on ``group_node`` as its means
-    and feeds their per-point values (and, to a receptive weathered group, the receptivity).
+    and feeds their per-point values (and, to a receptive weathered group, the receptivity, the
+    porosity field and the variation: docs/model.md §8.3, §8.6, §8.7).
     With ``masonry`` an ``Ashlar``, the stone's masonry group, given the ashlar's lengths in
     metres and its mortar preset's values; a ``MeshBlocks``, the stone's group of the mesh's blocks."""
     if isinstance(masonry, stones.Ashlar):
@@ -160,7 +161,7 @@ def connect_stone(graph, group_node, key, structure, variation, masonry, base_co
         values = (mortar.linear_base_color(), mortar.porosity, mortar.pore_depth_ratio, mortar.roughness)
         for socket, value in zip(nodes.MORTAR_SOCKETS, values):
             node.inputs[socket].default_value = value
-    for socket in ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", nodes.RECEPTIVITY):
+    for socket in nodes.STONE_FEEDS:
         if socket in inputs:
             graph.connect(node.outputs[socket], inputs[socket])
     group_node.id_data[STONE_PROPERTY] = key

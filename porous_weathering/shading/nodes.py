@@ -21,8 +21,9 @@ from ..core.shader_math import Graph, dot, normalize
 #: The node builder's build: bumped when it builds the same sockets with other maths, so old
 #: files rebuild. A new mode, input or map needs no bump: a group is reused only if its sockets
 #: are those the registries give it now (``_reuse``).  (The stone groups and the receptive
-#: weathered groups of docs/model.md §8 came new in build 7, which left every other group as it was.)
-BUILD_VERSION = 7
+#: weathered groups of docs/model.md §8 came new in build 7, which left every other group as it
+#: was; build 8 gave them the stone's uptake and deposit mix, §8.6–8.7.)
+BUILD_VERSION = 8
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -232,8 +233,9 @@ def weathered_group_name(modes, light_mode, receptive=False):
     return f"PW Weathered {'+'.join(mode.title() for mode in modes)}{receptive} ({light_mode.title()})"
 
 
-#: The input of a receptive weathered group: the stone's receptivity r (docs/model.md §8.3).
-RECEPTIVITY = "Receptivity"
+#: The inputs of a receptive weathered group: the stone's receptivity r (docs/model.md §8.3), its
+#: porosity field z_p and its variation v (docs/model.md §8.6, §8.7).
+RECEPTIVITY, FIELD, VARIATION = "Receptivity", "Porosity Field", "Variation"
 RECEPTIVITY_INPUT = {
     RECEPTIVITY: (
         "NodeSocketFloat",
@@ -241,8 +243,24 @@ RECEPTIVITY_INPUT = {
         0.0,
         10.0,
         "Receptivity r from the stone's structure: this point's pores fill r times as fast (1: the stone's mean)",
-    )
+    ),
+    FIELD: (
+        "NodeSocketFloat",
+        0.0,
+        -1.0,
+        1.0,
+        "The stone's porosity field z_p: where in the stone's spread this point takes up soot, water and salt",
+    ),
+    VARIATION: (
+        "NodeSocketFloat",
+        0.0,
+        0.0,
+        1.0,
+        "The stone's variation v: how far its fills and covers follow its field, and the deposit its colour",
+    ),
 }
+#: The stone node's outputs that feed a receptive weathered group, and the porous group.
+STONE_FEEDS = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", RECEPTIVITY, FIELD, VARIATION)
 
 
 def weathered_group(modes, light_mode, receptive=False):
@@ -264,7 +282,7 @@ def weathered_group(modes, light_mode, receptive=False):
             **(RECEPTIVITY_INPUT if receptive else {}),
         },
         outputs,
-        varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY},
+        varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY, FIELD},
     )
 
 
@@ -285,6 +303,8 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         modes,
         state,
         inputs.get(RECEPTIVITY),
+        inputs.get(FIELD),
+        inputs.get(VARIATION),
     )
     bsdf = diffuse_plus_glossy(graph, kd_w, ks_w, roughness)
     results = {"BSDF": bsdf, "Diffuse Weight": kd_w, "Specular Weight": ks_w}
@@ -326,8 +346,9 @@ STONE_OUTPUTS = {
     "Pore Depth Ratio": ("NodeSocketFloat", "s_p at this point"),
     "Roughness": ("NodeSocketFloat", "m at this point"),
     RECEPTIVITY: ("NodeSocketFloat", "r: how much faster than the mean this point's pores fill"),
-    "Porosity Field": ("NodeSocketFloat", "z_p in [-1, 1], the porosity field"),
+    FIELD: ("NodeSocketFloat", "z_p in [-1, 1], the porosity field"),
     "Colour Field": ("NodeSocketFloat", "z_c in [-1, 1], the colour field"),
+    VARIATION: ("NodeSocketFloat", "v, the variation in [0, 1]: what the weathering's uptake and deposit read"),
 }
 
 
@@ -381,8 +402,9 @@ def stone_body(graph, inputs, stone, block_draw_at=None):
         "Pore Depth Ratio": sp,
         "Roughness": m,
         RECEPTIVITY: stones.receptivity(NODE_OPS, stone, z_p, variation),
-        "Porosity Field": z_p,
+        FIELD: z_p,
         "Colour Field": z_c,
+        VARIATION: NODE_OPS.clip(variation, 0.0, 1.0),
     }
     return outputs if draw is None else {**outputs, "Block Field": draw}
 

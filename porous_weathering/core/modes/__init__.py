@@ -138,13 +138,18 @@ def weathered_weights(
     modes: Iterable[str],
     state: Mapping[str, Any],
     receptivity: Any = None,
+    field: Any = None,
+    variation: Any = None,
 ) -> tuple[Any, Any, Any]:
     """(k_d, k_s, k_water or None): the weights of the diffuse lobe, the glossy lobe (roughness
     m) and the near-mirror water lobe of a point weathered by ``modes`` (already checked);
     ``state`` holds every input they use.  At time 0 the weights are the porous ones exactly.
     ``receptivity`` (the stone's structure, docs/model.md §8.3; None: the model without it) scales
-    how fast the point's pores fill: every layer reads the local age min(r t, 1)."""
-    point = weathered_point(xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state, receptivity)
+    how fast the point's pores fill: every layer reads the local age min(r t, 1).  ``field`` (the
+    stone's porosity field z_p) and ``variation`` (its v) give the stone's uptake (docs/model.md §8.7):
+    every fill and cover is taken at the point's place in the stone; and ``variation`` the deposit's
+    mix with the stone's own colour (docs/model.md §8.6).  None: the model without them."""
+    point = weathered_point(xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state, receptivity, field, variation)
     return point.kd_w, point.ks_w, point.water_w
 
 
@@ -160,6 +165,8 @@ def weathered_point(
     modes: Iterable[str],
     state: Mapping[str, Any],
     receptivity: Any = None,
+    field: Any = None,
+    variation: Any = None,
 ) -> Point:
     """The weathered ``Point`` of ``weathered_weights``: its lobes' weights and the notes its
     layers leave (what the condition survey reads, docs/model.md §10)."""
@@ -175,6 +182,10 @@ def weathered_point(
     ka = 1.0 - xp.channel(ks) - kd
     kd_w, ks_w = porous.porous_weights(xp, kd, ks, alpha, gp, porous.pore_return(xp, kd, ks, sp, theta_i, theta_r))
     point = Point(kd, ka, m, sp, xp.channel(alpha * gp), theta_i, theta_r, n_dot_v, kd_w, ks_w, state)
+    if variation is not None:
+        point.variation = xp.clip(variation, 0.0, 1.0)
+        if field is not None:
+            point.spread = base.uptake_spread(xp, field, point.variation)
     layers = sorted((layer for name in modes for layer in _REGISTRY[name].layers), key=lambda layer: layer.stage)
     for layer in layers:
         layer.apply(xp, point)

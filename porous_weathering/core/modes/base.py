@@ -65,6 +65,10 @@ class Point:
     ks_w: Any  #: glossy weight (roughness m)
     state: dict  #: {input name: value}, clamped to each input's range
     water_w: Any = None  #: near-mirror water lobe weight; None while no layer made one
+    #: The stone's uptake spread v clamp(G z_p, -1, 1) at the point (docs/model.md §8.7); None: no stone.
+    spread: Any = None
+    #: The stone's variation v (docs/model.md §8.6); None: no stone.
+    variation: Any = None
     notes: dict = field(default_factory=dict)  #: what a mode's layers pass on to each other
 
 
@@ -151,6 +155,28 @@ def local_age(xp, time, receptivity):
     salt, water), the grey deposit, the streaks and the crust follow the stone's texture; t
     itself, bit for bit, at r = 1."""
     return xp.minimum(time * receptivity, 1.0)
+
+
+#: G: the gain that turns the stone's porosity field z_p into its uptake field clamp(G z_p, -1, 1)
+#: (docs/model.md §8.7): beyond |z_p| = 1/G a point takes up wholly faster or slower than the mean.
+UPTAKE_GAIN = 4.0
+
+
+def uptake_spread(xp, field, variation):
+    """s = v clamp(G z_p, -1, 1) (docs/model.md §8.7): the stone's uptake field at variation v, odd
+    in z_p, so of mean 0 over a field symmetric about 0."""
+    return variation * xp.clip(field * UPTAKE_GAIN, -1.0, 1.0)
+
+
+def local_share(xp, share, spread):
+    """The share (a fill or a cover, in [0, 1]) at a point of the stone (docs/model.md §8.7):
+    share + s min(share, 1 - share), so that the receptive part of the stone (s > 0) fills up to
+    twice as fast and the resistant part as much slower; in [0, 1], 0 at 0 and 1 at 1 at every
+    point, and of mean ``share`` over the stone (s of mean 0).  ``share`` itself without a stone
+    (``spread`` None) and at s = 0."""
+    if spread is None:
+        return share
+    return xp.multiply_add(spread, xp.minimum(share, 1.0 - share), share)
 
 
 def pore_fill(xp, mask, time, level, width):

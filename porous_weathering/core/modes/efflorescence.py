@@ -3,7 +3,7 @@ map (a height field from a photograph, or generated; without one, the water the 
 docs/model.md §7.2) is highest first."""
 
 from ..patterns import NSD, Pattern, shown
-from .base import FILL_SALT, FRONT_WIDTH, TIME, Input, Layer, Mode, blend, filled_absorption, pore_fill
+from .base import FILL_SALT, FRONT_WIDTH, TIME, Input, Layer, Mode, blend, filled_absorption, local_share, pore_fill
 
 EFFLORESCENCE_MAP = Input(
     "efflorescence_map",
@@ -31,7 +31,8 @@ def efflorescence_diffuse(xp, kd, salt_color, pore, ap, ks_poro):
 
 def fill_with_salt(xp, point):
     s = point.state
-    salt = pore_fill(xp, s["efflorescence_map"], s["time"], s["efflorescence_level"], s["front_width"])
+    fill = pore_fill(xp, s["efflorescence_map"], s["time"], s["efflorescence_level"], s["front_width"])
+    salt = local_share(xp, fill, point.spread)
     ap = filled_absorption(xp, point.ka, point.sp, salt, point.theta_i, point.theta_r)
     salty = efflorescence_diffuse(xp, point.kd, s["salt_color"], point.pore, ap, xp.channel(point.ks_w))
     point.kd_w = blend(xp, point.kd_w, salty, xp.channel(salt))

@@ -22,6 +22,7 @@ from .base import (
     blend,
     cover,
     filled_absorption,
+    local_share,
     past_saturation,
     pore_fill,
     water_of,
@@ -35,6 +36,12 @@ DEPOSIT_HALF_ROUGHNESS = 0.5
 #: black point of the limestone preset reflect it (ambient light, seen face on; tests/test_presets.py).
 CRUST_REFLECTANCE_RATIO = 0.2
 CRUST_DEFAULT = 0.8
+
+#: The stone the deposit colours are given on (docs/model.md §8.6): the limestone preset's k_d, linear
+#: RGB (#D6CDB8), on which every environment's deposit makes the sheltered grey area lose 30% of its
+#: reflectance at t = 1 (core/environments.py).  On another stone the same deposit filters that
+#: stone's own colour as it filters this one's.
+DEPOSIT_REFERENCE_STONE = (0.6724431569576875, 0.6104955708078648, 0.4793201831008268)
 
 #: The streaks' default: chosen so that the façade's dirty tails read (to be checked on pictures).
 STREAKS_DEFAULT = 0.5
@@ -117,7 +124,8 @@ def fill_with_carbon(xp, point):
     """The black area: carbon fills the sheltered pores from the highest edge mask down."""
     s = point.state
     sheltered = sheltered_fraction(xp, water_of(xp, s), s["rain_threshold"], s["front_width"])
-    carbon = sheltered * pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
+    fill = pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
+    carbon = sheltered * local_share(xp, fill, point.spread)
     ap = filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
     point.kd_w = blend(
         xp, point.kd_w, polluted_diffuse(xp, point.kd, s["pollution_color"], point.pore, ap), xp.channel(carbon)
@@ -125,10 +133,22 @@ def fill_with_carbon(xp, point):
     point.notes["sheltered"] = sheltered
 
 
-def crust_coverage(xp, sheltered, edge_map, time, level, width, crust):
+def crust_coverage(xp, sheltered, edge_map, time, level, width, crust, spread=None):
     """c (docs/model.md §6): ``crust`` times how far the black area's carbon fill has progressed past
-    saturation; ``crust`` itself at a fully black point (sheltered, mask 1) at t = 1, level 1."""
-    return crust * sheltered * past_saturation(xp, edge_map, time, level, width)
+    saturation (at the point of the stone: docs/model.md §8.7); ``crust`` itself at a fully black
+    point (sheltered, mask 1) at t = 1, level 1."""
+    return crust * sheltered * local_share(xp, past_saturation(xp, edge_map, time, level, width), spread)
+
+
+def deposit_seen(xp, kd, deposit_color, variation):
+    """What a full cover of the deposit shows (docs/model.md §8.6): its colour as the reference
+    limestone shows it, or, by the stone's ``variation`` v, the stone's own k_d seen through it as
+    through a filter of transmittance min(D / K_ref, 1) (a subtractive mix; a film transmits at
+    most all): mix(v, D, k_d min(D / K_ref, 1)).  D itself without a stone (``variation`` None)."""
+    if variation is None:
+        return deposit_color
+    transmittance = xp.minimum(deposit_color * tuple(1.0 / k for k in DEPOSIT_REFERENCE_STONE), 1.0)
+    return xp.mix(xp.channel(variation), deposit_color, kd * transmittance)
 
 
 def lay_deposit(xp, point):
@@ -141,7 +161,8 @@ def lay_deposit(xp, point):
     coverage = deposit_coverage(sheltered, point.m, s["time"], s["soiling_level"])
     tail = streak_tail(xp, s["runoff_map"], s["runoff"], s["rain_threshold"])
     streak = streak_coverage(xp, tail, sheltered, s["time"], s["soiling_level"], s["streaks"])
-    cover(xp, point, s["deposit_color"], xp.multiply_add(streak, 1.0 - coverage, coverage))
+    share = local_share(xp, xp.multiply_add(streak, 1.0 - coverage, coverage), point.spread)
+    cover(xp, point, deposit_seen(xp, point.kd, s["deposit_color"], point.variation), share)
 
 
 def lay_crust(xp, point):
@@ -149,7 +170,14 @@ def lay_crust(xp, point):
     deposit, water, salt), last of all layers."""
     s = point.state
     coverage = crust_coverage(
-        xp, point.notes["sheltered"], s["edge_map"], s["time"], s["soiling_level"], s["front_width"], s["crust"]
+        xp,
+        point.notes["sheltered"],
+        s["edge_map"],
+        s["time"],
+        s["soiling_level"],
+        s["front_width"],
+        s["crust"],
+        point.spread,
     )
     cover(xp, point, s["pollution_color"], coverage)
     point.notes["crust"] = coverage

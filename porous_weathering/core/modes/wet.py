@@ -20,6 +20,7 @@ from .base import (
     Mode,
     blend,
     filled_absorption,
+    local_share,
     pore_fill,
     water_of,
 )
@@ -90,7 +91,7 @@ def water_transmittance(xp, n_dot_v):
 
 def fill_with_water(xp, point):
     s = point.state
-    water = pore_fill(xp, water_of(xp, s), s["time"], s["wet_level"], s["front_width"])
+    water = local_share(xp, pore_fill(xp, water_of(xp, s), s["time"], s["wet_level"], s["front_width"]), point.spread)
     ap = filled_absorption(xp, point.ka, point.sp, water, point.theta_i, point.theta_r)
     kd_wet, water_lobe = wet_weights(xp, point.kd, xp.channel(s["water_specular"]), point.pore, ap)
     point.kd_w = blend(xp, point.kd_w, kd_wet, xp.channel(water))
