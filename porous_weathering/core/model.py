@@ -239,6 +239,7 @@ def weathered_coefficients(
     modes: Iterable[str] | None = None,
     *,
     receptivity: ArrayLike | None = None,
+    fields: Mapping[str, tuple[ArrayLike, ...]] | None = None,
     **state: ArrayLike,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k_d, k_s, k_water): the weights of the diffuse lobe, the glossy lobe (roughness m)
@@ -251,6 +252,9 @@ def weathered_coefficients(
     deposit over them and the black crust over everything; ``crust=0, wet_darkening=0`` give
     the paper's equations exactly (docs/model.md §6).  ``receptivity`` (docs/model.md §8.3; None:
     without the stone's structure, as r = 1) makes each point's pores fill r times as fast.
+    ``fields`` holds what a shader reads from the point's place and the modes' records name
+    (``Mode.fields``): the biological mode's ``lichen_seeds``, (distance to the nearest seed in
+    cells, that seed's value), read back from a render (docs/model.md §9.3); without it, no lichen.
     """
     modes = weathering_modes(_modes.names() if modes is None else modes)
     state = weathering_state(modes, state)
@@ -270,5 +274,6 @@ def weathered_coefficients(
         modes,
         state,
         None if receptivity is None else sanitize("receptivity", receptivity),
+        {name: tuple(np.asarray(x, dtype=np.float64) for x in value) for name, value in (fields or {}).items()},
     )
     return kd_w, ks_w, np.zeros_like(kd_w) + (0.0 if water_w is None else water_w)

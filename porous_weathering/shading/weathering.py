@@ -88,6 +88,8 @@ def make_weathered_material(
         graph = Graph(new.node_tree)
         for input_socket, value in values.items():
             group_node.inputs[input_socket].default_value = value
+        if "Metres Per Unit" in group_node.inputs:  # a mode reads the point's place (docs/model.md §9.3)
+            group_node.inputs["Metres Per Unit"].default_value = material.metres_per_unit()
         for input_name, value in state.items():
             set_input(group_node, input_name, value)
         for mask, source in linked.items():

@@ -9,7 +9,7 @@ from collections.abc import Iterable, Mapping
 from typing import Any
 
 from .. import porous
-from . import base, efflorescence, soiling, wet
+from . import base, biological, efflorescence, soiling, wet
 from .base import WATER_ROUGHNESS, Input, Layer, Mode, Point
 
 __all__ = [
@@ -101,15 +101,18 @@ def weathered_weights(
     modes: Iterable[str],
     state: Mapping[str, Any],
     receptivity: Any = None,
+    fields: Mapping[str, Any] | None = None,
 ) -> tuple[Any, Any, Any]:
     """(k_d, k_s, k_water or None): the weights of the diffuse lobe, the glossy lobe (roughness
     m) and the near-mirror water lobe of a point weathered by ``modes`` (already checked);
     ``state`` holds every input they use.  At time 0 the weights are the porous ones exactly.
     ``receptivity`` (the stone's structure, docs/model.md §8.3; None: the model without it) scales
-    how fast the point's pores fill: every layer reads the local age min(r t, 1)."""
+    how fast the point's pores fill: every layer reads the local age min(r t, 1).  ``fields`` holds
+    the per-point values the modes' records name in ``Mode.fields`` (docs/model.md §9.3)."""
     state = {item.name: xp.clip(state[item.name], item.low, item.high) for item in inputs_of(modes)}
-    if receptivity is not None and "time" in state:
-        state["time"] = base.local_age(xp, state["time"], xp.maximum(receptivity, 0.0))
+    receptivity = 1.0 if receptivity is None else xp.maximum(receptivity, 0.0)
+    if "time" in state and not (isinstance(receptivity, float) and receptivity == 1.0):
+        state["time"] = base.local_age(xp, state["time"], receptivity)
     kd, ks = porous.valid_albedo(xp, kd, ks)
     m = xp.maximum(m, 0.0)
     alpha = xp.clip(alpha, 0.0, 1.0)
@@ -119,11 +122,12 @@ def weathered_weights(
     ka = 1.0 - xp.channel(ks) - kd
     kd_w, ks_w = porous.porous_weights(xp, kd, ks, alpha, gp, porous.pore_return(xp, kd, ks, sp, theta_i, theta_r))
     point = Point(kd, ka, m, sp, xp.channel(alpha * gp), theta_i, theta_r, n_dot_v, kd_w, ks_w, state)
+    point.receptivity, point.fields = receptivity, dict(fields or {})
     layers = sorted((layer for name in modes for layer in _REGISTRY[name].layers), key=lambda layer: layer.stage)
     for layer in layers:
         layer.apply(xp, point)
     return point.kd_w, point.ks_w, point.water_w
 
 
-for _mode in (soiling.MODE, wet.MODE, efflorescence.MODE):
+for _mode in (soiling.MODE, wet.MODE, efflorescence.MODE, biological.MODE):
     register(_mode)
