@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 from . import modes as weathering_modes
 from .arguments import choice
+from .modes.biological import LICHEN_DENSITY
 from .modes.soiling import CRUST_DEFAULT, POLLUTION_COLOR
 
 #: The environment a heritage team in a city gets: the panel's and make_weathered_material's default.
@@ -33,6 +34,10 @@ class Environment:
     efflorescence_level: float
     #: The carbon in the pores and the crust: soot, the same everywhere.
     pollution_color: tuple = POLLUTION_COLOR.default
+    #: Life (docs/model.md §9.4): how much the site allows (the algae's biomass, the lichens'
+    #: establishment), and the lichen seeds per m² its air lets establish (none in polluted air).
+    biological_level: float = 1.0
+    lichen_density: float = LICHEN_DENSITY.default
 
     def weathering(self, crust: float = CRUST_DEFAULT) -> dict:
         """{input: value} this site sets, with ``crust`` the stone's (the API default 0.8)."""
@@ -42,6 +47,8 @@ class Environment:
             crust=round(crust * self.crust_factor, 4),
             streaks=self.streaks,
             efflorescence_level=self.efflorescence_level,
+            biological_level=self.biological_level,
+            lichen_density=self.lichen_density,
         )
 
 
@@ -54,6 +61,8 @@ ENVIRONMENTS = {
         crust_factor=1.0,
         streaks=0.5,
         efflorescence_level=1.0,
+        biological_level=0.4,
+        lichen_density=0.0,
     ),
     "SUBURBAN": Environment(
         "Suburban",
@@ -63,6 +72,8 @@ ENVIRONMENTS = {
         crust_factor=0.6,
         streaks=0.4,
         efflorescence_level=0.8,
+        biological_level=0.7,
+        lichen_density=50.0,
     ),
     "RURAL": Environment(
         "Rural",

@@ -55,6 +55,10 @@ LICHEN_LAG_YEARS = 1.5
 LIGHT_NEEDED = 0.25
 LICHEN_RIM = 3e-4
 SEED_RIM = 0.02
+#: One seed per Voronoi cell covers more than the Boolean model of the same density (its thalli
+#: overlap less): drawn with r / sqrt(1 + CROWDING lambda pi r^2), the cover is the Boolean law's
+#: within 0.015 for lambda pi r^2 up to 4 (docs/model.md §9.3, measured by benchmarks/lichen_cover.py).
+CROWDING = 0.26
 #: The least density taken (per m²), so that the seeds' cells stay finite (one per hectare: none seen).
 LEAST_DENSITY = 1e-4
 
@@ -187,11 +191,20 @@ def lichen_suitability(xp, state):
     return state["biological_level"] * humid(xp, wetness(xp, state)) * lit
 
 
+def crowded_radius(xp, radius, density):
+    """The radius a thallus of radius r is drawn with among seeds one per cell, so that their
+    cover follows the Boolean model 1 - exp(-u), u = lambda pi r^2 (docs/model.md §9.3):
+    r / sqrt(1 + CROWDING u)."""
+    return radius / xp.power(1.0 + (CROWDING * math.pi) * (density * radius * radius), 0.5)
+
+
 def lichen_cover(xp, state, distance, seed):
     """The thallus cover at a point ``distance`` cells from the nearest seed, whose value is
-    ``seed``: the seed established (its value under L), and the point within r(years) of it."""
-    spacing = 1.0 / xp.power(xp.maximum(state["lichen_density"], LEAST_DENSITY), 0.5)  # metres per cell
-    radius = lichen_radius(xp, state)
+    ``seed``: the seed established (its value under L), and the point within r(years) of it
+    (crowded_radius)."""
+    density = xp.maximum(state["lichen_density"], LEAST_DENSITY)
+    spacing = 1.0 / xp.power(density, 0.5)  # metres per cell
+    radius = crowded_radius(xp, lichen_radius(xp, state), density)
     inside = 1.0 - xp.smoothstep(radius - LICHEN_RIM, radius, distance * spacing)
     established = xp.smoothstep(seed, seed + SEED_RIM, lichen_suitability(xp, state))
     return inside * established
