@@ -22,7 +22,17 @@ from porous_weathering.core import modes as weathering_modes
 from porous_weathering.samples import studio
 
 PRESETS_DOC = pathlib.Path(__file__).resolve().parent.parent / "docs" / "presets.md"
-COLUMNS = ("label", "key", "elemental_carbon", "deposit_color", "crust_factor", "streaks", "efflorescence_level")
+COLUMNS = (
+    "label",
+    "key",
+    "elemental_carbon",
+    "deposit_color",
+    "crust_factor",
+    "streaks",
+    "efflorescence_level",
+    "biological_level",
+    "lichen_density",
+)
 
 
 def documented_environments():

@@ -186,12 +186,19 @@ def test_panel_weathering_values_come_from_the_registry_and_the_stone(registered
     picking a stone sets the preset's values; Make passes them to the modes that use them."""
     settings = fresh_scene.porous_weathering
     shown = [item for item in weathering_modes.inputs().values() if item.panel]
-    assert {item.name for item in shown} == {"crust", "wet_darkening", "runoff", "streaks"}
+    assert {item.name for item in shown} == {
+        "crust",
+        "wet_darkening",
+        "runoff",
+        "streaks",
+        "biological_level",
+        "lichen_density",
+    }
     for item in shown:
         prop = settings.bl_rna.properties[item.name]
         assert prop.description == item.tooltip and (prop.hard_min, prop.hard_max) == (item.low, item.high)
-        assert getattr(settings, item.name) == pytest.approx(
-            presets.PRESETS[ui_settings.DEFAULT_SOURCE].panel_weathering()[item.name]
+        assert getattr(settings, item.name) == pytest.approx(  # the stone's, then the default site's
+            presets.weathering_values(ui_settings.DEFAULT_SOURCE, presets.DEFAULT_ENVIRONMENT)[item.name]
         )
     settings.source = "BRICK"
     assert settings.crust == pytest.approx(presets.PRESETS["BRICK"].weathering["crust"])

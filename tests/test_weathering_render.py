@@ -29,6 +29,8 @@ from helpers import (
     weathered,
 )
 from porous_weathering.core import model
+from porous_weathering.core.backends import NumpyOps
+from porous_weathering.core.modes import biological
 from porous_weathering.samples import studio
 from porous_weathering.shading import nodes, weathering
 
@@ -267,3 +269,63 @@ def test_time_is_one_keyframe_pair(fresh_scene):
     fresh_scene.frame_set(101)
     assert socket.default_value == pytest.approx(1.0)
     assert material.node_tree.nodes["Porous"].inputs["Soiling Level"].default_value == pytest.approx(0.9)
+
+
+#: Life on the plane (docs/model.md §9.3): a sun map across it, lichens large enough to span pixels
+#: (4 seeds per m², 20 mm a year across: thalli 0.37 m across on the 2 m plane), algae part way.
+BIOLOGICAL_STATE = dict(
+    biological_years=20.0, lichen_density=4.0, lichen_growth=20.0, damp_map=0.3, rain_map=0.2, runoff_map=0.0
+)
+
+
+def lichen_seed_probe(plane):
+    """(distance in cells, seed value) per pixel of the plane facing +Z, from a 2D Voronoi texture of
+    the same seeds built here (docs/model.md §9.3: the x-y plane, shifted by the plane offset), not
+    through the shading code."""
+    spacing = BIOLOGICAL_STATE["lichen_density"] ** 0.5
+
+    def build(graph, geometry):
+        position = graph.node("ShaderNodeSeparateXYZ", {"Vector": geometry.outputs["Position"]})
+        shifted = graph.wrap(position.outputs["Y"]) + biological.PLANE_OFFSET
+        place = graph.node("ShaderNodeCombineXYZ", {"X": position.outputs["X"], "Y": shifted, "Z": 0.0})
+        voronoi = graph.node(
+            "ShaderNodeTexVoronoi", {"Vector": place.outputs[0], "Scale": spacing}, voronoi_dimensions="2D"
+        )
+        seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})  # the cell's own value
+        both = graph.node("ShaderNodeCombineXYZ", {"X": voronoi.outputs["Distance"], "Y": seed.outputs["Red"]})
+        return both.outputs[0]
+
+    probe = plane.render(studio.emission_probe("Seed Probe", build))
+    return probe[..., 0], probe[..., 1]
+
+
+def test_biological_matches_model(fresh_scene):
+    """Algae and lichens on a plane under a sun map: the model's pixels, given the sun map and the
+    lichen seeds read back from probe renders; level 0 renders the plain porous material bit for bit."""
+    plane = MaskedPlane(fresh_scene)
+    sun = gradient_image("Sun", np.tile(np.linspace(0.0, 1.0, 16), (16, 1)))
+    image = plane.render(weathered("Life", ("biological",), key_light=plane.sun, sun_map=sun, **BIOLOGICAL_STATE))
+    covered = image[..., 3] > 0.999
+    sun_map = plane.probe(sun)
+    seeds = lichen_seed_probe(plane)
+    n_dot_l = np.dot(np.array(plane.sun.matrix_world.to_3x3().col[2]), (0.0, 0.0, 1.0))
+    weights = model.weathered_coefficients(
+        *(STONE[key] for key in ("base_color", "ks", "roughness", "porosity", "pore_depth_ratio")),
+        n_dot_l,
+        1.0,
+        ("biological",),
+        fields={biological.LICHEN_SEEDS: seeds},
+        sun_map=sun_map,
+        **BIOLOGICAL_STATE,
+    )
+    state = {**model.weathering_state("biological", BIOLOGICAL_STATE), "sun_map": sun_map}
+    xp = NumpyOps(colour=False)
+    lichen = biological.lichen_cover(xp, state, *seeds)
+    unreached = biological.lichen_cover(xp, state, np.zeros_like(seeds[0]), seeds[1]) < 0.5  # seeds too high for L
+    assert 0.1 < lichen[covered].mean() < 0.9 and 0.1 < unreached[covered].mean() < 0.9
+    assert_matches(image, expected_image(weights, lobes(plane.render, STONE["roughness"])), covered)
+    off = plane.render(
+        weathered("Off", ("biological",), key_light=plane.sun, sun_map=sun, **BIOLOGICAL_STATE, biological_level=0.0)
+    )
+    clean = plane.render(pw.make_porous_material("Clean", key_light=plane.sun, **STONE))
+    assert np.array_equal(off, clean)

@@ -1,5 +1,6 @@
 """Time in years: the weathering time t from years of exposure at an elemental-carbon concentration,
-by a published soiling law of surfaces sheltered from rain (docs/weathering.md, "Time in years").
+by a published soiling law of surfaces sheltered from rain (docs/weathering.md, "Time in years"),
+and the biological clock beside it (``ages_for_years``, docs/model.md §9.4).
 
 t = 1 is defined in reflectance terms: the sheltered (grey) surface has lost
 ``LOSS_AT_FULL_AGE`` (30%) of its reflectance, the loss Pio, Ramos & Duarte (1998) take as calling
@@ -9,6 +10,7 @@ for cleaning.  The model's grey area darkens linearly in t, so t is the loss ove
 import math
 
 from .arguments import choice, real_number
+from .modes.biological import BIOLOGICAL_YEARS
 
 #: Reflectance loss of a sheltered surface at t = 1 (Pio et al. 1998: 30% calls for cleaning).
 LOSS_AT_FULL_AGE = 0.30
@@ -60,3 +62,15 @@ def years_for_age(age: float, elemental_carbon: float, law: str = "sqrt") -> flo
     else:
         ratio = math.log1p(-loss) / math.log1p(-LOSS_AT_FULL_AGE) if loss else 0.0
     return ratio * years_for_full_age(elemental_carbon)
+
+
+def ages_for_years(years: float, elemental_carbon: float, law: str = "sqrt") -> dict:
+    """{clock input: value} after ``years`` at a site (docs/model.md §9.4): the soiling's t
+    (``age_for_years``: soot accumulates with the dose, years x concentration) and the biological
+    clock, the years themselves (life's pace is set by water and light, not by soot; a site's air
+    sets how much life there is, its level and lichen density), capped at its input's range.
+    ValueError as ``age_for_years``."""
+    return dict(
+        time=age_for_years(years, elemental_carbon, law),
+        biological_years=min(float(years), BIOLOGICAL_YEARS.high),
+    )

@@ -241,6 +241,7 @@ def weathered_coefficients(
     receptivity: ArrayLike | None = None,
     field: ArrayLike | None = None,
     variation: ArrayLike | None = None,
+    fields: Mapping[str, tuple[ArrayLike, ...]] | None = None,
     **state: ArrayLike,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k_d, k_s, k_water): the weights of the diffuse lobe, the glossy lobe (roughness m)
@@ -256,6 +257,9 @@ def weathered_coefficients(
     ``field`` (the stone's porosity field z_p, in [-1, 1]) and ``variation`` (v) take every fill and
     cover at the point's place in the stone (docs/model.md §8.7), and ``variation`` mixes the deposit
     with the stone's own colour (docs/model.md §8.6); None: without them.
+    ``fields`` holds what a shader reads from the point's place and the modes' records name
+    (``Mode.fields``): the biological mode's ``lichen_seeds``, (distance to the nearest seed in
+    cells, that seed's value), read back from a render (docs/model.md §9.3); without it, no lichen.
     """
     point = weathered_point(
         kd,
@@ -269,6 +273,7 @@ def weathered_coefficients(
         receptivity=receptivity,
         field=field,
         variation=variation,
+        fields=fields,
         **state,
     )
     water_w = point.water_w
@@ -288,6 +293,7 @@ def weathered_point(
     receptivity: ArrayLike | None = None,
     field: ArrayLike | None = None,
     variation: ArrayLike | None = None,
+    fields: Mapping[str, tuple[ArrayLike, ...]] | None = None,
     **state: ArrayLike,
 ) -> _modes.Point:
     """The weathered point of ``weathered_coefficients`` (same arguments, checked alike): its
@@ -313,4 +319,5 @@ def weathered_point(
         None if receptivity is None else sanitize("receptivity", receptivity),
         None if field is None else sanitize("field", field, -1.0, 1.0),
         None if variation is None else sanitize("variation", variation, 0.0, 1.0),
+        {name: tuple(np.asarray(x, dtype=np.float64) for x in value) for name, value in (fields or {}).items()},
     )

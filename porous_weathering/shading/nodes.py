@@ -16,6 +16,7 @@ from ..contracts import BUILD_VERSION_PROPERTY
 from ..core import modes as weathering_modes
 from ..core import porous, stones
 from ..core.backends import NODE_OPS
+from ..core.modes import biological
 from ..core.shader_math import Graph, dot, normalize
 
 #: The node builder's build: bumped when it builds the same sockets with other maths, so old
@@ -233,6 +234,17 @@ def weathered_group_name(modes, light_mode, receptive=False):
     return f"PW Weathered {'+'.join(mode.title() for mode in modes)}{receptive} ({light_mode.title()})"
 
 
+#: The scene's unit scale: what a group that reads the point's place in metres needs.
+METRES_PER_UNIT_INPUT = {
+    "Metres Per Unit": (
+        "NodeSocketFloat",
+        1.0,
+        1e-9,
+        1e9,
+        "The scene's unit scale (Scene > Units > Unit Scale): the structure's sizes are in metres",
+    ),
+}
+
 #: The inputs of a receptive weathered group: the stone's receptivity r (docs/model.md §8.3), its
 #: porosity field z_p and its variation v (docs/model.md §8.6, §8.7).
 RECEPTIVITY, FIELD, VARIATION = "Receptivity", "Porosity Field", "Variation"
@@ -280,6 +292,7 @@ def weathered_group(modes, light_mode, receptive=False):
             **_light_input(light_mode),
             **weathering_inputs(modes),
             **(RECEPTIVITY_INPUT if receptive else {}),
+            **(METRES_PER_UNIT_INPUT if _fields_of(modes) else {}),
         },
         outputs,
         varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY, FIELD},
@@ -305,6 +318,7 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         inputs.get(RECEPTIVITY),
         inputs.get(FIELD),
         inputs.get(VARIATION),
+        {name: FIELDS[name](graph, inputs) for name in _fields_of(modes)},
     )
     bsdf = diffuse_plus_glossy(graph, kd_w, ks_w, roughness)
     results = {"BSDF": bsdf, "Diffuse Weight": kd_w, "Specular Weight": ks_w}
@@ -315,6 +329,42 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         results["BSDF"] = graph.node("ShaderNodeAddShader", [bsdf, water.outputs[0]]).outputs[0]
         results["Water Weight"] = water_w
     return results
+
+
+def _fields_of(modes):
+    """The per-point fields ``modes`` read (``Mode.fields``), each once."""
+    return tuple(dict.fromkeys(name for mode in modes for name in weathering_modes.get(mode).fields))
+
+
+def lichen_seeds(graph, inputs):
+    """(distance to the nearest seed in cells, that seed's value in [0, 1)) of the lichens
+    (docs/model.md §9.3): a 2D Voronoi texture of one seed per cell of side 1/sqrt(lambda) metres, on
+    the world plane the surface faces most (x-y for tops, x-z for faces along x, y-z for faces along
+    y: a thallus on any face is a disc of radius r), each plane its own seeds."""
+    normal = graph.node("ShaderNodeNewGeometry", depth=0).outputs["Normal"]
+    n = graph.node("ShaderNodeSeparateXYZ", {"Vector": normal})
+    ax, ay, az = (graph.math("ABSOLUTE", graph.wrap(n.outputs[axis])) for axis in "XYZ")
+    faces_z = graph.math("GREATER_THAN", az, NODE_OPS.maximum(ax, ay) - 1e-6)  # 1 on tops and bottoms
+    faces_x = (1.0 - faces_z) * graph.math("GREATER_THAN", ax, ay)  # 1 on faces along y (normal along x)
+    metres = graph.node("ShaderNodeSeparateXYZ", {"Vector": point_in_metres(graph, inputs)})
+    x, y, z = (graph.wrap(metres.outputs[axis]) for axis in "XYZ")
+    u = NODE_OPS.mix(faces_x, x, y) + faces_x * biological.PLANE_OFFSET
+    v = NODE_OPS.mix(faces_z, z, y) + faces_z * biological.PLANE_OFFSET
+    density = NODE_OPS.maximum(inputs[biological.LICHEN_DENSITY.socket], biological.LEAST_DENSITY)
+    place = graph.node("ShaderNodeCombineXYZ", {"X": u, "Y": v, "Z": 0.0})
+    voronoi = graph.node(
+        "ShaderNodeTexVoronoi",
+        {"Vector": place.outputs[0], "Scale": NODE_OPS.power(density, 0.5)},
+        voronoi_dimensions="2D",
+        feature="F1",
+        distance="EUCLIDEAN",
+    )
+    seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})
+    return graph.wrap(voronoi.outputs["Distance"]), graph.wrap(seed.outputs["Red"])
+
+
+#: The shader's builder of each per-point field a mode's record names (``Mode.fields``).
+FIELDS = {biological.LICHEN_SEEDS: lichen_seeds}
 
 
 # --- the stone's own structure (docs/model.md §8) -----------------------------------------------
@@ -332,13 +382,7 @@ STONE_INPUTS = {
         1.0,
         "How much of the stone's structure shows: 0 is the uniform material, 1 the stone as it shows it",
     ),
-    "Metres Per Unit": (
-        "NodeSocketFloat",
-        1.0,
-        1e-9,
-        1e9,
-        "The scene's unit scale (Scene > Units > Unit Scale): the structure's sizes are in metres",
-    ),
+    **METRES_PER_UNIT_INPUT,
 }
 STONE_OUTPUTS = {
     "Base Color": ("NodeSocketColor", "k_d at this point"),

@@ -16,7 +16,7 @@ from ..common.imageio import UV_MAP_KEY
 from ..contracts import GROUP_NODE, LIGHT_MODE_PROPERTY, MODES_PROPERTY, socket_name
 from ..core import environments, model, stones
 from ..core import modes as weathering_modes
-from ..core.aging import age_for_years  # noqa: F401  (public: docs/api.md, porous_weathering.weathering)
+from ..core.aging import age_for_years, ages_for_years  # noqa: F401  (public: docs/api.md, porous_weathering.weathering)
 from ..core.arguments import choice, real_number
 from ..core.shader_math import Graph
 from . import material, nodes
@@ -89,6 +89,8 @@ def make_weathered_material(
         graph = Graph(new.node_tree)
         for input_socket, value in values.items():
             group_node.inputs[input_socket].default_value = value
+        if "Metres Per Unit" in group_node.inputs:  # a mode reads the point's place (docs/model.md §9.3)
+            group_node.inputs["Metres Per Unit"].default_value = material.metres_per_unit()
         for input_name, value in state.items():
             set_input(group_node, input_name, value)
         for mask, source in linked.items():
@@ -168,7 +170,8 @@ def animate_years(
 ) -> None:
     """Keyframe the time so that the frame range spans ``years`` of exposure (0 at ``frame_start``)
     at ``elemental_carbon`` µg/m³: t follows ``age_for_years`` (the square root of the dose by
-    default, not a straight line), one keyframe per frame up to YEAR_KEYFRAMES of them.
+    default, not a straight line), one keyframe per frame up to YEAR_KEYFRAMES of them; the
+    biological clock, if the material has it, the years themselves (``ages_for_years``).
     ValueError for an empty frame range or bad years, concentration or law, before any keyframe."""
     _check_frame_range(frame_start, frame_end)
     age_for_years(years, elemental_carbon, law)  # checks the arguments
@@ -180,8 +183,11 @@ def animate_years(
     )
     # every age before the first keyframe; the share of the range first: years x frames overflows
     span = frame_end - frame_start
-    ages = [age_for_years(years * ((frame - frame_start) / span), elemental_carbon, law) for frame in frames]
-    _keyframe(material_, "time", zip(frames, ages))
+    ages = [ages_for_years(years * ((frame - frame_start) / span), elemental_carbon, law) for frame in frames]
+    group = material_.node_tree.nodes[GROUP_NODE]
+    for clock in ages[0]:  # the clocks the material's modes have (docs/model.md §9.4)
+        if socket_name(clock) in group.inputs:
+            _keyframe(material_, clock, zip(frames, (age[clock] for age in ages)))
 
 
 def mask_source(mask: str, value: MaskValue) -> float | str | bpy.types.Image:

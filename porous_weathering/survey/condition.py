@@ -245,6 +245,13 @@ class _Surveyed:
 
 def _steps(objects, options, out_dir, name, paths):
     stages = options.stages()
+    carbon = environments.get(options.environment).elemental_carbon
+
+    def clocks(years, t):
+        """{clock input: value} at an age (docs/model.md §9.4): t, and the clocks counted in years,
+        from the years asked for, or those after which the site reaches t."""
+        return {**aging.ages_for_years(aging.years_for_age(t, carbon) if years is None else years, carbon), "time": t}
+
     total = len(objects) * (1 + len(stages) + len(forecast.FORECAST_AGES)) + 1
     done = 0
     # without matplotlib (Blender's own Python, until it is installed there) the tables are written
@@ -267,15 +274,17 @@ def _steps(objects, options, out_dir, name, paths):
         faces = condition.faces_of(found.normals, options.north_vector())
         done += 1
         tallies = []
-        for _, t in stages:
+        for years, t in stages:
             yield Step(done / total, f"{obj.name}: t = {t:.4g}")
-            tallies.append(tally.tally(found, materials, patterns, t, faces, per_triangle=drawn))
+            tallies.append(tally.tally(found, materials, patterns, clocks(years, t), faces, per_triangle=drawn))
             done += 1
         ahead, read = [], forecast.triangles(len(found.areas_m2))
         for t in forecast.FORECAST_AGES:
             yield Step(done / total, f"{obj.name}: forecast, t = {t:.4g}")
             ahead.append(
-                tally.tally(found, materials, patterns, t, faces, triangles=read, target=forecast.FORECAST_SAMPLES)
+                tally.tally(
+                    found, materials, patterns, clocks(None, t), faces, triangles=read, target=forecast.FORECAST_SAMPLES
+                )
             )
             done += 1
         surveyed.append(_Surveyed(obj, found, materials, patterns, tallies, forecast.forecast(patterns, ahead)))

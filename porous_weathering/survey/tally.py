@@ -38,14 +38,15 @@ def tally(
     found,
     materials: dict,
     patterns: tuple,
-    t: float,
+    clocks: dict,
     faces: np.ndarray,
     *,
     per_triangle: bool = False,
     triangles: np.ndarray | None = None,
     target: int = points.TARGET_SAMPLES,
 ) -> Tally:
-    """The ``Tally`` of ``found`` (``points.Surface``) at age ``t``; ``materials`` {slot: Material},
+    """The ``Tally`` of ``found`` (``points.Surface``) at the age ``clocks`` ({clock input: value}:
+    ``time`` t and the clocks in years, docs/model.md §9.4); ``materials`` {slot: Material},
     ``faces`` the face index of each triangle; ``per_triangle``: find each triangle's pattern too.
     ``triangles`` (default: all) and about ``target`` sample points on them: a coarser tally
     (the forecast's, which reads shares of faces)."""
@@ -66,8 +67,9 @@ def tally(
             for start in range(0, len(chosen), step):
                 triangles = chosen[start : start + step]
                 inputs = {key: read(triangles, bary) for key, read in material.readers.items()}
-                if "time" in inputs:  # a material without modes has no age
-                    inputs["time"] = np.full((len(triangles), len(bary)), float(t))
+                for clock, value in clocks.items():  # t, and the clocks in years (a material may have none)
+                    if clock in inputs:
+                        inputs[clock] = np.full((len(triangles), len(bary)), float(value))
                 stone = [inputs.pop(key) for key in points.STONE_INPUTS]
                 index, loss = condition.classify(*stone, material.modes, **inputs)
                 index = local[index]

@@ -9,6 +9,7 @@ import bpy
 from ..contracts import GROUP_NODE
 from ..core import aging, environments, stones
 from ..core import modes as weathering_modes
+from ..core.modes.biological import BIOLOGICAL_YEARS
 from ..shading import presets
 
 #: The Stone choice that keeps the object's own material (its base colour and roughness images).
@@ -43,6 +44,11 @@ def _apply_years(settings, context):
     socket = time_socket(active_material(context))
     if socket is not None:
         socket.default_value = settings.age()
+        clock = socket.node.inputs.get(BIOLOGICAL_YEARS.socket)  # the biological clock (docs/model.md §9.4)
+        if clock is not None:
+            clock.default_value = aging.ages_for_years(settings.years, settings.elemental_carbon())[
+                BIOLOGICAL_YEARS.name
+            ]
 
 
 class SettingsBase:

@@ -140,6 +140,7 @@ def weathered_weights(
     receptivity: Any = None,
     field: Any = None,
     variation: Any = None,
+    fields: Mapping[str, Any] | None = None,
 ) -> tuple[Any, Any, Any]:
     """(k_d, k_s, k_water or None): the weights of the diffuse lobe, the glossy lobe (roughness
     m) and the near-mirror water lobe of a point weathered by ``modes`` (already checked);
@@ -148,8 +149,11 @@ def weathered_weights(
     how fast the point's pores fill: every layer reads the local age min(r t, 1).  ``field`` (the
     stone's porosity field z_p) and ``variation`` (its v) give the stone's uptake (docs/model.md §8.7):
     every fill and cover is taken at the point's place in the stone; and ``variation`` the deposit's
-    mix with the stone's own colour (docs/model.md §8.6).  None: the model without them."""
-    point = weathered_point(xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state, receptivity, field, variation)
+    mix with the stone's own colour (docs/model.md §8.6).  None: the model without them.  ``fields``
+    holds the per-point values the modes' records name in ``Mode.fields`` (docs/model.md §9.3)."""
+    point = weathered_point(
+        xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state, receptivity, field, variation, fields
+    )
     return point.kd_w, point.ks_w, point.water_w
 
 
@@ -167,12 +171,14 @@ def weathered_point(
     receptivity: Any = None,
     field: Any = None,
     variation: Any = None,
+    fields: Mapping[str, Any] | None = None,
 ) -> Point:
     """The weathered ``Point`` of ``weathered_weights``: its lobes' weights and the notes its
     layers leave (what the condition survey reads, docs/model.md §10)."""
     state = {item.name: xp.clip(state[item.name], item.low, item.high) for item in inputs_of(modes)}
-    if receptivity is not None and "time" in state:
-        state["time"] = base.local_age(xp, state["time"], xp.maximum(receptivity, 0.0))
+    receptivity = 1.0 if receptivity is None else xp.maximum(receptivity, 0.0)
+    if "time" in state and not (isinstance(receptivity, float) and receptivity == 1.0):
+        state["time"] = base.local_age(xp, state["time"], receptivity)
     kd, ks = porous.valid_albedo(xp, kd, ks)
     m = xp.maximum(m, 0.0)
     alpha = xp.clip(alpha, 0.0, 1.0)
@@ -186,6 +192,7 @@ def weathered_point(
         point.variation = xp.clip(variation, 0.0, 1.0)
         if field is not None:
             point.spread = base.uptake_spread(xp, field, point.variation)
+    point.receptivity, point.fields = receptivity, dict(fields or {})
     layers = sorted((layer for name in modes for layer in _REGISTRY[name].layers), key=lambda layer: layer.stage)
     for layer in layers:
         layer.apply(xp, point)

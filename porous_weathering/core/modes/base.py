@@ -18,6 +18,9 @@ from .. import porous
 #: Stages: where a layer runs among those of the other modes.  The extensions beyond the paper
 #: (docs/model.md §6) are layers of their own: the wet darkening right after the water fill, the crust last.
 FILL_CARBON, FILL_SALT, FILL_WATER, DARKEN_WET, COVER_DEPOSIT, COVER_CRUST = 10, 20, 30, 35, 40, 50
+#: Life (docs/model.md §9.3): the algae fill the pores beside the salt, and lie over the deposit, the
+#: lichens over them; a black crust (soot cemented by gypsum) forms over what lives there.
+FILL_ALGAE, COVER_ALGAE, COVER_LICHEN = 25, 42, 45
 
 
 @dataclass(frozen=True)
@@ -70,6 +73,10 @@ class Point:
     #: The stone's variation v (docs/model.md §8.6); None: no stone.
     variation: Any = None
     notes: dict = field(default_factory=dict)  #: what a mode's layers pass on to each other
+    #: The stone's receptivity r (docs/model.md §8.3); 1 without a stone.
+    receptivity: Any = 1.0
+    #: {field name: value}: what the shader reads from the point's place (``Mode.fields``).
+    fields: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -96,6 +103,9 @@ class Mode:
     order: int = 1000
     #: The condition-survey patterns the mode produces (``patterns.Pattern``; docs/model.md §10).
     patterns: tuple = ()
+    #: Per-point values a shader computes from the point's place in metres (a texture), which the
+    #: numpy model is given (``weathered_coefficients(fields=...)``): not inputs, not sockets.
+    fields: tuple[str, ...] = ()
 
 
 # --- inputs every mode shares -----------------------------------------------------------------
@@ -123,6 +133,25 @@ RUNOFF = Input(
     1.0,
     "How much of the run-off map counts as water reaching the surface: 0 is the rain map alone",
     panel=True,
+)
+
+DAMP_MAP = Input(
+    "damp_map",
+    0.0,
+    0.0,
+    1.0,
+    "Rising damp D: 1 below the steady front of water drawn up from the ground, 0 above it (docs/model.md §9.2)",
+    mask=True,
+    map="damp",
+)
+SUN_MAP = Input(
+    "sun_map",
+    1.0,
+    0.0,
+    1.0,
+    "Sun exposure S: the year's direct sun on the point over that on a surface always facing the sun (docs/model.md §9.1)",  # noqa: E501
+    mask=True,
+    map="sun",
 )
 
 #: The water lobe's roughness: a group input of the modes with a water lobe, not a model input.

@@ -1,0 +1,272 @@
+"""Biological colonisation (docs/model.md §9.3, beyond the paper): where the stone stays damp and is
+receptive, an algal film fills its pores and then covers it, green first and darkening with age to a
+dark biofilm; lichens grow as round patches on damp, lit surfaces of clean-air sites.
+
+The clock is years of exposure since the stone was last clean (``biological_years``), not the
+soiling's t: algae come back within months, lichens grow at a fixed radial rate in millimetres a
+year (docs/model.md §9.4 derives both clocks from years at a site).  ``biological_level = 0``
+renders the material without life bit for bit.
+
+The lichens' seeds are a field (``Mode.fields``): the shader reads them from a Voronoi texture at
+the point's place in metres, one seed per cell of side 1/sqrt(lambda) (``LICHEN_SEEDS``: the distance
+to the nearest seed, in cells, and that seed's own random value); the numpy model is given them.
+"""
+
+import math
+
+from ..patterns import NSD, Pattern, shown
+from .base import (
+    COVER_ALGAE,
+    COVER_LICHEN,
+    DAMP_MAP,
+    FILL_ALGAE,
+    RAIN_MAP,
+    RUNOFF,
+    RUNOFF_MAP,
+    SUN_MAP,
+    Input,
+    Layer,
+    Mode,
+    blend,
+    cover,
+    filled_absorption,
+    water_of,
+)
+from .soiling import polluted_diffuse
+
+#: Dampness (docs/model.md §9.3): a surface no water reaches is still damp this share of the time
+#: (dew, condensation, rain on the wind), water from above or below makes it wet (1); the sun dries
+#: it, by up to DRYING at full sun; rain falling directly on it washes the film off, by up to WASH.
+HUMIDITY = 0.5
+DRYING = 0.8
+WASH = 0.6
+
+#: The film's clocks, years (docs/model.md §9.3): it grows towards what the point's dampness
+#: allows with this time constant (colour change within a year on damp faces: Adamson et al. 2012),
+#: and darkens towards the dark biofilm with the slower one.
+ALGAE_YEARS = 1.0
+BIOFILM_YEARS = 10.0
+#: The biomass B at which the pores are full and the film starts covering the surface.
+PORE_BIOMASS = 0.2
+
+#: Lichens (docs/model.md §9.3): they establish this many years after cleaning (on rural samples by
+#: the end of the second year: Adamson et al. 2012); where the sun is at least LIGHT_NEEDED they are
+#: as lit as they need; a thallus's rim blends over LICHEN_RIM metres, a seed's establishment over SEED_RIM.
+LICHEN_LAG_YEARS = 1.5
+LIGHT_NEEDED = 0.25
+LICHEN_RIM = 3e-4
+SEED_RIM = 0.02
+#: One seed per Voronoi cell covers more than the Boolean model of the same density (its thalli
+#: overlap less): drawn with r / sqrt(1 + CROWDING lambda pi r^2), the cover is the Boolean law's
+#: within 0.015 for lambda pi r^2 up to 4 (docs/model.md §9.3, measured by benchmarks/lichen_cover.py).
+CROWDING = 0.26
+#: The least density taken (per m²), so that the seeds' cells stay finite (one per hectare: none seen).
+LEAST_DENSITY = 1e-4
+
+#: Metres between the three planes' seed patterns (docs/model.md §9.3), so each plane has its own seeds.
+PLANE_OFFSET = 1000.5
+
+#: The field the lichens read: (distance to the nearest seed in cells, that seed's value in [0, 1)).
+LICHEN_SEEDS = "lichen_seeds"
+#: What the numpy model takes where it is given no seeds: no seed within reach (no lichen).
+NO_SEEDS = (1e9, 1.0)
+
+BIOLOGICAL_YEARS = Input(
+    "biological_years",
+    0.0,
+    0.0,
+    200.0,
+    "Years since the stone was last clean: the biological clock (algae in months, lichens in years). "
+    "Keyframe it to animate",
+)
+BIOLOGICAL_LEVEL = Input(
+    "biological_level",
+    1.0,
+    0.0,
+    1.0,
+    "How much life the site allows (0: none): scales the algal biomass and the lichens' establishment",
+    panel=True,
+)
+# Linear RGB of CIELAB colours (D65), checked by tests/test_biological.py against colorimetry.
+ALGAE_COLOR = Input(
+    "algae_color",
+    (0.193, 0.218, 0.064),
+    0.0,
+    1.0,
+    "The young algal film (L* 52, a* -12, b* 30: yellow-green, so b* moves before a*)",
+)
+BIOFILM_COLOR = Input(
+    "biofilm_color",
+    (0.060, 0.065, 0.043),
+    0.0,
+    1.0,
+    "The old, dark biofilm the algal film darkens to (L* 30, a* -4, b* 8)",
+)
+LICHEN_COLOR = Input(
+    "lichen_color",
+    (0.625, 0.286, 0.038),
+    0.0,
+    1.0,
+    "The lichen thalli (L* 65, a* 15, b* 55: the orange-yellow Xanthoria of walls)",
+)
+LICHEN_DENSITY = Input(
+    "lichen_density",
+    200.0,
+    0.0,
+    10000.0,
+    "lambda: lichen seeds per square metre that can establish (0 in polluted air)",
+    panel=True,
+)
+LICHEN_GROWTH = Input(
+    "lichen_growth",
+    2.0,
+    0.0,
+    20.0,
+    "Diametral growth of a thallus, mm a year (Rhizocarpon 0.5-0.8; wall lichens faster)",
+)
+
+
+def wetness(xp, state):
+    """1 - (1 - W)(1 - D): water from above (rain or run-off, W) or from below (rising damp, D)."""
+    return 1.0 - (1.0 - water_of(xp, state)) * (1.0 - state["damp_map"])
+
+
+def humid(xp, wet):
+    """How much of the time a surface is damp before the sun dries it: HUMIDITY where no water
+    reaches, 1 where it is wet."""
+    return xp.multiply_add(wet, 1.0 - HUMIDITY, HUMIDITY)
+
+
+def dampness(xp, state):
+    """M (docs/model.md §9.3): damp where water reaches it, dried by the sun, washed by direct rain."""
+    dried = humid(xp, wetness(xp, state)) * (1.0 - DRYING * state["sun_map"])
+    return dried * (1.0 - WASH * state["rain_map"])
+
+
+def decay(xp, years, time_constant):
+    """1 - exp(-years / time_constant): how far a growth of that time constant has come."""
+    return 1.0 - xp.power(math.e, years * (-1.0 / time_constant))
+
+
+def algal_biomass(xp, state, receptivity):
+    """B in [0, 1] (docs/model.md §9.3): the level times the dampness, approached with ALGAE_YEARS at
+    the point's local years (receptive stone is colonised faster: docs/model.md §8.3)."""
+    years = state["biological_years"] * receptivity
+    return state["biological_level"] * dampness(xp, state) * decay(xp, years, ALGAE_YEARS)
+
+
+def film_colour(xp, state, receptivity):
+    """The film's colour: the young algae darkening to the biofilm with BIOFILM_YEARS."""
+    darkened = decay(xp, state["biological_years"] * receptivity, BIOFILM_YEARS)
+    return blend(xp, state["algae_color"], state["biofilm_color"], xp.channel(darkened))
+
+
+def fill_with_algae(xp, point):
+    """The film in the pores: it replaces the light they return, as carbon does (eq. 7), over the
+    pore fill B / PORE_BIOMASS."""
+    s = point.state
+    biomass = algal_biomass(xp, s, point.receptivity)
+    fill = xp.minimum(biomass * (1.0 / PORE_BIOMASS), 1.0)
+    colour = film_colour(xp, s, point.receptivity)
+    ap = filled_absorption(xp, point.ka, point.sp, fill, point.theta_i, point.theta_r)
+    point.kd_w = blend(xp, point.kd_w, polluted_diffuse(xp, point.kd, colour, point.pore, ap), xp.channel(fill))
+    point.notes["biomass"], point.notes["film_colour"] = biomass, colour
+
+
+def lay_algae(xp, point):
+    """The film over the surface, once the pores are full: coverage (B - PORE_BIOMASS) / (1 - PORE_BIOMASS)."""
+    coverage = xp.maximum(point.notes["biomass"] - PORE_BIOMASS, 0.0) * (1.0 / (1.0 - PORE_BIOMASS))
+    cover(xp, point, point.notes["film_colour"], coverage)
+    point.notes["algae"] = coverage
+
+
+def lichen_radius(xp, state):
+    """r(years) in metres: half the diametral growth a year, from LICHEN_LAG_YEARS after cleaning."""
+    return xp.maximum(state["biological_years"] - LICHEN_LAG_YEARS, 0.0) * (state["lichen_growth"] * 0.0005)
+
+
+def lichen_suitability(xp, state):
+    """L in [0, 1]: the share of seeds that establish, damp (as ``humid``) and lit (sun up to
+    LIGHT_NEEDED), times the level."""
+    lit = xp.minimum(state["sun_map"] * (1.0 / LIGHT_NEEDED), 1.0)
+    return state["biological_level"] * humid(xp, wetness(xp, state)) * lit
+
+
+def crowded_radius(xp, radius, density):
+    """The radius a thallus of radius r is drawn with among seeds one per cell, so that their
+    cover follows the Boolean model 1 - exp(-u), u = lambda pi r^2 (docs/model.md §9.3):
+    r / sqrt(1 + CROWDING u)."""
+    return radius / xp.power(1.0 + (CROWDING * math.pi) * (density * radius * radius), 0.5)
+
+
+def lichen_cover(xp, state, distance, seed):
+    """The thallus cover at a point ``distance`` cells from the nearest seed, whose value is
+    ``seed``: the seed established (its value under L), and the point within r(years) of it
+    (crowded_radius)."""
+    density = xp.maximum(state["lichen_density"], LEAST_DENSITY)
+    spacing = 1.0 / xp.power(density, 0.5)  # metres per cell
+    radius = crowded_radius(xp, lichen_radius(xp, state), density)
+    inside = 1.0 - xp.smoothstep(radius - LICHEN_RIM, radius, distance * spacing)
+    established = xp.smoothstep(seed, seed + SEED_RIM, lichen_suitability(xp, state))
+    return inside * established
+
+
+def lay_lichens(xp, point):
+    distance, seed = point.fields.get(LICHEN_SEEDS, NO_SEEDS)
+    coverage = lichen_cover(xp, point.state, distance, seed)
+    cover(xp, point, point.state["lichen_color"], coverage)
+    point.notes["lichen"] = coverage
+
+
+#: The condition survey's patterns (docs/model.md §10): a lichen thallus lies over the algal film,
+#: and both over the salt and the water; the black crust hides them.
+LICHEN = Pattern(
+    "lichen",
+    NSD + "Lichen",
+    (0.93, 0.62, 0.18),
+    "grid",
+    shown("lichen"),
+    12,
+    "lichen thalli cover half the point or more (cover >= 0.5, docs/model.md §9.3)",
+)
+ALGAE = Pattern(
+    "algae",
+    NSD + "Algae",
+    (0.35, 0.58, 0.27),
+    "back lines",
+    shown("algae"),
+    15,
+    "the algal film covers half the point or more (cover >= 0.5, docs/model.md §9.3)",
+)
+
+
+MODE = Mode(
+    name="biological",
+    label="Biological",
+    description="Life on damp stone: a green algal film darkening to biofilm, and round lichen patches",
+    inputs=(
+        BIOLOGICAL_YEARS,
+        RAIN_MAP,
+        RUNOFF_MAP,
+        RUNOFF,
+        DAMP_MAP,
+        SUN_MAP,
+        BIOLOGICAL_LEVEL,
+        ALGAE_COLOR,
+        BIOFILM_COLOR,
+        LICHEN_COLOR,
+        LICHEN_DENSITY,
+        LICHEN_GROWTH,
+    ),
+    layers=(
+        Layer(FILL_ALGAE, fill_with_algae),
+        Layer(COVER_ALGAE, lay_algae),
+        Layer(COVER_LICHEN, lay_lichens),
+    ),
+    catalog="Biological",
+    asset_summary="Algae and lichens from a rain, run-off, rising-damp and sun map",
+    preview=dict(biological_years=20.0, sun_map=0.3, rain_map=0.0),
+    fields=(LICHEN_SEEDS,),
+    order=40,
+    patterns=(LICHEN, ALGAE),
+)

@@ -1,0 +1,151 @@
+"""The biological mode's model (docs/model.md §9.3, §9.4), in numpy: level 0 is the material without
+life bit for bit; the algal film greens first (b* before a*) and darkens later; the lichens' cover
+follows the Boolean model where it applies; north faces green more than south ones, washed sunny
+tops least, and a city far less than the country.  The render is checked per pixel in
+tests/test_weathering_render.py."""
+
+import math
+
+import numpy as np
+import pytest
+
+from benchmarks.lichen_cover import cover, voronoi_seeds
+from porous_weathering.core import aging, colorimetry, environments, model
+from porous_weathering.core.backends import NumpyOps
+from porous_weathering.core.modes import biological
+from porous_weathering.shading.presets import PRESETS
+
+XP = NumpyOps(colour=False)
+LIMESTONE = PRESETS["LIMESTONE"]
+STONE = (
+    LIMESTONE.linear_base_color()[:3],
+    LIMESTONE.ks,
+    LIMESTONE.roughness,
+    LIMESTONE.porosity,
+    LIMESTONE.pore_depth_ratio,
+)
+
+#: Faces of a cube in the open at 50° N (docs/model.md §9.1's sun exposures): the top under rain, walls
+#: that rain wets a little (wind-driven), none with run-off or rising damp.
+FACES = {
+    "north": dict(sun_map=0.02, rain_map=0.1),
+    "south": dict(sun_map=0.46, rain_map=0.1),
+    "top": dict(sun_map=0.51, rain_map=1.0),
+}
+
+
+def seen(years, environment=None, fields=None, **inputs):
+    """The linear RGB a colorimeter reads (diffuse plus glossy weight, face on, ambient light) after
+    ``years`` in ``environment`` (its inputs; None: the plain defaults)."""
+    site = environments.weathering_inputs(environment, ("biological",)) if environment else {}
+    kd_w, ks_w, _ = model.weathered_coefficients(
+        *STONE,
+        None,
+        1.0,
+        ("biological",),
+        fields=fields,
+        **{**site, "biological_years": years, "runoff_map": 0.0, **inputs},
+    )
+    return kd_w + np.asarray(ks_w)[..., None]
+
+
+def lab(rgb):
+    return colorimetry.linear_to_lab(rgb)
+
+
+def test_the_colours_are_those_documented():
+    for item, documented in (
+        (biological.ALGAE_COLOR, (52, -12, 30)),
+        (biological.BIOFILM_COLOR, (30, -4, 8)),
+        (biological.LICHEN_COLOR, (65, 15, 55)),
+    ):
+        assert lab(item.default) == pytest.approx(documented, abs=0.3), item.name
+
+
+def test_level_zero_and_year_zero_are_the_material_without_life_bit_for_bit():
+    rng = np.random.default_rng(3)
+    shape = (500,)
+    n_dot_l, n_dot_v = rng.random(shape), rng.random(shape)
+    maps = {name: rng.random(shape) for name in ("rain_map", "runoff_map", "damp_map", "sun_map")}
+    seeds = {biological.LICHEN_SEEDS: (rng.random(shape) * 0.8, rng.random(shape))}
+    clean = model.porous_coefficients(*STONE, n_dot_l, n_dot_v)
+    for state in (dict(biological_level=0.0, biological_years=40.0), dict(biological_years=0.0)):
+        kd_w, ks_w, water = model.weathered_coefficients(
+            *STONE, n_dot_l, n_dot_v, ("biological",), fields=seeds, **maps, **state
+        )
+        assert np.array_equal(kd_w, clean[0]) and np.array_equal(ks_w, clean[1]) and not water.any()
+    aged = model.weathered_coefficients(*STONE, n_dot_l, n_dot_v, ("biological",), fields=seeds, **maps)
+    assert np.abs(aged[0] - clean[0]).max() == 0.0  # the defaults: years 0
+    grown = model.weathered_coefficients(
+        *STONE, n_dot_l, n_dot_v, ("biological",), fields=seeds, biological_years=20.0, **maps
+    )
+    assert np.abs(grown[0] - clean[0]).max() > 0.05  # the comparison can tell them apart
+
+
+def test_green_first_then_dark():
+    """On a damp north face b* moves perceptibly (0.59: Sanmartín et al. 2012) before a* does, and
+    the film keeps darkening long after it has greened (ΔL* between 2 and 20 years)."""
+    clean = lab(seen(0.0, **FACES["north"]))
+    years = np.linspace(0.0, 2.0, 2001)
+    change = lab(np.stack([seen(y, **FACES["north"]) for y in years])) - clean
+    first_b = years[np.argmax(np.abs(change[:, 2]) >= 0.59)]
+    first_a = years[np.argmax(np.abs(change[:, 1]) >= 0.59)]
+    assert change[-1, 2] > 0.59 and change[-1, 1] < -0.59  # both do move: yellower, then greener
+    assert 0.0 < first_b < first_a < 1.0  # b* first; visible within the first year
+    ab_at_2, ab_at_20 = (lab(seen(y, **FACES["north"])) for y in (2.0, 20.0))
+    assert ab_at_20[0] < ab_at_2[0] - 5.0  # darker by far at 20 years
+    assert np.hypot(*(ab_at_20[1:] - clean[1:])) < np.hypot(*(ab_at_2[1:] - clean[1:]))  # greyer: dark biofilm
+
+
+def test_north_greener_than_south_and_washed_tops_least_in_the_country():
+    """RURAL at 50° N after 20 years: north differs from south by ΔE*ab >= 3.2 (clearly visible:
+    Sanmartín et al. 2012), with a lower a*; the washed, sunny top carries the least algae."""
+    faces = {name: lab(seen(20.0, "RURAL", **face)) for name, face in FACES.items()}
+    assert np.linalg.norm(faces["north"] - faces["south"]) >= 3.2
+    assert faces["north"][1] < faces["south"][1]
+    site = environments.weathering_inputs("RURAL", ("biological",))
+    biomass = {
+        name: biological.algal_biomass(
+            XP, model.weathering_state("biological", dict(site, biological_years=20.0, **face)), 1.0
+        )
+        for name, face in FACES.items()
+    }
+    assert biomass["top"] < biomass["south"] < biomass["north"]
+
+
+def test_life_is_at_most_half_as_strong_in_the_city():
+    """The colour change life makes on a north face after 20 years: URBAN at most half RURAL's."""
+    clean = lab(seen(0.0, **FACES["north"]))
+    change = {site: np.linalg.norm(lab(seen(20.0, site, **FACES["north"])) - clean) for site in ("URBAN", "RURAL")}
+    assert change["URBAN"] <= 0.5 * change["RURAL"]
+    assert change["RURAL"] > 3.2
+
+
+def test_lichen_cover_follows_the_boolean_model():
+    """Seeds one per cell, drawn in numpy as Blender's Voronoi draws them: at full suitability the
+    mean cover is 1 - exp(-lambda pi r^2) within 0.025 up to lambda pi r^2 = 4 (the crowded radius);
+    where only a share L of the seeds establish, within 0.03 while the cover stays under 0.2
+    (docs/model.md §9.3), beyond which each thallus holds its cell and the cover stays under L."""
+    distance, value = voronoi_seeds(cells=200, points=50_000)
+    for u in (0.05, 0.2, 0.5, 1.0, 2.0, 4.0):
+        assert cover(distance, value, u) == pytest.approx(1.0 - math.exp(-u), abs=0.025), u
+    for u in (0.1, 0.3):
+        assert cover(distance, value, u, 0.5) == pytest.approx(1.0 - math.exp(-0.5 * u), abs=0.03), u
+    assert cover(distance, value, 4.0, 0.5) < 0.5
+    # without the crowded radius the one-seed-per-cell cover is far above the law at u = 1
+    assert np.mean(distance < math.sqrt(1.0 / math.pi)) > (1.0 - math.exp(-1.0)) + 0.08
+
+
+def test_lichens_grow_at_their_rate_after_the_lag():
+    state = model.weathering_state("biological", dict(biological_years=21.5, lichen_growth=2.0))
+    assert float(biological.lichen_radius(XP, state)) == pytest.approx(0.020)  # 20 years x 1 mm
+    no_lichens_in_city = environments.ENVIRONMENTS["URBAN"].weathering()["lichen_density"]
+    assert no_lichens_in_city == 0.0
+
+
+def test_the_clocks_come_from_years_at_a_site():
+    ages = aging.ages_for_years(20.0, 0.3)
+    assert ages == dict(time=aging.age_for_years(20.0, 0.3), biological_years=20.0)
+    assert aging.ages_for_years(1e6, 0.3)["biological_years"] == biological.BIOLOGICAL_YEARS.high
+    with pytest.raises(ValueError, match="years"):
+        aging.ages_for_years(-1.0, 0.3)
