@@ -119,6 +119,16 @@ RUNOFF = Input(
     panel=True,
 )
 
+SUN_MAP = Input(
+    "sun_map",
+    1.0,
+    0.0,
+    1.0,
+    "Sun exposure S: the year's direct sun on the point over that on a surface always facing the sun (docs/model.md §9.1)",  # noqa: E501
+    mask=True,
+    map="sun",
+)
+
 #: The water lobe's roughness: a group input of the modes with a water lobe, not a model input.
 WATER_ROUGHNESS = Input("water_roughness", 0.05, 0.0, 1.0, "Roughness of the water lobe: near 0 is a mirror")
 
