@@ -13,7 +13,7 @@ from porous_weathering.maps import bake, edges
 from porous_weathering.maps import registry as maps
 from porous_weathering.samples import studio
 
-FAST = ["--resolution", "16", "--samples", "4"]
+FAST = ["--resolution", "16", "--samples", "4", "--sun-samples", "4"]
 
 
 def statuses(result):

@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from porous_weathering.common import imageio
-from porous_weathering.maps import bake, lightmap, lightmap_child, rain
+from porous_weathering.maps import bake, lightmap, lightmap_child, rain, sky_bake
 from porous_weathering.maps import registry as maps
 from scripts import load_script
 
@@ -154,7 +154,7 @@ def test_attribute_maps_are_the_same_at_every_unit(bust, per):
         obj = bust(8_000 if per == "corner" else TRIANGLES, scale=scale)
         if per == "corner":
             obj.data.attributes.new("sharp_edge", "BOOLEAN", "EDGE").data[0].value = True
-        assert rain.smooth_at_vertices(obj) == (per == "vertex")
+        assert sky_bake.smooth_at_vertices(obj) == (per == "vertex")
         options = bake.BakeOptions(
             maps=("rain", "edges"), target="attribute", rain_settings=rain.RainSettings(samples=16)
         )

@@ -56,7 +56,7 @@ def test_panel_operators_run_on_sample(sample, registered, tmp_path):
 
     soiling_maps = sorted({item.map for item in weathering_modes.inputs_of(("soiling",)) if item.map})
     assert linking.missing_maps(obj, ("soiling",)) == soiling_maps
-    result = bpy.ops.porous_weathering.bake_maps(maps=set(maps.names()), target="attribute", samples=4)
+    result = bpy.ops.porous_weathering.bake_maps(maps=set(maps.names()), target="attribute", samples=4, sun_samples=4)
     assert result == {"FINISHED"} and linking.missing_maps(obj, ("soiling", "wet")) == []
 
     settings.soiling = settings.wet = True
@@ -135,7 +135,7 @@ def test_bake_then_make_connects_every_baked_map(sample, target, registered, tmp
     soiling_maps = {item.map for item in weathering_modes.inputs_of(("soiling",)) if item.map}
     assert linking.missing_maps(obj, ("soiling",)) == sorted(soiling_maps - {"rain"})
     assert bpy.ops.porous_weathering.bake_maps(
-        maps=set(maps.names()), target=target, resolution=512, samples=2, out_dir=str(tmp_path)
+        maps=set(maps.names()), target=target, resolution=512, samples=2, sun_samples=2, out_dir=str(tmp_path)
     ) == {"FINISHED"}
     baked = linking.discover_maps(obj)
     for mode, inputs in MAP_MODES.items():
@@ -247,7 +247,9 @@ def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_pa
     read = sorted({item.map for item in weathering_modes.inputs_of(settings.modes()) if item.map})
     assert linking.missing_maps(obj, settings.modes()) == read
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}  # warns, and still makes it
-    assert bpy.ops.porous_weathering.bake_maps(maps=set(maps.names()), target="attribute", samples=2) == {"FINISHED"}
+    assert bpy.ops.porous_weathering.bake_maps(
+        maps=set(maps.names()), target="attribute", samples=2, sun_samples=2
+    ) == {"FINISHED"}
     # no location map made yet: the salt follows the water the stone absorbs, the run-off map
     assert linking.missing_maps(obj, settings.modes()) == []
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}

@@ -162,16 +162,17 @@ import os, resource, signal, sys, time
 import bpy
 from porous_weathering import bake, rain
 from porous_weathering.common import imageio
+from porous_weathering.maps import sky_bake
 blend, out, mode = sys.argv[1:4]
 progress = None
 bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False, use_scripts=False)
 if mode == "kill-in-cycles":
-    original = rain._bake
+    original = sky_bake._bake
     def announced(*args, **kwargs):
         print("BAKING", flush=True)
         time.sleep(0.3)
         return original(*args, **kwargs)
-    rain._bake = announced
+    sky_bake._bake = announced
 elif mode == "kill-before-rename":
     def stalled(source, target):
         print("TEMPORARY WRITTEN", flush=True)

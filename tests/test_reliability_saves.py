@@ -19,7 +19,7 @@ from helpers import ROOT, run_cli
 from porous_weathering.cli import selection
 from porous_weathering.common import imageio
 from porous_weathering.contracts import map_image_property
-from porous_weathering.maps import bake, efflorescence_map, rain
+from porous_weathering.maps import bake, efflorescence_map, rain, sky_bake
 from porous_weathering.samples import studio
 
 FAST = ["--resolution", "16", "--samples", "4"]
@@ -276,7 +276,7 @@ def test_api_types_are_checked_with_the_arguments_name(fresh_scene, tmp_path):
         efflorescence_map.make_map(plane, size=16.0)
     assert not pathlib.Path(efflorescence_map.default_path("Plane")).exists()
     assert efflorescence_map.make_map(plane, size=np.int32(16)).size[:] == (16, 16)
-    assert rain.RainSettings(samples=rain.MAX_SAMPLES).samples == 1 << 24
+    assert rain.RainSettings(samples=sky_bake.MAX_SAMPLES).samples == 1 << 24
 
 
 # --- exit codes on bpy 4.5 --------------------------------------------------------------------

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from porous_weathering.blender import mesh_arrays, scratch_scene
-from porous_weathering.maps import bake, edges, lightmap, rain, scan_checks
+from porous_weathering.maps import bake, edges, lightmap, rain, scan_checks, sky_bake
 from porous_weathering.ui import bake_operator as ops_bake
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -131,12 +131,12 @@ def test_a_smooth_scan_is_baked_per_vertex_as_its_corners_would_be(bust, monkeyp
     """Corners at a vertex share its position and normal: baked once per vertex (six times fewer
     samples), E is the per-corner bake's, within its noise."""
     obj = bust()
-    assert rain.smooth_at_vertices(obj)
+    assert sky_bake.smooth_at_vertices(obj)
     settings = rain.RainSettings(samples=16)
     per_vertex = rain.bake_rain_corners(obj, settings)
     corner_vertex = np.array([loop.vertex_index for loop in obj.data.loops])
     assert np.array_equal(per_vertex, per_vertex[np.unique(corner_vertex, return_index=True)[1]][corner_vertex])
-    monkeypatch.setattr(rain, "smooth_at_vertices", lambda obj: False)
+    monkeypatch.setattr(sky_bake, "smooth_at_vertices", lambda obj: False)
     per_corner = rain.bake_rain_corners(obj, settings)
     assert abs(per_vertex.mean() - per_corner.mean()) < 2e-3  # no bias
     assert np.corrcoef(per_vertex, per_corner)[0, 1] > 0.99
@@ -146,10 +146,10 @@ def test_a_smooth_scan_is_baked_per_vertex_as_its_corners_would_be(bust, monkeyp
 def test_a_flat_shaded_or_displaced_scan_is_not_taken_as_smooth_at_its_vertices(bust):
     obj = bust()
     obj.data.shade_flat()
-    assert not rain.smooth_at_vertices(obj)
+    assert not sky_bake.smooth_at_vertices(obj)
     obj.data.shade_smooth()
     obj.modifiers.new("Displace", "DISPLACE")
-    assert not rain.smooth_at_vertices(obj)
+    assert not sky_bake.smooth_at_vertices(obj)
 
 
 def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_corner_bake_gives(bust, monkeypatch):
@@ -158,9 +158,11 @@ def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_co
     obj = bust()
     settings = rain.RainSettings(samples=16, cone=10.0, wind_tilt=30.0)
     probes = []
-    original = rain._bake_probes
+    original = sky_bake._bake_probes
     monkeypatch.setattr(
-        rain, "_bake_probes", lambda copy, points, *rest: probes.append(len(points)) or original(copy, points, *rest)
+        sky_bake,
+        "_bake_probes",
+        lambda copy, points, *rest: probes.append(len(points)) or original(copy, points, *rest),
     )
     through_vertices = rain.bake_rain_corners(obj, settings)
     normals = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
@@ -169,7 +171,7 @@ def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_co
         mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)
     ]
     assert 0.2 < turned_away.mean() < 0.6 and probes[0] < 0.8 * len(obj.data.vertices)
-    monkeypatch.setattr(rain, "smooth_at_vertices", lambda obj: False)
+    monkeypatch.setattr(sky_bake, "smooth_at_vertices", lambda obj: False)
     per_corner = rain.bake_rain_corners(obj, settings)
     assert np.all(per_corner[turned_away] == 0.0) and np.all(through_vertices[turned_away] == 0.0)
     assert abs(through_vertices.mean() - per_corner.mean()) < 5e-3
@@ -182,11 +184,11 @@ def test_an_image_hardly_finer_than_the_scan_is_drawn_through_its_vertices(bust,
     lightmap.add_uv_map(obj.data, lightmap.LIGHTMAP_UV, lightmap.lightmap_uvs(obj.data, 256))
     settings = rain.RainSettings(samples=16)
     through_vertices = []
-    original = rain._bake_vertices
-    monkeypatch.setattr(rain, "_bake_vertices", lambda *args: through_vertices.append(1) or original(*args))
+    original = sky_bake._bake_vertices
+    monkeypatch.setattr(sky_bake, "_bake_vertices", lambda *args: through_vertices.append(1) or original(*args))
     drawn = rain.bake_rain_image(obj, lightmap.LIGHTMAP_UV, 256, settings, margin=0)
     assert through_vertices == [1]
-    monkeypatch.setattr(rain, "TEXELS_PER_VERTEX", 0)
+    monkeypatch.setattr(sky_bake, "TEXELS_PER_VERTEX", 0)
     per_texel = rain.bake_rain_image(obj, lightmap.LIGHTMAP_UV, 256, settings, margin=0)
     assert through_vertices == [1]  # per texel this time
     covered = (drawn > 0) | (per_texel > 0)

@@ -1,6 +1,7 @@
 """The maps: their registry (``registry``: it finds the ``MAP`` record of each map's module,
 re-exported here as ``porous_weathering.maps``), the one bake pipeline behind the operator, the command line and
-Dask (``bake``) and what a map was made from (``provenance``), each map's bake (``rain``;
+Dask (``bake``) and what a map was made from (``provenance``), the direct-light bake the rain
+and sun maps share (``sky_bake``), each map's bake (``rain``; ``sun``;
 ``runoff`` over its numpy flow, ``runoff_flow``; ``edges``, the bpy side of the edge mask over
 its numpy maths, ``curvature``), the lightmap UVs image maps are baked on (``lightmap``, over
 its check, ``lightmap_check``, and its unwrap, the child process ``lightmap_child``), the checks

@@ -4,48 +4,33 @@ E(p) = ∫_cone V(p, ω) max(0, N·ω) dω / ∫_cone (D·ω) dω : the cosine-w
 rain cone (half-angle ``cone`` around the mean direction D towards the rain) that reaches p
 unoccluded, so that an open face turned to the rain gets exactly 1.
 
-Cycles' DIFFUSE bake with only the direct pass returns irradiance / π. A sky of radiance L
-inside the cone gives an open face turned to D the irradiance L·π·sin²(cone), so the sky is
-set to L = 1 / sin²(cone); a sun lamp of angular diameter 2·cone is the same uniform cone
-(radiance strength / (π sin² cone)) and takes strength π. The sun lamp is the default: it
-is sampled only inside the cone (see docs/maps.md for the measurement).
-
-The bake runs in a temporary scene on copies of the objects (the target's mesh copied, the
-occluders' meshes shared), all with plain opaque materials, so the user's scene, materials,
-meshes and selection are never touched and nothing is left behind, even on failure.
+Baked as a direct-light bake (``sky_bake``: irradiance / π, shadowed by the object and its
+occluders). A sky of radiance L inside the cone gives an open face turned to D the irradiance
+L·π·sin²(cone), so the sky is set to L = 1 / sin²(cone); a sun lamp of angular diameter 2·cone
+is the same uniform cone (radiance strength / (π sin² cone)) and takes strength π. The sun lamp
+is the default: it is sampled only inside the cone (see docs/maps.md for the measurement).
 """
 
 import math
 from collections.abc import Sequence
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import bpy
 
 import numpy as np
-from mathutils import Matrix
 
-from ..blender import compat, mesh_arrays, scratch_scene
+from ..blender import compat, mesh_arrays
 from ..blender.scratch_scene import aim_sun
 from ..common.options import check, option
 from ..contracts import map_attribute
 from ..core.shader_math import Graph, dot
-from . import edges, lightmap
+from . import sky_bake
 from .registry import MapKind
 
 #: The colour attribute a rain bake writes (per face corner).
 RAIN_ATTRIBUTE = map_attribute("rain")
 #: Samples per texel: see benchmarks/bench_rain.py and docs/maps.md.
 DEFAULT_SAMPLES = 64
-#: The most samples Cycles takes (its own upper bound, 2^24).
-MAX_SAMPLES = 1 << 24
-#: A vertex probe's size and height above the surface, in mean edge lengths (``_bake_vertices``).
-PROBE_SIZE = 0.01
-#: An image of a mesh smooth at its vertices is baked at the vertices and drawn across the
-#: triangles when it has at most this many texels (resolution²) per vertex: about 20 the bake
-#: fills, so they are hardly finer than the mesh, and per texel E would cost more samples for
-#: little more detail (docs/maps.md).
-TEXELS_PER_VERTEX = 32
 
 
 @dataclass(frozen=True)
@@ -89,7 +74,7 @@ class RainSettings:
         label="Samples",
         flag="--samples",
         low=1,
-        high=MAX_SAMPLES,
+        high=sky_bake.MAX_SAMPLES,
         whole=True,
         metavar="N",
         estimate=True,
@@ -114,17 +99,18 @@ class RainSettings:
         return (math.sin(tilt) * math.cos(azimuth), math.sin(tilt) * math.sin(azimuth), math.cos(tilt))
 
 
-def default_occluders(
-    target: bpy.types.Object, collection: bpy.types.Collection | None = None
-) -> list[bpy.types.Object]:
-    """The objects that can shelter ``target``: every renderable geometry object of its scenes,
-    or only those of ``collection`` (a bpy Collection, children included)."""
-    if collection is not None:
-        candidates = collection.all_objects
-    else:
-        candidates = {o for scene in target.users_scene for o in scene.objects}
-    geometry = scratch_scene.GEOMETRY_TYPES
-    return [o for o in candidates if o.type in geometry and not o.hide_render and o != target]
+def sky(settings: RainSettings) -> sky_bake.Sky:
+    """The rain as the light of a direct-light bake (``sky_bake``): a surface whose normal is
+    more than 90° plus the cone's half-angle from the cone's axis (a bust's underside) takes none."""
+    towards = np.array(settings.towards_rain())
+    edge = -math.sin(math.radians(settings.cone)) - 1e-6
+    return sky_bake.Sky(
+        label="Rain",
+        samples=settings.samples,
+        seed=settings.seed,
+        add=lambda scene, made: _add_sky(scene, settings, made),
+        reaches=lambda normals: normals @ towards > edge,
+    )
 
 
 def bake_rain_image(
@@ -135,203 +121,18 @@ def bake_rain_image(
     occluders: Sequence[bpy.types.Object] = (),
     margin: int = 4,
 ) -> np.ndarray:
-    """E on ``obj``'s UV map ``uv_map`` as a float32 (size, size) array, top row first.
-
-    ``margin`` texels around every UV island are filled from the island's edge (Blender's
-    bake margin, EXTEND), so that filtering and mip-mapping never pull in empty texels.
-    A mesh smooth at its vertices whose image has at most TEXELS_PER_VERTEX texels per vertex
-    (a scan) is baked at its vertices and drawn across its triangles
-    (``scratch_scene.bake_point_values``).
-    """
-    if obj.type != "MESH" or uv_map not in obj.data.uv_layers:
-        raise ValueError(f"object '{obj.name}' has no UV map '{uv_map}'")
-    with _bake_scene(obj, occluders, settings) as copy:
-        if smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices):
-            at_vertices = _bake_vertices(obj, copy, settings)
-        else:
-            return _bake_image(copy, uv_map, size, margin)
-    return scratch_scene.bake_point_values(obj, uv_map, size, at_vertices, margin=margin)[0]
-
-
-def _bake_image(copy, uv_map, size, margin):
-    """E baked at every texel of ``copy``'s UV map ``uv_map`` (size, size), top row first."""
-    with scratch_scene.Ledger() as made:
-        image = made.add(bpy.data.images.new("PW Rain Bake", size, size, alpha=False, float_buffer=True))
-        copy.data.uv_layers.active = copy.data.uv_layers[uv_map]
-        texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
-        texture.image = image
-        copy.active_material.node_tree.nodes.active = texture
-        _bake(copy, target="IMAGE_TEXTURES", margin=margin)
-        pixels = np.empty(size * size * 4, dtype=np.float32)
-        image.pixels.foreach_get(pixels)
-        return pixels.reshape(size, size, 4)[::-1, :, 0].copy()  # Blender stores the bottom row first
+    """E on ``obj``'s UV map ``uv_map`` as a float32 (size, size) array, top row first
+    (``sky_bake.bake_image``: ``margin`` texels filled around every island, a scan drawn through
+    its vertices)."""
+    return sky_bake.bake_image(obj, uv_map, size, sky(settings), occluders, margin)
 
 
 def bake_rain_corners(
     obj: bpy.types.Object, settings: RainSettings = RainSettings(), occluders: Sequence[bpy.types.Object] = ()
 ) -> np.ndarray:
-    """E at every face corner of ``obj``'s mesh, as a float32 array (len(mesh.loops),).
-
-    A mesh smooth at every vertex (smooth-shaded, no sharp edges, no custom normals, no
-    modifiers) is baked once per vertex (``_bake_vertices``): the corners at a vertex share its
-    position and normal, so they share E, and a vertex has about six corners."""
-    with _bake_scene(obj, occluders, settings) as copy:
-        if smooth_at_vertices(obj):
-            return _bake_vertices(obj, copy, settings)[mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)]
-        attribute = copy.data.color_attributes.new(RAIN_ATTRIBUTE, "FLOAT_COLOR", "CORNER")
-        copy.data.color_attributes.active_color = attribute
-        _bake(copy, target="VERTEX_COLORS", margin=0)
-        colours = np.empty(len(attribute.data) * 4, dtype=np.float32)
-        attribute.data.foreach_get("color", colours)
-    return colours[0::4].copy()
-
-
-def smooth_at_vertices(obj: bpy.types.Object) -> bool:
-    """Whether every corner of ``obj`` shades with its vertex's normal: its mesh is smooth-shaded
-    all over, with no sharp edges and no custom normals, and no modifier changes it."""
-    mesh = obj.data
-    if obj.modifiers or mesh.has_custom_normals or not len(mesh.polygons):
-        return False
-    smooth = np.empty(len(mesh.polygons), dtype=bool)
-    mesh.polygons.foreach_get("use_smooth", smooth)
-    sharp = "sharp_edge" in mesh.attributes and mesh_arrays.attribute(mesh, "sharp_edge", bool).any()
-    return bool(smooth.all()) and not sharp
-
-
-def _bake_vertices(target, copy, settings):
-    """E at every vertex of ``target`` (V,), baked in ``copy``'s scene: one texel per vertex of an
-    image, each on a probe, a tiny triangle across the vertex's normal (a hundredth of an edge
-    across, a hundredth of an edge above the surface, so that the mesh does not shade it where
-    its faces meet), whose UVs hold that texel's centre alone.
-
-    A vertex whose normal turns away from every direction of the rain cone (more than 90° plus
-    the cone's half-angle from its axis: a bust's underside) gets no probe: E is exactly 0
-    there, as the bake would give it (the diffuse surface takes no light from behind)."""
-    mesh = target.data
-    matrix = unit_placing(target) @ np.array(target.matrix_world, dtype=np.float64)  # into the bake's scene
-    points = mesh_arrays.attribute(mesh, "position", np.float32, 3) @ matrix[:3, :3].T + matrix[:3, 3]
-    normals = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.vertex_normals.foreach_get("vector", normals)
-    normals = normals.reshape(-1, 3) @ np.linalg.inv(matrix[:3, :3])  # normals go by the inverse transpose
-    if mesh_arrays.is_inside_out(mesh):  # baked from outside, as renders shade it (see _bake)
-        normals = -normals
-    ends = points[mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2)]
-    step = PROBE_SIZE * np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1).mean()
-    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
-    lit = normals @ np.array(settings.towards_rain()) > -math.sin(math.radians(settings.cone)) - 1e-6
-    exposure = np.zeros(len(points), dtype=np.float32)
-    if lit.any():
-        exposure[lit] = _bake_probes(copy, points[lit], normals[lit], step)
-    return exposure
-
-
-def _bake_probes(copy, points, normals, step):
-    """E baked at ``points`` (P, 3) on probes across their unit ``normals``, ``step`` in size
-    (``_bake_vertices``), in ``copy``'s scene."""
-    count = len(points)
-    u, v = np.moveaxis(lightmap.tangent_bases(normals), 1, 0)
-    centre = points + step * normals
-    across = 0.75**0.5 * v
-    corners = np.stack([centre + step * u, centre - step * (u / 2 - across), centre - step * (u / 2 + across)], axis=1)
-
-    side = int(np.ceil(np.sqrt(count)))
-    texel = (np.stack([np.arange(count) % side, np.arange(count) // side], axis=1) + 0.5) / side
-    uvs = texel[:, None, :] + np.array([(0.4, 0.0), (-0.2, 0.35), (-0.2, -0.35)]) / side
-
-    with scratch_scene.Ledger() as made:
-        probe_mesh = made.add(bpy.data.meshes.new("PW Rain Probes"))
-        probe_mesh.vertices.add(3 * count)
-        probe_mesh.vertices.foreach_set("co", corners.astype(np.float32).ravel())
-        probe_mesh.loops.add(3 * count)
-        probe_mesh.loops.foreach_set("vertex_index", np.arange(3 * count, dtype=np.int32))
-        probe_mesh.polygons.add(count)
-        probe_mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * count, 3, dtype=np.int32))
-        probe_mesh.update(calc_edges=True)
-        probe_mesh.uv_layers.new(name="Probes").data.foreach_set("uv", uvs.astype(np.float32).ravel())
-        probe_mesh.materials.append(copy.active_material)
-        probe = made.add(bpy.data.objects.new("PW Rain Probes", probe_mesh))
-        image = made.add(bpy.data.images.new("PW Rain Probes", side, side, alpha=False, float_buffer=True))
-        copy.users_scene[0].collection.objects.link(probe)
-        texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
-        texture.image = image
-        copy.active_material.node_tree.nodes.active = texture
-        with bpy.context.temp_override(**scratch_scene.only_selected(probe)):
-            bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, margin=0, use_clear=True)
-        pixels = np.empty(side * side * 4, dtype=np.float32)
-        image.pixels.foreach_get(pixels)
-        return pixels[0::4][:count].copy()  # texel (column i % side, row i // side from the bottom)
-
-
-def _bake(copy, target, margin):
-    # Renders shade an inside-out mesh from outside (a back face turns its normal to the
-    # viewer); the bake weighs rain by the stored normal, so it bakes the copy turned right
-    # way out, then turns it back, which restores the order of its face corners.
-    inside_out = mesh_arrays.is_inside_out(copy.data)
-    if inside_out:
-        copy.data.flip_normals()
-    with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
-        bpy.ops.object.bake(
-            type="DIFFUSE",
-            pass_filter={"DIRECT"},
-            target=target,
-            margin=margin,
-            margin_type="EXTEND",
-            use_clear=True,
-            use_selected_to_active=False,
-        )
-    if inside_out:
-        copy.data.flip_normals()
-
-
-@contextmanager
-def _bake_scene(target, occluders, settings):
-    """A temporary Cycles scene holding a copy of ``target`` (own mesh, a white diffuse material,
-    returned) and copies of ``occluders`` (opaque), under the rain sky; all removed afterwards."""
-    if target.type != "MESH":
-        raise ValueError(f"{target.name}: a rain bake needs a mesh object, not {target.type.lower()}")
-    with scratch_scene.Ledger() as made:
-        scene = scratch_scene.temporary_scene(made, "PW Rain Bake", samples=settings.samples, seed=settings.seed)
-        # direct light only (no bounce, transparent or not): the rain reaches a point straight from the sky
-        scene.cycles.transparent_max_bounces = 0
-        scene.world = None
-        surface = made.add(compat.new_material("PW Rain Surface"))
-
-        copy = scratch_scene.placed_copy(target, scene, surface, own_mesh=True, ledger=made)
-        copies = [copy]
-        for occluder in occluders:
-            if occluder != target:
-                copies.append(scratch_scene.placed_copy(occluder, scene, surface, ledger=made))
-        _to_unit_size(copies, target)
-        _add_sky(scene, settings, made)
-        yield copy
-
-
-def unit_placing(target: bpy.types.Object) -> np.ndarray:
-    """The transform (4 x 4, float64) that centres the bounding box of ``target``'s surface
-    (``edges.surface_box``: its faces, not a stray point) on the origin and scales its diagonal
-    to 1. E depends on directions only, but Cycles offsets its rays by fixed distances: the
-    same smooth scan in millimetres and in metres, baked per corner, had 3% of its corners more
-    than 1e-3 apart at 16 samples; at one size none (docs/scans.md)."""
-    matrix = np.array(target.matrix_world, dtype=np.float64)
-    placing = np.eye(4)
-    box = edges.surface_box(target)
-    if box is None:
-        return placing
-    corners = np.array([[box[i, 0], box[j, 1], box[k, 2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])
-    corners = corners @ matrix[:3, :3].T + matrix[:3, 3]
-    low, high = corners.min(axis=0), corners.max(axis=0)
-    size = np.linalg.norm(high - low)
-    if size > 0:
-        placing[:3, :3] /= size
-        placing[:3, 3] = -(low + high) / (2 * size)
-    return placing
-
-
-def _to_unit_size(copies, target):
-    """Move and scale the ``copies`` together by ``unit_placing(target)``."""
-    placing = unit_placing(target)
-    for copy in copies:
-        copy.matrix_world = Matrix((placing @ np.array(copy.matrix_world, dtype=np.float64)).tolist())
+    """E at every face corner of ``obj``'s mesh, as a float32 array (len(mesh.loops),)
+    (``sky_bake.bake_corners``: a mesh smooth at its vertices baked once per vertex)."""
+    return sky_bake.bake_corners(obj, sky(settings), occluders)
 
 
 def _add_sky(scene, settings, made):
@@ -363,7 +164,7 @@ def _add_sky(scene, settings, made):
 
 
 def _occluders(obj, options):
-    return default_occluders(obj, options.occluder_collection())
+    return sky_bake.default_occluders(obj, options.occluder_collection())
 
 
 def _rain_image(obj, uv_map, options, margin):
