@@ -242,13 +242,16 @@ def outcomes(done):
 def test_the_command_writes_then_says_unchanged(saved_box, tmp_path):
     out = tmp_path / "out"
     first = run_cli("survey", saved_box, "--years", "10,25", "--out", out)
-    assert first.returncode == 0 and outcomes(first) == ["written"] * 3, first.stderr
-    assert sorted(os.listdir(out)) == ["box.forecast.csv", "box.survey.csv", "box.survey.json"]
+    # the tables, and a condition map (SVG and PNG) per object and age
+    drawings = [f"box.Box.{years}y.{kind}" for years in (10, 25) for kind in ("png", "svg")]
+    files = sorted(["box.forecast.csv", "box.survey.csv", "box.survey.json", *drawings])
+    assert first.returncode == 0 and outcomes(first) == ["written"] * len(files), first.stderr
+    assert sorted(os.listdir(out)) == files
     second = run_cli("survey", saved_box, "--years", "10,25", "--out", out)
     assert second.returncode == 0, second.stderr
-    assert outcomes(second) == ["unchanged"] * 3
+    assert outcomes(second) == ["unchanged"] * len(files)
     named = run_cli("survey", saved_box, "--years", "10,25", "--out", out, "--objects", "Box", "--name", "box")
-    assert named.returncode == 0 and outcomes(named) == ["unchanged"] * 3  # the same objects, named
+    assert named.returncode == 0 and outcomes(named) == ["unchanged"] * len(files)  # the same objects, named
     (out / "box.survey.json").write_text("{}", encoding="utf-8")  # not a survey paradata any more
     refused = run_cli("survey", saved_box, "--years", "10,25", "--out", out)
     assert refused.returncode == 3 and "--force" in refused.stderr
@@ -279,7 +282,8 @@ def test_an_interrupted_survey_leaves_no_temporary_file(saved_box, tmp_path):
     )
     try:
         assert any(line.strip() == "TEMPORARY WRITTEN" for line in iter(child.stdout.readline, ""))
-        assert len([name for name in os.listdir(out) if name.startswith(".pw_")]) == 3  # two tables, paradata
+        # two tables, the paradata and the age's drawings (SVG and PNG, each through one temporary file or more)
+        assert len([name for name in os.listdir(out) if name.startswith(".pw_")]) >= 5
         child.send_signal(signal.SIGINT)
         _, stderr = child.communicate(timeout=60)
     finally:
@@ -396,7 +400,10 @@ def test_the_condition_survey_button_runs_the_survey(registered, tmp_path):
     assert declared == {"years", "environment", "out_dir", "name", "north", "force"}
     assert declared <= {prop.identifier for prop in operator.get_rna_type().properties}
     assert operator(years="10,25", out_dir=str(tmp_path / "out"), name="panel") == {"FINISHED"}
-    assert sorted(os.listdir(tmp_path / "out")) == ["panel.forecast.csv", "panel.survey.csv", "panel.survey.json"]
+    drawings = [f"panel.Box.{years}y.{kind}" for years in (10, 25) for kind in ("png", "svg")]
+    assert sorted(os.listdir(tmp_path / "out")) == sorted(
+        ["panel.forecast.csv", "panel.survey.csv", "panel.survey.json", *drawings]
+    )
     with pytest.raises(RuntimeError, match="years must be numbers >= 0, not -1"):  # its one-line report
         operator(years="10,-1", out_dir=str(tmp_path / "bad"))
     assert not (tmp_path / "bad").exists()
