@@ -12,7 +12,7 @@ from typing import Any
 
 from ..blender import mesh_arrays
 from ..core import modes as weathering_modes
-from . import edges, efflorescence_map, rain, runoff
+from . import damp, edges, efflorescence_map, rain, runoff
 
 
 @dataclass(frozen=True)
@@ -185,8 +185,40 @@ RUNOFF = MapKind(
 )
 
 
+# --- rising damp D (docs/model.md §9.2) ------------------------------------------------------------
+
+
+def _damp_image(obj, uv_map, options, margin):
+    return damp.bake_damp_image(obj, uv_map, options.resolution, options.damp_settings, margin)
+
+
+def _damp_attribute(obj, options):
+    mesh_arrays.write_corner_attribute(
+        obj.data, damp.DAMP_ATTRIBUTE, damp.bake_damp_corners(obj, options.damp_settings)
+    )
+
+
+def _damp_hash(obj, options, digests):
+    # heights and thicknesses are read in metres: the same object at another unit scale is another map
+    return dict(metres_per_unit=damp.metres_per_unit(obj))
+
+
+DAMP = MapKind(
+    name="damp",
+    label="Rising Damp",
+    description="Water drawn up from the ground: 1 below the steady front h = S (b / 2 e θ_w)^1/2, 0 above it",
+    attribute=damp.DAMP_ATTRIBUTE,
+    settings=damp.DampSettings,
+    options_field="damp_settings",
+    bake_image=_damp_image,
+    bake_attribute=_damp_attribute,
+    hash_inputs=_damp_hash,
+)
+
+
 register(RAIN)
 register(EDGES)
+register(DAMP)
 register(RUNOFF)
 
 
