@@ -59,7 +59,9 @@ def scan(triangles):
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     vertices, faces = scan_generator.bust_mesh(triangles)
-    obj = scan_generator.add_to_scene("Bust", scan_generator.scaled(vertices, "mm"), faces, bpy.context.scene.collection)
+    obj = scan_generator.add_to_scene(
+        "Bust", scan_generator.scaled(vertices, "mm"), faces, bpy.context.scene.collection
+    )
     bpy.context.scene.unit_settings.scale_length = 0.001
     rain_s = _timed([obj], maps=("rain",), target="attribute")
     damp_s = _timed([obj], maps=("damp",), target="attribute")

@@ -30,6 +30,7 @@ from porous_weathering.core.modes import base as mode_base
 from porous_weathering.core.modes import efflorescence, wet
 from porous_weathering.maps import bake, damp, edges, rain
 from porous_weathering.maps import registry as maps
+from porous_weathering.shading import presets
 
 SETTINGS = damp.DampSettings()
 #: A wall 2 m long, 0.5 m thick, 1.6 m high, standing on the ground at z = 0.
@@ -110,6 +111,20 @@ def test_no_damp_is_the_water_from_above_and_the_location_map_bit_for_bit():
     water = wet.water_of(xp, state)
     assert np.allclose(wet.water_with_damp(xp, state), 1 - (1 - water) * (1 - d))
     assert np.array_equal(efflorescence.salt_location(xp, location, d), np.maximum(location, 4 * d * (1 - d)))
+
+
+def test_a_damp_plinth_of_limestone_or_brick_is_darker_than_085_times_dry():
+    """At t = 1, ambient light, seen face on: where D = 1 the diffuse weight is below 0.85 x the
+    dry one in every channel; where D = 0 it is the dry one exactly."""
+    for key in ("LIMESTONE", "BRICK"):
+        params = presets.PRESETS[key].material_params()
+        stone = [params[name] for name in ("base_color", "ks", "roughness", "porosity", "pore_depth_ratio")]
+        state = dict(time=1.0, rain_map=0.0)
+        dry = model.weathered_coefficients(*stone, None, 1.0, ("wet",), **state)[0]
+        damp_kd = model.weathered_coefficients(*stone, None, 1.0, ("wet",), damp_map=1.0, **state)[0]
+        above = model.weathered_coefficients(*stone, None, 1.0, ("wet",), damp_map=0.0, **state)[0]
+        assert np.all(np.asarray(damp_kd)[:3] < 0.85 * np.asarray(dry)[:3]), key
+        assert np.array_equal(above, dry)
 
 
 # --- the bake ----------------------------------------------------------------------------------------
