@@ -129,6 +129,16 @@ class MaskedPlane:
         return self.render(probe)[..., 0]
 
 
+def gradient_image(name, values):
+    """A float image whose rows are ``values`` (a 2D array, top row last as Blender stores it)."""
+    height, width = values.shape
+    image = bpy.data.images.new(name, width, height, float_buffer=True, is_data=True)
+    rgba = np.repeat(values[..., None], 4, axis=-1).astype(np.float32)
+    rgba[..., 3] = 1.0
+    image.pixels.foreach_set(rgba.ravel())
+    return image
+
+
 def weathered(name, modes, key_light=None, **state):
     """A weathered material on the test stone with the API's plain defaults (no environment), as
     model_weights takes them; the environments' values are held in tests/test_environments.py."""

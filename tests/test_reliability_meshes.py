@@ -1,5 +1,5 @@
 """Bad meshes through everything that takes objects: the add-material operator and the map
-bakes (image and attribute targets, rain, edges and run-off). Each case either works, giving whole,
+bakes (image and attribute targets, every registered map). Each case either works, giving whole,
 finite maps, or is refused with a message naming the object, leaving every datablock, UV map,
 attribute, material slot and output folder as it was (tests/bad_meshes.py builds the cases)."""
 
@@ -19,7 +19,7 @@ from porous_weathering.maps import bake, edges, lightmap, rain
 from porous_weathering.samples import studio
 
 FAST_RAIN = rain.RainSettings(samples=2)
-MAPS = ("rain", "edges", "runoff")
+MAPS = bake.BakeOptions().maps  #: every registered map, in the order the bake takes them
 
 #: (case, operation) -> what the refusal must say besides the object's name.
 REFUSED = {

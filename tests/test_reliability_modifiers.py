@@ -53,7 +53,7 @@ MODIFIERS = {
 }
 #: What a per-point difference of each map may be, in the mean and at the 95th percentile
 #: (the rain is a Monte Carlo estimate per texel; the run-off integrates it along its paths).
-TOLERANCES = {"rain": (0.03, 0.15), "edges": (0.02, 0.1), "runoff": (0.02, 0.05)}
+TOLERANCES = {"rain": (0.03, 0.15), "edges": (0.02, 0.1), "runoff": (0.02, 0.05), "damp": (0.02, 0.05)}
 
 
 def box(scene, name, scale=(1.0, 1.0, 1.0), uvs=False):

@@ -23,6 +23,7 @@ from helpers import (
     MaskedPlane,
     assert_matches,
     expected_image,
+    gradient_image,
     lobes,
     model_weights,
     paper_modes,
@@ -118,16 +119,6 @@ def test_time_zero_renders_the_clean_material_exactly(fresh_scene, light):
     state = {**STATES["soiling+wet+efflorescence"], "time": 0.0}
     aged = sphere.render(weathered("New", model.MODES, key_light=key_light, **state))
     assert np.array_equal(aged, clean)
-
-
-def gradient_image(name, values):
-    """A float image whose rows are ``values`` (a 2D array, top row last as Blender stores it)."""
-    height, width = values.shape
-    image = bpy.data.images.new(name, width, height, float_buffer=True, is_data=True)
-    rgba = np.repeat(values[..., None], 4, axis=-1).astype(np.float32)
-    rgba[..., 3] = 1.0
-    image.pixels.foreach_set(rgba.ravel())
-    return image
 
 
 def test_image_and_attribute_masks_match_model(fresh_scene):

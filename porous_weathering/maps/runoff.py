@@ -212,7 +212,7 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
         # read at the vertices, and apart at the corners whose normals differ from their vertex's
         # (sharp edges, flat shading): a smooth scan's corners share their vertex's value
         vertex_of = mesh_arrays.attribute(seen.mesh, ".corner_vert", np.int32)
-        corner_normals = _corner_normals(seen)
+        corner_normals = world_corner_normals(seen)
     vertex_normals = np.zeros_like(world.vertices)
     np.add.at(vertex_normals, vertex_of, corner_normals)
     vertex_normals /= np.maximum(np.linalg.norm(vertex_normals, axis=1), 1e-300)[:, None]
@@ -225,7 +225,7 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
     return runoff_flow.runoff_map(flux, runoff_length)
 
 
-def _corner_normals(seen):
+def world_corner_normals(seen):
     """The world-space unit normals of ``seen``'s corners (normals transform by the inverse
     transpose, which keeps them outwards under a mirror)."""
     normals = np.empty(len(seen.mesh.loops) * 3, np.float32)

@@ -134,6 +134,15 @@ RUNOFF = Input(
     "How much of the run-off map counts as water reaching the surface: 0 is the rain map alone",
     panel=True,
 )
+DAMP_MAP = Input(
+    "damp_map",
+    0.0,
+    0.0,
+    1.0,
+    "Rising damp D: 1 below the steady front of water drawn up from the ground, 0 above it (docs/model.md §9.2)",
+    mask=True,
+    map="damp",
+)
 
 DAMP_MAP = Input(
     "damp_map",

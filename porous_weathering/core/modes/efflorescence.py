@@ -1,9 +1,23 @@
 """Efflorescence (docs/model.md §4, section 4.3 of the paper): salt fills the pores where a location
 map (a height field from a photograph, or generated; without one, the water the stone absorbs,
-docs/model.md §7.2) is highest first."""
+docs/model.md §7.2) is highest first, and at the tide mark of rising damp, where the water drawn up
+from the ground evaporates (docs/model.md §9.2; no damp map: the location map alone)."""
 
 from ..patterns import NSD, Pattern, shown
-from .base import FILL_SALT, FRONT_WIDTH, TIME, Input, Layer, Mode, blend, filled_absorption, local_share, pore_fill
+from ..rising_damp import tide_mark
+from .base import (
+    DAMP_MAP,
+    FILL_SALT,
+    FRONT_WIDTH,
+    TIME,
+    Input,
+    Layer,
+    Mode,
+    blend,
+    filled_absorption,
+    local_share,
+    pore_fill,
+)
 
 EFFLORESCENCE_MAP = Input(
     "efflorescence_map",
@@ -29,10 +43,16 @@ def efflorescence_diffuse(xp, kd, salt_color, pore, ap, ks_poro):
     return xp.minimum(xp.mix(pore, kd, (kd + salt_color) * (1.0 - ap)), 1.0 - ks_poro)
 
 
+def salt_location(xp, efflorescence_map, damp_map):
+    """Where salt fills the pores first: the location map or the tide mark of rising damp,
+    max(location, 4 D (1 - D)) (docs/model.md §9.2); the location map bit for bit at D = 0."""
+    return xp.maximum(efflorescence_map, tide_mark(xp, damp_map))
+
+
 def fill_with_salt(xp, point):
     s = point.state
-    fill = pore_fill(xp, s["efflorescence_map"], s["time"], s["efflorescence_level"], s["front_width"])
-    salt = local_share(xp, fill, point.spread)
+    location = salt_location(xp, s["efflorescence_map"], s["damp_map"])
+    salt = local_share(xp, pore_fill(xp, location, s["time"], s["efflorescence_level"], s["front_width"]), point.spread)
     ap = filled_absorption(xp, point.ka, point.sp, salt, point.theta_i, point.theta_r)
     salty = efflorescence_diffuse(xp, point.kd, s["salt_color"], point.pore, ap, xp.channel(point.ks_w))
     point.kd_w = blend(xp, point.kd_w, salty, xp.channel(salt))
@@ -54,7 +74,7 @@ MODE = Mode(
     name="efflorescence",
     label="Efflorescence",
     description="Salt fills the pores where the location map is highest first",
-    inputs=(TIME, FRONT_WIDTH, EFFLORESCENCE_MAP, EFFLORESCENCE_LEVEL, SALT_COLOR),
+    inputs=(TIME, FRONT_WIDTH, EFFLORESCENCE_MAP, DAMP_MAP, EFFLORESCENCE_LEVEL, SALT_COLOR),
     layers=(Layer(FILL_SALT, fill_with_salt),),
     catalog="Efflorescence",
     asset_summary="Efflorescence: salt fills the pores where the location map is highest first",

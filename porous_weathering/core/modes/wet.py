@@ -4,10 +4,12 @@ is highest first, and a near-mirror water lobe of its own reflects the sky.  Bey
 Lekner & Dorf explain, by light the water's surface sends back down to be absorbed again, and
 the water's surface reflects as water does, by Fresnel (this project's decision: docs/model.md).
 The front sweeps the water reaching a point, rain or run-off (docs/model.md §7; ``runoff = 0`` is the
-rain map alone)."""
+rain map alone) or rising damp drawn up from the ground (docs/model.md §9.2; D = 0 is the water from above
+alone)."""
 
 from ..patterns import NSD, Pattern, shown
 from .base import (
+    DAMP_MAP,
     DARKEN_WET,
     FILL_WATER,
     FRONT_WIDTH,
@@ -89,9 +91,19 @@ def water_transmittance(xp, n_dot_v):
     return 1.0 - fresnel_weight(xp, n_dot_v, 1.0)
 
 
+def water_with_damp(xp, state):
+    """The water the wet front sweeps: W from above (``water_of``) or rising damp D from below
+    (docs/model.md §9.2), 1 - (1 - W)(1 - D), written as W + D (1 - W): one multiply-add of W,
+    and W bit for bit at D = 0."""
+    water = water_of(xp, state)
+    return xp.multiply_add(state["damp_map"], 1.0 - water, water)
+
+
 def fill_with_water(xp, point):
     s = point.state
-    water = local_share(xp, pore_fill(xp, water_of(xp, s), s["time"], s["wet_level"], s["front_width"]), point.spread)
+    water = local_share(
+        xp, pore_fill(xp, water_with_damp(xp, s), s["time"], s["wet_level"], s["front_width"]), point.spread
+    )
     ap = filled_absorption(xp, point.ka, point.sp, water, point.theta_i, point.theta_r)
     kd_wet, water_lobe = wet_weights(xp, point.kd, xp.channel(s["water_specular"]), point.pore, ap)
     point.kd_w = blend(xp, point.kd_w, kd_wet, xp.channel(water))
@@ -124,7 +136,7 @@ MODE = Mode(
     name="wet",
     label="Wet",
     description="Rain fills the pores with water where the rain map is highest first",
-    inputs=(TIME, FRONT_WIDTH, RAIN_MAP, RUNOFF_MAP, RUNOFF, WET_LEVEL, WATER_SPECULAR, WET_DARKENING),
+    inputs=(TIME, FRONT_WIDTH, RAIN_MAP, RUNOFF_MAP, RUNOFF, DAMP_MAP, WET_LEVEL, WATER_SPECULAR, WET_DARKENING),
     layers=(Layer(FILL_WATER, fill_with_water), Layer(DARKEN_WET, darken_under_water)),
     catalog="Wet Surfaces",
     asset_summary="Wet surface: water fills the pores where the rain map is highest first",

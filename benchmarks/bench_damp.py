@@ -1,0 +1,100 @@
+"""The rising-damp bake's speed against the rain bake's (docs/maps.md, "Rising damp timings"; target:
+the damp bake takes at most the rain bake's time on the same object and target).
+
+Each stage runs in a child process of its own and bakes the rain (its default samples) and then
+the damp on the same object, each timed alone:
+
+- ``facade``: the bundled façade's parts joined into one object, to images of ``--resolution``²
+  on its lightmap (made by the rain bake, so not in the damp's time);
+- ``scan``: the scan generator's bust of ``--triangles`` triangles, in millimetres, to colour
+  attributes.
+
+    python benchmarks/bench_damp.py [--stages facade scan] [--resolution 1024] [--triangles 200000]
+"""
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+STAGES = ("facade", "scan")
+
+
+def _timed(objects, **options):
+    from porous_weathering.maps import bake
+
+    started = time.monotonic()
+    bake.bake_maps(objects, bake.BakeOptions(**options))
+    return round(time.monotonic() - started, 2)
+
+
+def facade(resolution, out_dir):
+    import bpy
+
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(ROOT, "sample_blends", "limestone_facade.blend"), load_ui=False)
+    parts = [obj for obj in bpy.context.scene.objects if obj.type == "MESH" and obj.name != "Ground"]
+    with bpy.context.temp_override(active_object=parts[0], selected_editable_objects=parts):
+        bpy.ops.object.join()
+    common = dict(resolution=resolution, out_dir=out_dir)
+    rain_s = _timed(parts[:1], maps=("rain",), **common)  # makes the lightmap too
+    rain_again_s = _timed(parts[:1], maps=("rain",), rain_settings=_other_seed(), **common)
+    damp_s = _timed(parts[:1], maps=("damp",), **common)
+    return dict(resolution=resolution, rain_s=rain_s, rain_on_its_lightmap_s=rain_again_s, damp_s=damp_s)
+
+
+def _other_seed():
+    from porous_weathering.maps import rain
+
+    return rain.RainSettings(seed=1)
+
+
+def scan(triangles):
+    import bpy
+
+    sys.path.insert(0, os.path.join(ROOT, "sample_blends"))
+    import scan_generator
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    vertices, faces = scan_generator.bust_mesh(triangles)
+    obj = scan_generator.add_to_scene(
+        "Bust", scan_generator.scaled(vertices, "mm"), faces, bpy.context.scene.collection
+    )
+    bpy.context.scene.unit_settings.scale_length = 0.001
+    rain_s = _timed([obj], maps=("rain",), target="attribute")
+    damp_s = _timed([obj], maps=("damp",), target="attribute")
+    return dict(triangles=len(obj.data.polygons), rain_s=rain_s, damp_s=damp_s)
+
+
+def child(stage, args):
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="pw_bench_damp_") as out_dir:
+        result = facade(args.resolution, out_dir) if stage == "facade" else scan(args.triangles)
+    print(json.dumps(result))
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stages", nargs="+", choices=STAGES, default=list(STAGES))
+    parser.add_argument("--resolution", type=int, default=1024)
+    parser.add_argument("--triangles", type=int, default=200_000)
+    parser.add_argument("--child", choices=STAGES, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        return child(args.child, args)
+    print(f"load average at the start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    for stage in args.stages:
+        command = [sys.executable, os.path.abspath(__file__), "--child", stage, "--resolution", str(args.resolution)]
+        command += ["--triangles", str(args.triangles)]
+        done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True)
+        output = done.stdout.strip().splitlines()
+        result = json.loads(output[-1]) if done.returncode == 0 and output else {"failed": done.stderr[-500:]}
+        print(f"{stage}: {json.dumps(result)}")
+
+
+if __name__ == "__main__":
+    sys.path.insert(0, ROOT)
+    main()
