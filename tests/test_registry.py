@@ -43,8 +43,8 @@ from porous_weathering.ui import panel as ui
 def test_a_module_is_all_a_mode_and_a_map_need(toys):
     """The registries find the toys' modules, nothing else names them, and they go once their
     modules are no longer on the packages' paths."""
-    assert weathering_modes.names() == ("soiling", "wet", "efflorescence", "grime")
-    assert maps.names() == ("rain", "edges", "runoff", "sun", "toy")
+    assert weathering_modes.names() == ("soiling", "wet", "efflorescence", "biological", "grime")
+    assert maps.names() == ("rain", "edges", "runoff", "sun", "damp", "toy")
     assert weathering_modes.get("grime") is sys.modules["porous_weathering.core.modes.grime"].MODE
     assert maps.get("toy") is sys.modules["porous_weathering.maps.toy"].MAP
     for toy in (TOYS / "modes" / "grime.py", TOYS / "maps" / "toy.py"):

@@ -45,6 +45,7 @@ _REGISTERED: dict[str, Mode] = {}  #: the modes given to ``register``
 def _update(found: Mapping[str, Mode], registered: Mapping[str, Mode]) -> None:
     """Make the registry of ``found`` and ``registered``: names unique, and each input the same
     in every mode that declares it."""
+    found, registered = dict(found), dict(registered)  # either may be _FOUND or _REGISTERED, cleared below
     for name in set(found) & set(registered):
         raise ValueError(f"a weathering mode named {name!r} is registered already")
     modes = sorted([*found.values(), *registered.values()], key=lambda mode: (mode.order, mode.name))
