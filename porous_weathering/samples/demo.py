@@ -26,7 +26,7 @@ import os
 import sys
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import bpy
 
@@ -35,10 +35,10 @@ from mathutils import Vector
 
 from ..blender import render
 from ..common.progress import ProgressBar
-from ..contracts import EXTENSION_ROOT, GROUP_NODE, SAMPLES_DIR
-from ..core import environments, model
+from ..contracts import EXTENSION_ROOT, GROUP_NODE, SAMPLES_DIR, socket_name
+from ..core import aging, environments, model
 from ..core import modes as weathering_modes
-from ..maps import bake, efflorescence_map, rain
+from ..maps import bake, efflorescence_map, rain, sun
 from ..maps import registry as maps
 from ..shading import material, presets, weathering
 from . import studio
@@ -109,6 +109,8 @@ class Recipe:
     unite: str | None = None
     cell: float | None = None
     masonry: presets.Ashlar | None = None
+    #: The site's sun (sun.SunSettings fields: its latitude, where north is).
+    sun: dict = field(default_factory=dict)
 
     @property
     def masks(self) -> dict:
@@ -173,6 +175,11 @@ DOCS_BEFORE_AFTER = {model.SOILING: "sculpted_stone", model.WET: "brick_wall", m
 #: docs/images/runoff_before_after.png: the façade soiled at t = 1 by the rain alone (the modes
 #: without run-off: docs/model.md §7.2) and by the rain and its run-off (the defaults).
 DOCS_RUNOFF = (("rain alone", dict(runoff=0.0, streaks=0.0)), ("rain and run-off", {}))
+#: docs/images/facade_life.png (docs/model.md §9): the façade in the country, life alone, at these
+#: years since it was last clean. Its front faces north here (north angle 180: +Y is south), as a
+#: façade in the shade most of the day, at 50° N: a fact of the site, given to its sun map.
+DOCS_LIFE_YEARS = (5.0, 20.0, 50.0)
+LIFE = "biological"
 #: docs/images/stone_flat_vs_structured.png and stone_mm_vs_m.png (docs/model.md §8): a square wall
 #: of the façade's stone and masonry, ``side`` metres, new and soiled, its masks constant (a wall
 #: half reached by the rain, mid-way down the edge mask): what varies is the stone's alone.
@@ -184,9 +191,9 @@ class Sample:
     attributes, or generated into image files in ``map_dir``), ready to show any of its modes
     at any age."""
 
-    def __init__(self, name, *, map_dir, bake_samples=32, progress=False):
+    def __init__(self, name, *, map_dir, bake_samples=32, progress=False, recipe=None):
         bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES_DIR, f"{name}.blend"), load_ui=False)
-        self.name, self.recipe = name, RECIPES[name]
+        self.name, self.recipe = name, recipe or RECIPES[name]
         self.scene = bpy.context.scene
         self.sun = next(obj for obj in self.scene.objects if obj.type == "LIGHT")
         self.objects = [
@@ -227,6 +234,7 @@ class Sample:
                 maps=baked,
                 target="attribute",
                 rain_settings=rain.RainSettings(samples=bake_samples, **self.recipe.rain),
+                sun_settings=sun.SunSettings(samples=bake_samples, **self.recipe.sun),
             )
             bar = ProgressBar(f"baking the maps of {self.name}") if progress else None
             bake.bake_maps(self.objects, options, progress=bar)
@@ -392,6 +400,7 @@ def docs_pictures(args):
                 out = os.path.join(DOCS_IMAGES, f"{mode}_before_after.png")
                 written.append(side_by_side(pictures, 2, out, labels, DOCS_SCALE))
         written += render_stone_walls(work, args.size, args.samples)
+        written.append(render_facade_life(work, args.size, args.samples, args.bake_samples))
         bust = Sample("bust", bake_samples=args.bake_samples, map_dir=work, progress=True)
         bust.use_cycles(args.size, args.samples)
         pictures = [bust.render(mode, age, os.path.join(work, f"bust_{mode}_{age}.png")) for mode, age in DOCS_BUST]
@@ -421,6 +430,28 @@ def render_porous_vs_base(path, size=256, samples=64):
     scene.render.resolution_x = 2 * size
     scene.cycles.use_denoising = True
     return render.render_picture(scene, path)
+
+
+def render_facade_life(work, size, samples, bake_samples):
+    """docs/images/facade_life.png: the façade in RURAL, biological mode alone, at DOCS_LIFE_YEARS
+    (every clock of its material set from the years, ``ages_for_years``)."""
+    recipe = replace(RECIPES[FACADE], modes=(LIFE,), environment="RURAL", sun=dict(latitude=50.0, north_angle=180.0))
+    facade = Sample(FACADE, bake_samples=bake_samples, map_dir=work, progress=True, recipe=recipe)
+    facade.use_cycles(size, samples)
+    weathered = facade.material(LIFE)
+    group = weathered.node_tree.nodes[GROUP_NODE]
+    carbon = environments.get(recipe.environment).elemental_carbon
+    pictures = []
+    for years in DOCS_LIFE_YEARS:
+        for clock, value in aging.ages_for_years(years, carbon).items():
+            if socket_name(clock) in group.inputs:
+                weathering.set_input(group, clock, value)
+        for obj in facade.objects:
+            studio.assign(obj, weathered)
+        path = os.path.join(work, f"facade_life_{years:g}.png")
+        pictures.append(render.render_picture(facade.scene, path, view_transform="Standard"))
+    labels = [f"biological, rural, {years:g} years" for years in DOCS_LIFE_YEARS]
+    return side_by_side(pictures, len(pictures), os.path.join(DOCS_IMAGES, "facade_life.png"), labels, DOCS_SCALE)
 
 
 def stone_wall_scene(metres_per_unit):
