@@ -70,7 +70,10 @@ def test_weathering_modes_are_assets_in_every_light_mode_with_weathered_previews
         for mode in model.MODES:
             name = nodes.weathered_group_name((mode,), light)
             assert known[groups[name]["catalog"]] == f"Porous Weathering/{weathering_modes.get(mode).catalog}"
-            assert ("INPUT", "Time") in groups[name]["sockets"]
+            # every input of the mode is a socket of its asset (its clock too: Time, or Biological Years)
+            assert {("INPUT", item.socket) for item in weathering_modes.get(mode).inputs} <= set(
+                groups[name]["sockets"]
+            )
             # the previews are fully weathered: soot and deposit darken, salt whitens, water
             # darkens the diffuse and adds a mirror lobe
             change = (previews[name] - clean)[sphere, :3]
