@@ -93,3 +93,10 @@ EXIT_REFUSED = 3
 #: Stopped by SIGINT / SIGTERM (128 + the signal), with nothing half-written.
 EXIT_SIGINT = 130
 EXIT_SIGTERM = 143
+
+
+def batch_exit_code(codes) -> int:
+    """The exit code of a command over several files, from each file's: 1 when one failed, else
+    3 when one was refused, else 0 (docs/cli.md); the serial run and a Dask run say the same."""
+    others = set(codes) - {EXIT_OK}
+    return EXIT_FAILED if others - {EXIT_REFUSED} else EXIT_REFUSED if others else EXIT_OK

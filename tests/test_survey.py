@@ -292,6 +292,77 @@ def test_an_interrupted_survey_leaves_no_temporary_file(saved_box, tmp_path):
     assert os.listdir(out) == []
 
 
+# --- several files, and on a Dask cluster ----------------------------------------------------------------
+
+#: The outcome and error lines of the survey command: under Dask the files finish in any order.
+SAID = ("written", "unchanged", "error:")
+
+
+def said(done, out):
+    lines = (done.stdout + "\n" + done.stderr).replace("\r", "\n").splitlines()
+    return done.returncode, sorted(line.replace(str(out), "OUT") for line in lines if line.startswith(SAID))
+
+
+@pytest.fixture
+def blends(tmp_path):
+    """one/box.blend and two/box.blend (the same survey name: the second is refused as made from
+    another .blend), broken.blend (no .blend Blender can open) and wall.blend, its box narrower."""
+    folder = tmp_path / "blends"
+    made = []
+    for where, scale in (("one/box", 1.0), ("two/box", 1.0), ("wall", 0.5)):
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        obj = box(1.0, {"efflorescence_map": "height"}, modes=("efflorescence",))
+        obj.scale.x = scale
+        path = folder / f"{where}.blend"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+        made.append(path)
+    (folder / "broken.blend").write_bytes(b"BLENDER-v500 but nothing after it")
+    return [made[0], folder / "broken.blend", made[1], made[2]]
+
+
+def test_several_files_are_surveyed_alike_here_and_on_a_local_dask_cluster(blends, tmp_path):
+    serial, dask = tmp_path / "serial", tmp_path / "dask"
+    here = said(run_cli("survey", *blends, "--ages", "0.5", "--north", "30", "--out", serial, timeout=240), serial)
+    code, lines = here
+    # the broken file fails and the second box.blend is refused, neither stopping the others
+    assert code == 1, lines
+    assert [line.split(":")[1].strip() for line in lines if line.startswith("error:")] == [
+        str(blends[1]),
+        str(blends[2]),
+    ]
+    assert sum(line.startswith("written   OUT/wall.survey.csv") for line in lines) == 1
+    cluster = run_cli("survey", *blends, "--ages", "0.5", "--north", "30", "--out", dask, "--workers", "2", timeout=240)
+    assert said(cluster, dask) == here, cluster.stderr
+    tables = sorted(name for name in os.listdir(serial) if name.endswith(".csv"))
+    assert tables == ["box.forecast.csv", "box.survey.csv", "wall.forecast.csv", "wall.survey.csv"]
+    for name in tables:
+        assert (dask / name).read_text(encoding="utf-8") == (serial / name).read_text(encoding="utf-8"), name
+    record = json.loads((dask / "wall.survey.json").read_text(encoding="utf-8"))
+    assert record["north_degrees"] == 30.0 and record["source"]["blend_file"] == str(blends[3])
+    assert record["objects"][0]["area_m2"] == pytest.approx(4 * EDGE**2)  # half of four faces, two whole ones
+
+
+def test_name_with_several_files_exits_2_before_any_work(blends, tmp_path):
+    out = tmp_path / "out"
+    done = run_cli("survey", blends[0], blends[3], "--ages", "0.5", "--name", "both", "--out", out)
+    assert done.returncode == 2 and not out.exists()
+    assert done.stderr.strip().splitlines() == [
+        "error: --name names the files of one survey, and 2 .blend files were given: leave --name out "
+        "(each survey is named after its .blend) or survey one file"
+    ]
+
+
+def test_the_options_a_dask_worker_is_given_are_those_chosen():
+    from porous_weathering.cli import entry
+
+    chosen = survey.SurveyOptions(years="25,10", environment="RURAL", out_dir="/data/out", north=-12.5, force=True)
+    args = entry.build_parser().parse_args(["survey", "a.blend", *chosen.to_argv()])
+    values = {item.name: getattr(args, item.dest) for item in survey.condition.option_entries()}
+    assert survey.SurveyOptions(**values) == chosen
+    assert not survey.SurveyOptions(ages=(0.5,)).to_argv().count("--force")
+
+
 # --- the forecast ------------------------------------------------------------------------------------
 
 

@@ -17,7 +17,7 @@ import bpy
 from ..blender import compat
 from ..common import atomic, interrupts, options
 from ..common.progress import ProgressBar
-from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
+from ..contracts import EXIT_REFUSED, EXIT_USAGE, batch_exit_code
 from ..maps import registry as maps
 from ..maps.bake import (
     BakeOptions,
@@ -32,7 +32,7 @@ from ..maps.bake import (
     option_entries,
     options_from_values,
 )
-from . import distributed, selection
+from . import batch, distributed, selection
 from .selection import one_line
 
 FORCE_HINT = "bake into another --out, or add --force to replace it"
@@ -83,24 +83,19 @@ def configure_parser(parser):
         action="store_true",
         help="replace image maps made from another .blend or object (default: refuse that file, exit 3)",
     )
-    distributed.add_arguments(parser)
+    distributed.add_arguments(parser, "bake")
 
 
 def run(args):
     """The ``bake`` command; returns the exit code (0: every requested map was written)."""
     try:
-        args.files, args.objects = _files_and_objects(args.files, args.objects)
+        args.files, args.objects = batch.files_and_objects("bake", args.files, args.objects)
         values = vars(args)
         values["out_dir"] = os.path.abspath(args.out_dir)
         bake_options = options_from_values(values)
         if bake_options.target == "attribute" and not (args.save or args.dry_run):
             raise ValueError("--target attribute stores the maps in the .blend: add --save")
-        for path in args.files:
-            if os.path.isdir(path):
-                raise ValueError(f"{path} is a folder, not a .blend file")
-        missing = [path for path in args.files if not os.path.isfile(path)]
-        if missing:
-            raise FileNotFoundError(f"no such .blend file: {', '.join(missing)}")
+        batch.check_paths(args.files)
         if bake_options.target == "image" and not args.dry_run:
             check_writable_folder(bake_options.out_dir)
         _check_files(args, bake_options)
@@ -111,21 +106,23 @@ def run(args):
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
     if args.workers or args.scheduler:
-        return distributed.run(args, bake_options.target, bake_options.maps, bake_options.to_argv())
+        switches = {"--force": args.force, "--dry-run": args.dry_run, "--save": args.save}
+        switches["--allow-downgrade"] = args.allow_downgrade
+        words = selection.to_argv(args) + bake_options.to_argv() + [flag for flag, on in switches.items() if on]
+        return distributed.run(
+            args,
+            "bake",
+            words,
+            _mesh_names if bake_options.target == "image" else None,
+            "maps finished so far are complete, no .blend file was saved after the interrupt",
+        )
     return _bake_serially(args, bake_options)
 
 
-def _files_and_objects(files, objects):
-    """(files, object names): ``--objects`` takes every word up to the next option, so a word
-    ending in .blend that names an existing file is taken back as a file."""
-    taken = [word for word in objects if word.endswith(".blend") and os.path.isfile(word)]
-    names = [word for word in objects if word not in taken]
-    if objects and not names:
-        raise ValueError("--objects needs at least one object name")
-    files = [*files, *taken]
-    if not files:
-        raise ValueError("no .blend file given (usage: bake FILE.blend [FILE.blend ...] [options])")
-    return files, names
+def _mesh_names(cluster, files):
+    """The names of each file's mesh objects: only image maps of objects of the same name can
+    clash (``distributed.clash_groups``)."""
+    return cluster.mesh_names(files)
 
 
 def _check_files(args, bake_options):
@@ -170,11 +167,6 @@ class _Run:
     saved: bool = False
     bar: ProgressBar | None = None
 
-    def fail(self, line):
-        """An error line on stderr, below the progress bar as it stopped."""
-        self.bar.finish()
-        print(line, file=sys.stderr)
-
     def last_words(self, signal_name):
         words = f"interrupted by {signal_name}: the maps finished before are whole, the map in progress was discarded"
         if self.save and self.file and not self.saved:
@@ -184,24 +176,14 @@ class _Run:
 
 def _bake_serially(args, bake_options):
     run = _Run(save=args.save and not args.dry_run)
-    failed = refused = 0
+    codes = []
     claimed = {}  # image path -> Provenance of the file of this run that makes it
     with interrupts.exit_on_signals(run.last_words):
         for path in map(os.path.abspath, args.files):
             run.file, run.saved, run.bar = path, False, ProgressBar(os.path.basename(path))
-            try:
-                _bake_file(path, args, bake_options, claimed, run)
-            except OverwriteRefused as error:
-                run.fail(f"error: {path}: {one_line(error)}; {FORCE_HINT}")
-                refused += 1
-            except (ValueError, OSError, RuntimeError) as error:
-                run.fail(f"error: {path}: {one_line(error)}")
-                failed += 1
-            except Exception as error:  # a bug: said in one line, and the other files go on
-                run.fail(f"error: {path}: {type(error).__name__}: {one_line(error)} (a bug: please report it)")
-                failed += 1
+            codes.append(batch.run_file(run.bar, FORCE_HINT, _bake_file, path, args, bake_options, claimed, run))
             run.bar.finish()
-    return EXIT_FAILED if failed else EXIT_REFUSED if refused else EXIT_OK
+    return batch_exit_code(codes)
 
 
 def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):

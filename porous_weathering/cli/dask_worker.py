@@ -1,9 +1,9 @@
-"""What runs on a Dask worker for ``bake ... --workers N`` / ``--scheduler ADDRESS`` (the client
-is ``distributed``; docs/batch.md).
+"""What runs on a Dask worker for ``bake ...`` or ``survey ...`` with ``--workers N`` /
+``--scheduler ADDRESS`` (the client is ``distributed``; docs/batch.md).
 
 A task (``in_bake_process``) runs in the worker's *bake process*: one long-lived Python process
-per worker that imports bpy once and runs the command (``entry.main``) for every task it is
-given, so a task costs a file open, not a Blender start. A process of its own, not the worker,
+per worker that imports bpy once and runs the command (``entry.main``: one of ``COMMANDS``) for
+every task it is given, so a task costs a file open, not a Blender start. A process of its own, not the worker,
 because bpy holds one scene per process and is not thread-safe, and so that a crashing bake
 takes down that process, not the worker: the task starts a new bake process and runs once more.
 Each attempt logs an event (the client prints a ``retried`` line from them); the bake process
@@ -18,6 +18,7 @@ import it, through the bake command.
 
 import contextlib
 import ctypes
+import functools
 import io
 import json
 import os
@@ -32,6 +33,8 @@ from dataclasses import dataclass
 
 from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_SIGINT, EXIT_USAGE, EXTENSION_ROOT
 
+#: The commands a bake process runs for a task, each as the command line does (``entry.main``).
+COMMANDS = ("bake", "survey")
 #: Extra attempts of a task whose bake process died.
 RETRIES = 1
 #: How often a running task checks whether it was cancelled (seconds).
@@ -53,7 +56,7 @@ class Result:
 
     files: tuple
     code: int
-    stdout: tuple = ()  # its lines: for "bake", the outcome lines ("written OBJECT.MAP -> WHERE") and "saved ..."
+    stdout: tuple = ()  # its lines: the outcome lines ("written OBJECT.MAP -> WHERE", "saved ...", "written PATH")
     stderr: tuple = ()  # its message lines ("error: FILE: ..."), progress bar frames left out
     workers: tuple = ()  # of each attempt, in order (set by the client from the attempt events)
 
@@ -190,13 +193,13 @@ def _die_with_parent():
 
 
 def serve(reply_fd: int) -> None:
-    """The bake process. Each line of stdin is a request, a JSON list of words: ``["bake", ...]``
-    runs the bake command with those words; ``["meshes", FILE]`` opens FILE and prints the names
-    of its mesh objects (a JSON list). What it prints goes out on ``reply_fd`` as it comes, then
-    its exit code, one JSON message a line: {"out": line}, {"err": line}, {"frame": progress
-    bar frame}, {"code": int}."""
-    from . import entry
-
+    """The bake process. Each line of stdin is a request, a JSON list of words: ``[COMMAND, ...]``
+    runs that command (``COMMANDS``: ``bake``, ``survey``) with those words; ``["meshes", FILE]``
+    opens FILE and prints the names of its mesh objects (a JSON list). What it prints goes out
+    on ``reply_fd`` as it comes, then its exit code, one JSON message a line: {"out": line},
+    {"err": line}, {"frame": progress bar frame}, {"code": int}."""
+    requests = {"meshes": _print_mesh_objects}
+    requests.update({name: functools.partial(_run_command, name) for name in COMMANDS})
     replies = os.fdopen(reply_fd, "w", buffering=1)
 
     def send(**message):
@@ -212,7 +215,7 @@ def serve(reply_fd: int) -> None:
             contextlib.redirect_stderr(_forwarding_stream(send, "err")),
         ):
             try:
-                code = entry.main([command, *words]) if command == "bake" else _print_mesh_objects(*words)
+                code = requests[command](*words)
             except SystemExit as error:  # argparse: the client checked the words, so unexpected
                 code = error.code if isinstance(error.code, int) else EXIT_USAGE
             except Exception as error:  # what the serial run would end with as a traceback
@@ -221,6 +224,12 @@ def serve(reply_fd: int) -> None:
         send(code=code)
     replies.close()
     os._exit(EXIT_OK)  # skip bpy's exit-time cleanup, as entry.exit_with does
+
+
+def _run_command(name, *words):
+    from . import entry
+
+    return entry.main([name, *words])
 
 
 def _print_mesh_objects(path):

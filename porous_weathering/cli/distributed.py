@@ -1,15 +1,16 @@
-"""Batch baking on a Dask cluster, the client: ``bake ... --workers N`` or ``--scheduler
-ADDRESS`` (docs/batch.md): its options, the tasks it schedules and the exit code it combines
-from their results. What a task runs on a worker is ``dask_worker``.
+"""Batch runs on a Dask cluster, the client: ``bake ...`` or ``survey ...`` with ``--workers N``
+or ``--scheduler ADDRESS`` (docs/batch.md): their options, the tasks it schedules and the exit
+code it combines from their results. What a task runs on a worker is ``dask_worker``.
 
-A task runs the ``bake`` command itself on whole files (``bake FILE ... --maps ...``) in a bake
-process of its worker (``dask_worker.in_bake_process``), so its outcomes, messages and exit code
-are those of the serial run by construction.
+A task runs the command itself on whole files (``bake FILE ... --maps ...``, ``survey FILE ...
+--years ...``) in a bake process of its worker (``dask_worker.in_bake_process``), so its
+outcomes, messages and exit code are those of the serial run by construction.
 
-Files interact only through image maps of the same path (mesh objects of the same name, one
-``--out``), which the serial run settles in file order. So a run of several files first lists
-the mesh objects of each file (in parallel: a file open each, no bake), and files that share a
-name are baked together, in their order, by one task: the serial run on those files.
+Files interact only through outputs of the same path, which the serial run settles in file
+order: image maps of mesh objects of the same name (one ``--out``), whose names a bake of
+several files first lists (in parallel: a file open each, no bake); surveys named after .blend
+files of the same name. Files that share a name run together, in their order, in one task: the
+serial run on those files.
 
 A worker that dies mid-task is replaced, and the scheduler runs its task elsewhere (up to
 ``distributed.scheduler.allowed-failures`` times); a task whose bake process dies runs once more
@@ -30,28 +31,30 @@ import sys
 import threading
 import uuid
 import warnings
+from collections.abc import Callable
 
 from ..common.progress import ProgressBar
-from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
+from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_USAGE, batch_exit_code
 from .dask_worker import Result, in_bake_process
 
 #: How long the client waits for the scheduler of --scheduler to answer.
 CONNECT_TIMEOUT = "10s"
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options of ``bake`` that hand the work to Dask (the default is the serial run)."""
+def add_arguments(parser: argparse.ArgumentParser, command: str) -> None:
+    """The options of ``command`` (bake, survey) that hand its files to Dask (the default is the
+    serial run)."""
     where = parser.add_mutually_exclusive_group()
     where.add_argument(
         "--workers",
         type=_positive_int,
         metavar="N",
-        help="bake on a local Dask cluster of N worker processes, one file per task (docs/batch.md)",
+        help=f"{command} on a local Dask cluster of N worker processes, one file per task (docs/batch.md)",
     )
     where.add_argument(
         "--scheduler",
         metavar="ADDRESS",
-        help="bake on the workers of a running Dask scheduler, e.g. tcp://host:8786; "
+        help=f"{command} on the workers of a running Dask scheduler, e.g. tcp://host:8786; "
         "files and --out must be reachable by every worker at the same path",
     )
 
@@ -65,33 +68,27 @@ def _positive_int(text):
 # --- the command line, in the client process -------------------------------------------------
 
 
-def run(args: argparse.Namespace, target: str, map_names: tuple, shared: list[str]) -> int:
-    """``bake`` on Dask; returns the exit code, that of the serial run on the same inputs.
+#: The names of what each of the files writes that another file could write too (``clash_groups``).
+Outputs = Callable[["_Run", list[str]], list[list[str]]]
 
-    ``shared`` are the command-line words of the bake options every task of this run gets
-    (``BakeOptions.to_argv``); the files, the objects chosen and ``--force``, ``--save`` and
-    ``--dry-run`` (and ``--allow-downgrade``) come from ``args``."""
-    selection = (
-        [f"--collection={args.collection}"] if args.collection else ["--objects", *args.objects] if args.objects else []
-    )
-    words = [*selection, "--maps", ",".join(map_names), *shared] + ["--force"] * args.force
+
+def run(args: argparse.Namespace, command: str, words: list[str], outputs: Outputs | None, interrupted: str) -> int:
+    """``command`` (``dask_worker.COMMANDS``) on Dask over ``args.files``; returns the exit code,
+    that of the serial run on the same inputs.
+
+    ``words`` are the command-line words of the options every task of this run gets (its
+    objects, ``BakeOptions.to_argv``, ``SurveyOptions.to_argv``, switches); ``outputs`` names
+    what each file writes (None: nothing two files could both write); ``interrupted`` says
+    what an interrupt leaves."""
     files = [os.path.abspath(path) for path in args.files]
     try:
         with _interrupts_raised(), _connect(args) as client:
-            return _Run(client, words).bake(
-                files,
-                target,
-                ["--dry-run"] * args.dry_run + ["--save"] * args.save + ["--allow-downgrade"] * args.allow_downgrade,
-            )
+            return _Run(client, command).run(files, words, outputs)
     except SchedulerUnreachable as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
     except Interrupted as interrupt:
-        print(
-            "\ninterrupted: the tasks were cancelled; maps finished so far are complete, "
-            "no .blend file was saved after the interrupt",
-            file=sys.stderr,
-        )
+        print(f"\ninterrupted: the tasks were cancelled; {interrupted}", file=sys.stderr)
         return interrupt.code
 
 
@@ -159,11 +156,11 @@ def _connect(args):
 
 
 class _Run:
-    """One ``bake`` on a cluster. Its tasks report their attempts and progress as events of a
-    topic of this run, which arrive on the client's event-loop thread."""
+    """One run of a command on a cluster. Its tasks report their attempts and progress as events
+    of a topic of this run, which arrive on the client's event-loop thread."""
 
-    def __init__(self, client, words):
-        self.client, self.words = client, words
+    def __init__(self, client, command):
+        self.client, self.command = client, command
         self.topic = f"porous-weathering-{uuid.uuid4().hex}"
         self.attempts = {}  # task key -> the workers of its attempts
         self.running = {}  # task key -> the fraction of its bake done, for the tasks of this phase
@@ -171,14 +168,11 @@ class _Run:
         self.bar, self.done, self.total = None, 0, 0
         client.subscribe_topic(self.topic, self._on_event)
 
-    def bake(self, files, target, flags):
-        """Bake ``files`` (with ``flags``: --save, --dry-run); the exit code."""
-        meshes = [[] for _ in files]
-        if target == "image" and len(files) > 1:  # only then can two files write the same map
-            listed = self._gather("list", [(["meshes", path], [path]) for path in files], show=False)
-            meshes = [json.loads(r.stdout[-1]) if r.code == EXIT_OK else [] for r in listed]
-        groups = clash_groups(files, meshes)
-        results = self._gather("bake", [(["bake", *group, *self.words, *flags], group) for group in groups], show=True)
+    def run(self, files, words, outputs):
+        """The command on ``files`` with ``words``; the exit code."""
+        named = outputs(self, files) if outputs and len(files) > 1 else [[] for _ in files]
+        requests = [([self.command, *group, *words], group) for group in clash_groups(files, named)]
+        results = self._gather(self.command, requests, show=True)
         for r in results:
             if len(r.workers) > 1:
                 print(
@@ -186,7 +180,12 @@ class _Run:
                     "(a worker was lost or its bake process died)",
                     flush=True,
                 )
-        return _exit_code(results)
+        return batch_exit_code(r.code for r in results)
+
+    def mesh_names(self, files):
+        """The names of the mesh objects of each file (none for a file that cannot be opened)."""
+        listed = self._gather("list", [(["meshes", path], [path]) for path in files], show=False)
+        return [json.loads(r.stdout[-1]) if r.code == EXIT_OK else [] for r in listed]
 
     def _gather(self, label, requests, show):
         """Run a task per (request, files); their Results, in order, each printed as it comes
@@ -259,12 +258,12 @@ class _Run:
             print(line, file=stream, flush=True)
 
 
-def clash_groups(files: list[str], meshes: list[list[str]]) -> list[list[str]]:
-    """The files in groups that must be baked together, in their order, by one serial run:
-    files that hold mesh objects of the same name (only they can have image maps of the same
-    path: ``bake.image_path`` keeps distinct names apart), and a file given twice (one writer
-    per .blend). ``meshes`` are the names of each file's mesh objects. Grouping more files than
-    needed costs only parallelism; the outcome is the serial run's either way."""
+def clash_groups(files: list[str], outputs: list[list[str]]) -> list[list[str]]:
+    """The files in groups that must run together, in their order, in one serial run: files
+    that write outputs of the same name (``outputs``, each file's: the mesh objects whose image
+    maps a bake names after them, ``bake.image_path``; a survey's name), and a file given twice
+    (one writer per .blend). Grouping more files than needed costs only parallelism; the
+    outcome is the serial run's either way."""
     group_of = list(range(len(files)))  # union-find over the files
 
     def root(index):
@@ -273,18 +272,11 @@ def clash_groups(files: list[str], meshes: list[list[str]]) -> list[list[str]]:
         return index
 
     first_with = {}
-    for index, (path, names) in enumerate(zip(files, meshes, strict=True)):
+    for index, (path, names) in enumerate(zip(files, outputs, strict=True)):
         # casefolded: on a case-insensitive file system, "Wall" and "wall" write one file
-        for key in [("file", os.path.realpath(path))] + [("mesh", name.casefold()) for name in names]:
+        for key in [("file", os.path.realpath(path))] + [("output", name.casefold()) for name in names]:
             group_of[root(index)] = root(first_with.setdefault(key, index))
     groups = {}
     for index, path in enumerate(files):
         groups.setdefault(root(index), []).append(path)
     return list(groups.values())
-
-
-def _exit_code(results):
-    """The serial run's exit code over all files (docs/cli.md): 1 when a file failed, else 3
-    when one was refused (it would replace maps made from another .blend), else 0."""
-    codes = {r.code for r in results} - {EXIT_OK}
-    return EXIT_FAILED if codes - {EXIT_REFUSED} else EXIT_REFUSED if codes else EXIT_OK

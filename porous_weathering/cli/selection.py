@@ -1,6 +1,7 @@
-"""What the ``bake`` and ``export`` commands share: the ``--objects`` / ``--collection``
-arguments (declared once, each command saying what its default is), the objects they choose in
-the open .blend, and an error's message on one line."""
+"""What the ``bake``, ``survey`` and ``export`` commands share: the ``--objects`` /
+``--collection`` arguments (declared once, each command saying what its default is), the words
+that give them again to a Dask worker, the objects they choose in the open .blend, and an
+error's message on one line."""
 
 import argparse
 import warnings
@@ -21,6 +22,13 @@ def add_arguments(parser: argparse.ArgumentParser, *, objects_help: str, collect
 def chosen(args: argparse.Namespace) -> bool:
     """Whether ``args`` choose objects (``--objects`` or ``--collection``)."""
     return bool(args.objects or args.collection)
+
+
+def to_argv(args: argparse.Namespace) -> list[str]:
+    """The command-line words that choose the same objects (for the Dask workers)."""
+    if args.collection:
+        return [f"--collection={args.collection}"]
+    return ["--objects", *args.objects] if args.objects else []
 
 
 def chosen_objects(args: argparse.Namespace) -> list["bpy.types.Object"]:

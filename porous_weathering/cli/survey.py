@@ -1,11 +1,12 @@
-"""The ``survey`` command (``cli.entry``): the condition survey of the weathered objects of a
-.blend (``survey.condition``), its options generated from the survey's option declarations, as
-the Condition Survey operator's properties are.
+"""The ``survey`` command (``cli.entry``): the condition survey of the weathered objects of
+.blend files (``survey.condition``), each into its own files, on this machine or on a Dask
+cluster as ``bake`` runs its files (``batch``, ``distributed``); its options generated from the
+survey's option declarations, as the Condition Survey operator's properties are.
 
-Exit codes (docs/cli.md): 0 written or unchanged; 1 the survey failed (the file could not be
-opened, a write failed); 2 bad arguments or input (nothing written); 3 refused: ``--out`` holds
-a survey of that name made from another .blend or other objects, or not by the extension
-(``--force`` replaces it); 130 / 143 interrupted by SIGINT / SIGTERM (nothing written).
+Exit codes (docs/cli.md): 0 every survey written or unchanged; 1 a file failed (it could not be
+opened, a write failed), the others done; 2 bad arguments or input (nothing written); 3 a file
+was refused: ``--out`` holds a survey of its name made from another .blend or other objects, or
+not by the extension (``--force`` replaces it); 130 / 143 interrupted by SIGINT / SIGTERM.
 """
 
 import os
@@ -15,25 +16,35 @@ import bpy
 
 from ..common import interrupts, options
 from ..common.progress import ProgressBar
-from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
+from ..contracts import EXIT_USAGE, batch_exit_code
 from ..maps.provenance import OverwriteRefused
 from ..publish.textures import porous_node
 from ..survey import condition
-from . import selection
+from . import batch, distributed, selection
 from .selection import one_line
 
 FORCE_HINT = "survey into another --out or --name, or add --force to replace it"
+#: Options the parser takes by hand: one of the years or the ages, and a switch.
+BY_HAND = ("years", "ages", "force")
 
 
 def configure_parser(parser):
+    parser.usage = "%(prog)s FILE.blend [FILE.blend ...] (--years Y,Y,... | --ages T,T,...) [options]"
     parser.description = (
-        "Classify every point of the weathered objects of a .blend, at each age, into the patterns the model "
+        "Classify every point of the weathered objects of .blend files, at each age, into the patterns the model "
         "produces (black crust, soiling, efflorescence, moist area, no visible change) and write their true "
-        "areas in m² to OUT/<name>.survey.csv with its paradata OUT/<name>.survey.json. Exit codes: 0 written "
-        "or unchanged, 1 the survey failed, 2 bad arguments or input (nothing written), 3 refused (OUT holds a "
-        "survey made from another .blend or other objects: --force replaces it), 130/143 interrupted."
+        "areas in m² to OUT/<name>.survey.csv with its paradata OUT/<name>.survey.json, <name> being each "
+        ".blend's. Exit codes: 0 written or unchanged, 1 a file failed, 2 bad arguments or input (nothing "
+        "written), 3 a file was refused (OUT holds a survey made from another .blend or other objects: --force "
+        "replaces it), 130/143 interrupted."
     )
-    parser.add_argument("file", metavar="FILE.blend", help="the .blend file whose objects to survey")
+    parser.add_argument(
+        "files",
+        nargs="*",
+        metavar="FILE.blend",
+        help=".blend files whose objects to survey, each into its own files; a word ending in .blend that "
+        "names an existing file is a file, even after --objects",
+    )
     selection.add_arguments(
         parser,
         objects_help="survey these objects (default: every mesh object whose materials are all Porous Weathering ones)",
@@ -42,62 +53,81 @@ def configure_parser(parser):
     declared = {entry.dest: entry.option for entry in condition.option_entries()}
     ages = parser.add_mutually_exclusive_group(required=True)
     for dest in ("years", "ages"):
-        ages.add_argument(f"--{dest}", metavar=declared[dest].metavar, help=declared[dest].tooltip)
-    parser.add_argument("--force", action="store_true", help=f"{declared['force'].tooltip} (default: refuse, exit 3)")
-    options.add_arguments(parser, [entry for entry in condition.option_entries() if entry.option.flag])
+        ages.add_argument(declared[dest].flag, dest=dest, metavar=declared[dest].metavar, help=declared[dest].tooltip)
+    parser.add_argument(
+        declared["force"].flag, action="store_true", help=f"{declared['force'].tooltip} (default: refuse, exit 3)"
+    )
+    options.add_arguments(parser, [entry for entry in condition.option_entries() if entry.dest not in BY_HAND])
+    distributed.add_arguments(parser, "survey")
 
 
 def run(args):
     """The ``survey`` command; returns the exit code."""
-    path = os.path.abspath(args.file)
     try:
-        chosen = condition.SurveyOptions(
-            years=args.years,
-            ages=args.ages,
-            environment=args.environment,
-            out_dir=os.path.abspath(args.out_dir),
-            name=args.name,
-            force=args.force,
+        args.files, args.objects = batch.files_and_objects("survey", args.files, args.objects)
+        if args.name and len(args.files) > 1:
+            raise ValueError(
+                f"--name names the files of one survey, and {len(args.files)} .blend files were given: "
+                "leave --name out (each survey is named after its .blend) or survey one file"
+            )
+        values = {entry.name: getattr(args, entry.dest) for entry in condition.option_entries()}
+        chosen = condition.SurveyOptions(**{**values, "out_dir": os.path.abspath(args.out_dir)})
+        batch.check_paths(args.files)
+        _check_files(args, chosen)
+    except (ValueError, OSError) as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
+    if args.workers or args.scheduler:
+        words = selection.to_argv(args) + chosen.to_argv()
+        return distributed.run(
+            args, "survey", words, _survey_names, "the surveys finished so far are whole, the others wrote nothing"
         )
-        if not os.path.isfile(path):
-            raise FileNotFoundError(f"no such .blend file: {args.file}")
-    except (ValueError, OSError) as error:
-        return _error(error, EXIT_USAGE)
-    try:
-        bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
-    except RuntimeError as error:
-        return _error(f"{path}: {one_line(error)}", EXIT_FAILED)
-    try:
-        steps = condition.iter_survey(_chosen_objects(args), chosen)  # checks everything before it starts
-    except OverwriteRefused as error:
-        return _error(f"{path}: {one_line(error)}; {FORCE_HINT}", EXIT_REFUSED)
-    except (ValueError, OSError) as error:
-        return _error(f"{path}: {one_line(error)}", EXIT_USAGE)
-    bar = ProgressBar(os.path.basename(path))
-    result = None
-    with interrupts.exit_on_signals(lambda signal_name: f"interrupted by {signal_name}: nothing was written"):
+    return _survey_serially(args, chosen)
+
+
+def _check_files(args, chosen):
+    """Open every file once before any work and check it as its survey will: ValueError (exit
+    2) naming the first file whose objects cannot be surveyed. A file Blender cannot open fails
+    later, as its survey, and one refused (``--out`` holds another's survey) is refused then."""
+    for path in args.files:
         try:
-            for step in steps:
-                bar(step.fraction, step.message)
-                result = step.result or result
-        except OverwriteRefused as error:
-            bar.finish()
-            return _error(f"{path}: {one_line(error)}; {FORCE_HINT}", EXIT_REFUSED)
+            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False, use_scripts=False)
+        except RuntimeError:
+            continue
+        try:
+            condition.iter_survey(_chosen_objects(args), chosen)  # its checks; its steps are not run
+        except OverwriteRefused:
+            continue
         except ValueError as error:
-            bar.finish()
-            return _error(f"{path}: {one_line(error)}", EXIT_USAGE)
-        except (OSError, RuntimeError) as error:
-            bar.finish()
-            return _error(f"{path}: {one_line(error)}", EXIT_FAILED)
-    bar.finish()
-    for path in (result.csv, result.forecast, result.paradata, *result.drawings):
-        print(f"{result.status:9} {path}")
-    return EXIT_OK
+            raise ValueError(f"{path}: {one_line(error)}") from None
 
 
-def _error(error, code):
-    print(f"error: {error}", file=sys.stderr)
-    return code
+def _survey_names(cluster, files):
+    """The name of each file's survey (the .blend's, as ``condition.iter_survey`` names it):
+    files of the same name write the same survey (``distributed.clash_groups``)."""
+    return [[os.path.splitext(os.path.basename(path))[0]] for path in files]
+
+
+def _survey_serially(args, chosen):
+    codes = []
+    words = "the surveys finished before are whole, the one in progress wrote nothing"
+    with interrupts.exit_on_signals(lambda signal_name: f"interrupted by {signal_name}: {words}"):
+        for path in map(os.path.abspath, args.files):
+            bar = ProgressBar(os.path.basename(path))
+            codes.append(batch.run_file(bar, FORCE_HINT, _survey_file, path, args, chosen, bar))
+            bar.finish()
+    return batch_exit_code(codes)
+
+
+def _survey_file(path, args, chosen, bar):
+    """Survey one file; its outcome lines go to stdout once its files are in place."""
+    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
+    result = None
+    for step in condition.iter_survey(_chosen_objects(args), chosen):
+        bar(step.fraction, step.message)
+        result = step.result or result
+    for where in (result.csv, result.forecast, result.paradata, *result.drawings):
+        bar.print(f"{result.status:9} {where}")
 
 
 def _chosen_objects(args):

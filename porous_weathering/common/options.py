@@ -170,10 +170,13 @@ def to_argv(items: list[Entry], value_of: Callable[[Entry], Any]) -> list[str]:
         value = value_of(entry)
         if entry.option.flag is None or value is None:
             continue
+        if isinstance(value, bool):  # a switch: its flag alone, or nothing
+            words += [entry.option.flag] * value
+            continue
         if entry.option.kind == "collection":
             value = getattr(value, "name", value)
-        elif entry.option.parse is not None:
-            value = ",".join(value)
+        elif isinstance(value, (tuple, list)):  # a list of words or numbers, comma-separated
+            value = ",".join(item if isinstance(item, str) else repr(item) for item in value)
         words += [entry.option.flag, value if isinstance(value, str) else repr(value)]
     return words
 

@@ -183,10 +183,9 @@ class BakeOptions:
         """The collection whose objects shelter the baked ones, or None for every other object."""
         return occluder_collection(self.occluders)
 
-    def to_argv(self, without=("maps",)) -> list[str]:
-        """The ``bake`` command-line words that give these options but ``without`` (for the
-        Dask workers, whose tasks name their maps themselves)."""
-        return to_argv([entry for entry in option_entries() if entry.dest not in without], self.value)
+    def to_argv(self) -> list[str]:
+        """The ``bake`` command-line words that give these options (for the Dask workers)."""
+        return to_argv(option_entries(), self.value)
 
     def value(self, entry: Entry):
         """The value of one option (a general one, or a field of a map's settings)."""

@@ -19,7 +19,7 @@ import bpy
 
 import numpy as np
 
-from ..common.options import check, entries, option
+from ..common.options import check, entries, option, to_argv
 from ..contracts import safe_file_name
 from ..core import aging, condition, environments
 from ..core.patterns import CLEANING_LOSS, NO_VISIBLE_CHANGE
@@ -73,12 +73,18 @@ class SurveyOptions:
     years: tuple | None = option(
         None,
         label="Years",
+        flag="--years",
         ui_default="10,25,50",
         metavar="Y,Y,...",
         tooltip="Comma-separated years of exposure, each an age t by the site's soiling law (aging.age_for_years)",
     )
     ages: tuple | None = option(
-        None, label="Ages", metavar="T,T,...", ui=False, tooltip="Comma-separated ages t in [0, 1], instead of years"
+        None,
+        label="Ages",
+        flag="--ages",
+        metavar="T,T,...",
+        ui=False,
+        tooltip="Comma-separated ages t in [0, 1], instead of years",
     )
     environment: str = option(
         environments.DEFAULT_ENVIRONMENT,
@@ -117,6 +123,7 @@ class SurveyOptions:
     force: bool = option(
         False,
         label="Replace",
+        flag="--force",
         tooltip="Replace a survey made from another .blend or other objects, or not by Porous Weathering",
     )
 
@@ -152,6 +159,10 @@ class SurveyOptions:
         """North as a unit vector in the scene's xy plane."""
         angle = math.radians(self.north)
         return (-math.sin(angle), math.cos(angle))
+
+    def to_argv(self) -> list[str]:
+        """The ``survey`` command-line words that give these options (for the Dask workers)."""
+        return to_argv(option_entries(), lambda entry: getattr(self, entry.name))
 
 
 def option_entries() -> list:
