@@ -255,6 +255,28 @@ def test_panel_years_set_the_time_and_keyframe_years(registered, fresh_scene):
         assert time.default_value == pytest.approx(aging.age_for_years(years, 0.3), abs=1e-6)
 
 
+def test_panel_years_age_a_material_whose_clock_is_years(registered, fresh_scene):
+    """A material of the biological mode alone has no Time: the panel's Years set its clock in
+    years, Keyframe Aging keyframes it over years, and without years refuses in one line."""
+    plane = selected_plane(fresh_scene)
+    settings = fresh_scene.porous_weathering
+    for mode in weathering_modes.names():
+        setattr(settings, mode, mode == "biological")
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    group = plane.active_material.node_tree.nodes[GROUP_NODE]
+    assert "Time" not in group.inputs
+    clock = group.inputs["Biological Years"]
+    settings.years = 12.0
+    assert clock.default_value == pytest.approx(12.0)
+    assert bpy.ops.porous_weathering.keyframe_aging.poll()
+    fresh_scene.frame_start, fresh_scene.frame_end = 1, 21
+    assert bpy.ops.porous_weathering.keyframe_aging(years=40.0) == {"FINISHED"}
+    fresh_scene.frame_set(11)
+    assert clock.default_value == pytest.approx(20.0, abs=1e-4)
+    with pytest.raises(RuntimeError, match="ages in years"):
+        bpy.ops.porous_weathering.keyframe_aging(years=0.0)
+
+
 def test_panel_make_from_measured_colours(registered, fresh_scene):
     plane = selected_plane(fresh_scene)
     settings = fresh_scene.porous_weathering

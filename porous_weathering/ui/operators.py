@@ -15,7 +15,7 @@ from ..maps import registry as maps
 from ..maps.provenance import OverwriteRefused
 from ..shading import material, weathering
 from . import bake_operator as ops_bake
-from .settings import active_material, key_light, time_socket
+from .settings import active_material, clock_sockets, key_light, time_socket
 
 
 class NeedsMaterialObject:
@@ -277,13 +277,16 @@ class PW_OT_keyframe_aging(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if time_socket(active_material(context)) is None:
+        if not clock_sockets(active_material(context)):
             cls.poll_message_set("Make a weathered material first: a porous-only material does not age")
             return False
         return True
 
     def execute(self, context):
         scene = context.scene
+        if self.years == 0.0 and time_socket(active_material(context)) is None:
+            self.report({"ERROR"}, "this material ages in years (its modes have no Time): give Years")
+            return {"CANCELLED"}
         try:
             if self.years == 0.0:
                 weathering.animate_weathering(active_material(context), scene.frame_start, scene.frame_end)

@@ -6,10 +6,9 @@ the age in years; the measured colours of a survey; the material they act on (``
 
 import bpy
 
-from ..contracts import GROUP_NODE
+from ..contracts import GROUP_NODE, socket_name
 from ..core import aging, environments, stones
 from ..core import modes as weathering_modes
-from ..core.modes.biological import BIOLOGICAL_YEARS
 from ..shading import presets
 
 #: The Stone choice that keeps the object's own material (its base colour and roughness images).
@@ -34,21 +33,27 @@ def active_material(context: "bpy.types.Context") -> "bpy.types.Material | None"
 
 
 def time_socket(mat: "bpy.types.Material | None") -> "bpy.types.NodeSocket | None":
-    """The Time input of ``mat``'s Porous group node; None for a material that does not age."""
+    """The Time input of ``mat``'s Porous group node; None for a material without it."""
+    return clock_sockets(mat).get("time")
+
+
+def clock_sockets(mat: "bpy.types.Material | None") -> "dict[str, bpy.types.NodeSocket]":
+    """{clock input: socket} of ``mat``'s Porous group node: the clocks ``ages_for_years`` sets (t,
+    the biological years: docs/model.md §9.4) that its modes have; empty for a material that does
+    not age."""
     group = mat.node_tree.nodes.get(GROUP_NODE) if mat and mat.node_tree else None
-    return group.inputs.get("Time") if group is not None else None
+    if group is None:
+        return {}
+    clocks = aging.ages_for_years(0.0, 1.0)  # the clocks' names
+    return {name: group.inputs[socket_name(name)] for name in clocks if socket_name(name) in group.inputs}
 
 
 def _apply_years(settings, context):
-    """Setting Years sets the active material's Time by the soiling law at the environment's soot."""
-    socket = time_socket(active_material(context))
-    if socket is not None:
-        socket.default_value = settings.age()
-        clock = socket.node.inputs.get(BIOLOGICAL_YEARS.socket)  # the biological clock (docs/model.md §9.4)
-        if clock is not None:
-            clock.default_value = aging.ages_for_years(settings.years, settings.elemental_carbon())[
-                BIOLOGICAL_YEARS.name
-            ]
+    """Setting Years sets the active material's clocks: Time by the soiling law at the
+    environment's soot, and the clocks counted in years (docs/model.md §9.4)."""
+    ages = aging.ages_for_years(settings.years, settings.elemental_carbon())
+    for name, socket in clock_sockets(active_material(context)).items():
+        socket.default_value = ages[name]
 
 
 class SettingsBase:
@@ -68,10 +73,6 @@ class SettingsBase:
     def elemental_carbon(self) -> float:
         """The chosen environment's typical elemental-carbon concentration, µg/m³."""
         return environments.get(self.environment).elemental_carbon
-
-    def age(self, years: float | None = None) -> float:
-        """t after ``years`` (default: the Years field) in the chosen environment (aging.age_for_years)."""
-        return aging.age_for_years(self.years if years is None else years, self.elemental_carbon())
 
     def measured(self) -> dict:
         """make_weathered_material's keywords from the measured colours (presets.from_colorimetry), on
