@@ -53,7 +53,14 @@ MODIFIERS = {
 }
 #: What a per-point difference of each map may be, in the mean and at the 95th percentile
 #: (the rain is a Monte Carlo estimate per texel; the run-off integrates it along its paths).
-TOLERANCES = {"rain": (0.03, 0.15), "edges": (0.02, 0.1), "runoff": (0.02, 0.05), "damp": (0.02, 0.05)}
+#: The sun is baked as the rain is (maps/sky_bake.py): its noise, its tolerance.
+TOLERANCES = {
+    "rain": (0.03, 0.15),
+    "edges": (0.02, 0.1),
+    "runoff": (0.02, 0.05),
+    "sun": (0.03, 0.15),
+    "damp": (0.02, 0.05),
+}
 
 
 def box(scene, name, scale=(1.0, 1.0, 1.0), uvs=False):
@@ -205,7 +212,9 @@ def buggy_edges(monkeypatch, victim):
             raise IndexError("index 24 is out of bounds for axis 0 with size 24")
         return kind.bake_image(obj, *args)
 
-    monkeypatch.setitem(registry._REGISTRY, "edges", dataclasses.replace(kind, bake_image=bake_image))
+    monkeypatch.setitem(
+        registry._DISCOVERED, "edges", dataclasses.replace(kind, bake_image=bake_image)
+    )  # found by maps.get
 
 
 def test_a_file_that_fails_does_not_stop_the_others_and_keeps_its_maps(fresh_scene, tmp_path, monkeypatch, capsys):
@@ -279,7 +288,9 @@ def test_a_bake_that_writes_nothing_takes_its_carrier_lightmap_back(fresh_scene,
     def failing(*args):
         raise RuntimeError("the rain bake failed")
 
-    monkeypatch.setitem(registry._REGISTRY, "rain", dataclasses.replace(kind, bake_image=failing))
+    monkeypatch.setitem(
+        registry._DISCOVERED, "rain", dataclasses.replace(kind, bake_image=failing)
+    )  # found by maps.get
     objects_before = set(bpy.data.objects.keys())
     with pytest.raises(RuntimeError, match="the rain bake failed"):
         bake_images([obj], tmp_path, alone())
