@@ -65,8 +65,13 @@ def hard_values(item):
     return tuple(dict.fromkeys(values))
 
 
-#: Hard values of every weathering input of every mode (the mode registry).
-STATE_VALUES = {item.name: hard_values(item) for item in weathering_modes.inputs().values()}
+#: Hard values of every weathering input of every mode (the mode registry). The lichens are laid
+#: where a texture of the point's place puts their seeds (``Mode.fields``, docs/model.md §9.3),
+#: which the numpy model is given from a probe render (tests/test_biological.py checks them so):
+#: here, without that read-back, their density is held at 0.
+STATE_VALUES = {item.name: hard_values(item) for item in weathering_modes.inputs().values()} | {
+    "lichen_density": (0.0,)
+}
 #: Groups under test: label -> (weathering modes, light mode).
 GROUPS = {
     "porous (key sun)": ((), nodes.SUN),
