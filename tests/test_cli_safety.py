@@ -20,7 +20,7 @@ from porous_weathering.maps import bake, rain
 from porous_weathering.samples import studio
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-FAST = ["--resolution", "16", "--samples", "4"]
+FAST = ["--resolution", "16", "--samples", "4", "--sun-samples", "4"]
 FOUR_SAMPLES = rain.RainSettings(samples=4)
 
 

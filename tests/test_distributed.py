@@ -25,7 +25,7 @@ from porous_weathering.maps import registry as maps
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 FACADE = ROOT / "sample_blends" / "limestone_facade.blend"
-SMALL = ["--resolution", "64", "--samples", "4"]
+SMALL = ["--resolution", "64", "--samples", "4", "--sun-samples", "4"]
 TIMEOUT = 240
 #: The lines of the bake command that say what it did, or failed to do, with a file or map.
 OUTCOME = re.compile(r"^(written|unchanged|planned|saved|error:) ")

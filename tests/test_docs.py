@@ -83,7 +83,7 @@ ADAPTATIONS = [
         ("docs/cli.md", "docs/batch.md"),
         r"^(.*python -m porous_weathering bake\b[^#]*?)\s*(#.*)?$",
         lambda match: small_bake(match[1]) + (f"  {match[2]}" if match[2] else ""),
-        "the shown rain samples take minutes on 2 cores: --samples 8 runs the same code",
+        "the shown rain and sun samples take minutes on 2 cores: --samples 8 --sun-samples 8 run the same code",
     ),
     (
         ("docs/batch.md",),
@@ -95,9 +95,12 @@ ADAPTATIONS = [
 
 
 def small_bake(command):
-    """A bake command with few rain samples: --samples 8, given or added."""
-    command, given = re.subn(r"--samples \d+", "--samples 8", command)
-    return command if given or command.endswith("\\") else command + " --samples 8"
+    """A bake command with few rain and sun samples: --samples 8 and --sun-samples 8, given or added."""
+    for flag in ("--samples", "--sun-samples"):
+        command, given = re.subn(rf"{flag} \d+", f"{flag} 8", command)
+        if not given and not command.endswith("\\"):
+            command += f" {flag} 8"
+    return command
 
 
 #: Blocks that take more than ~20 s: (file, a piece of their code).

@@ -108,7 +108,19 @@ def test_the_command_refuses_a_mesh_without_surface_in_one_line(fresh_scene, tmp
     studio.add_plane(fresh_scene)
     blend = tmp_path / "sliver.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(blend))
-    words = ["--target", target, "--save", "--out", tmp_path / "maps", "--samples", 2, "--resolution", 16]
+    words = [
+        "--target",
+        target,
+        "--save",
+        "--out",
+        tmp_path / "maps",
+        "--samples",
+        2,
+        "--sun-samples",
+        2,
+        "--resolution",
+        16,
+    ]
     result = run_cli("bake", blend, "--objects", "Sliver", "Plane", *words)
     assert result.returncode == 2 and "Traceback" not in result.stderr
     assert [line for line in result.stderr.splitlines() if line.startswith("error")] == [

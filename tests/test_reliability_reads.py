@@ -12,7 +12,7 @@ import pytest
 from helpers import run_cli
 from porous_weathering.samples import studio
 
-FAST = ["--resolution", "16", "--samples", "2"]
+FAST = ["--resolution", "16", "--samples", "2", "--sun-samples", "2"]
 
 
 def errors(result):

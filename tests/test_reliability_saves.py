@@ -22,7 +22,7 @@ from porous_weathering.contracts import map_image_property
 from porous_weathering.maps import bake, efflorescence_map, rain, sky_bake
 from porous_weathering.samples import studio
 
-FAST = ["--resolution", "16", "--samples", "4"]
+FAST = ["--resolution", "16", "--samples", "4", "--sun-samples", "4"]
 VENVS = {line: ROOT / f".venv-{line}" / "bin" / "python" for line in ("4.5", "5.2")}
 #: Names longer than 63 bytes are cut by Blender before 5.0.
 LONG_NAMES = bpy.app.version >= (5, 0, 0)
