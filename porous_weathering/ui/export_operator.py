@@ -6,7 +6,7 @@ import bpy
 
 from ..common import options
 from ..publish import export
-from .steps import SteppedOperator, absolute_folder
+from .steps import SteppedOperator, absolute_folder, generated_operator
 
 
 class ExportVariantsOperator(SteppedOperator):
@@ -30,20 +30,15 @@ class ExportVariantsOperator(SteppedOperator):
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
-        try:
+        def steps():
             values = options.operator_values(self, export.option_entries())
             values["ages"] = export.parse_ages(values["ages"])
             values["out_dir"] = absolute_folder(values["out_dir"])
             chosen = export.ExportOptions(**values)
             objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
-            self._steps = export.iter_export(objects, chosen)  # refuses bad objects or folders here
-        except export.OverwriteRefused as error:
-            self.report({"ERROR"}, f"{error}: choose another folder or file name, or tick Replace")
-            return {"CANCELLED"}
-        except (ValueError, OSError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        return self.start(context)
+            return export.iter_export(objects, chosen)  # refuses bad objects or folders here
+
+        return self.start_steps(context, steps)
 
     def _cancelled_message(self):
         return "Export cancelled: nothing was written"
@@ -56,11 +51,4 @@ class ExportVariantsOperator(SteppedOperator):
 
 def operator_class():
     """The export operator, with one property per export option (generated at registration)."""
-    return type(
-        "PW_OT_export_variants",
-        (ExportVariantsOperator, bpy.types.Operator),
-        {
-            "__annotations__": options.operator_properties(bpy.props, export.option_entries()),
-            "__doc__": ExportVariantsOperator.__doc__,
-        },
-    )
+    return generated_operator("PW_OT_export_variants", ExportVariantsOperator, export.option_entries())

@@ -1,8 +1,12 @@
-"""What the bake and export operators share: running a generator of steps modally (one step
-per timer tick, progress in the window manager's progress bar, Esc closes the generator between
-steps), or to its end where there is no event loop (background, no window)."""
+"""What the bake, export and survey operators share: running a generator of steps modally (one
+step per timer tick, progress in the window manager's progress bar, Esc closes the generator
+between steps), or to its end where there is no event loop (background, no window); starting it
+with the refusals reported in one line; and the operator class generated from option entries."""
 
 import bpy
+
+from ..common import options
+from ..maps.provenance import OverwriteRefused
 
 
 def absolute_folder(path: str) -> str:
@@ -22,6 +26,19 @@ class SteppedOperator:
 
     _steps = None
     _timer = None
+
+    def start_steps(self, context, make_steps):
+        """Start the steps ``make_steps()`` returns; it checks the options, objects and folder
+        first: a refusal or a bad value is one report, and nothing starts."""
+        try:
+            self._steps = make_steps()
+        except OverwriteRefused as error:
+            self.report({"ERROR"}, f"{error}: choose another folder or file name, or tick Replace")
+            return {"CANCELLED"}
+        except (ValueError, OSError) as error:
+            self.report({"ERROR"}, str(error))
+            return {"CANCELLED"}
+        return self.start(context)
 
     def start(self, context):
         context.window_manager.progress_begin(0, 1)
@@ -74,3 +91,13 @@ class SteppedOperator:
             context.window_manager.event_timer_remove(self._timer)
         context.window_manager.progress_end()
         return result
+
+
+def generated_operator(name: str, base: type, entries) -> type:
+    """The operator ``name`` of the mixin ``base``, with one property per option entry (the
+    options declared once: ``options.option``), made at registration."""
+    return type(
+        name,
+        (base, bpy.types.Operator),
+        {"__annotations__": options.operator_properties(bpy.props, entries), "__doc__": base.__doc__},
+    )

@@ -2,12 +2,9 @@
 step per timer tick, progress in the window manager's progress bar, Esc cancels between steps and
 writes nothing). Its properties are generated from the survey's option declarations."""
 
-import bpy
-
 from ..common import options
-from ..maps.provenance import OverwriteRefused
 from ..survey import condition
-from .steps import SteppedOperator, absolute_folder
+from .steps import SteppedOperator, absolute_folder, generated_operator
 
 
 class ConditionSurveyOperator(SteppedOperator):
@@ -28,19 +25,14 @@ class ConditionSurveyOperator(SteppedOperator):
         return context.window_manager.invoke_props_dialog(self)
 
     def execute(self, context):
-        try:
+        def steps():
             values = options.operator_values(self, condition.option_entries())
             values["out_dir"] = absolute_folder(values["out_dir"])
             chosen = condition.SurveyOptions(**values)
             objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
-            self._steps = condition.iter_survey(objects, chosen)  # refuses bad objects or folders here
-        except OverwriteRefused as error:
-            self.report({"ERROR"}, f"{error}: choose another folder or file name, or tick Replace")
-            return {"CANCELLED"}
-        except (ValueError, OSError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        return self.start(context)
+            return condition.iter_survey(objects, chosen)  # refuses bad objects or folders here
+
+        return self.start_steps(context, steps)
 
     def _cancelled_message(self):
         return "Condition survey cancelled: nothing was written"
@@ -53,11 +45,4 @@ class ConditionSurveyOperator(SteppedOperator):
 
 def operator_class():
     """The survey operator, with one property per survey option (generated at registration)."""
-    return type(
-        "PW_OT_condition_survey",
-        (ConditionSurveyOperator, bpy.types.Operator),
-        {
-            "__annotations__": options.operator_properties(bpy.props, condition.option_entries()),
-            "__doc__": ConditionSurveyOperator.__doc__,
-        },
-    )
+    return generated_operator("PW_OT_condition_survey", ConditionSurveyOperator, condition.option_entries())
