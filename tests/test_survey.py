@@ -19,9 +19,10 @@ import pytest
 import porous_weathering as pw
 from helpers import run_cli
 from porous_weathering import survey
-from porous_weathering.core import aging, colorimetry, condition, environments, model, patterns
+from porous_weathering.core import aging, colorimetry, condition, environments, model, patterns, solar
 from porous_weathering.core import modes as weathering_modes
 from porous_weathering.core.modes import soiling
+from porous_weathering.maps import bake, sun
 from porous_weathering.maps.provenance import OverwriteRefused
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -323,7 +324,9 @@ def blends(tmp_path):
 
 def test_several_files_are_surveyed_alike_here_and_on_a_local_dask_cluster(blends, tmp_path):
     serial, dask = tmp_path / "serial", tmp_path / "dask"
-    here = said(run_cli("survey", *blends, "--ages", "0.5", "--north", "30", "--out", serial, timeout=240), serial)
+    here = said(
+        run_cli("survey", *blends, "--ages", "0.5", "--north-angle", "30", "--out", serial, timeout=240), serial
+    )
     code, lines = here
     # the broken file fails and the second box.blend is refused, neither stopping the others
     assert code == 1, lines
@@ -332,14 +335,16 @@ def test_several_files_are_surveyed_alike_here_and_on_a_local_dask_cluster(blend
         str(blends[2]),
     ]
     assert sum(line.startswith("written   OUT/wall.survey.csv") for line in lines) == 1
-    cluster = run_cli("survey", *blends, "--ages", "0.5", "--north", "30", "--out", dask, "--workers", "2", timeout=240)
+    cluster = run_cli(
+        "survey", *blends, "--ages", "0.5", "--north-angle", "30", "--out", dask, "--workers", "2", timeout=240
+    )
     assert said(cluster, dask) == here, cluster.stderr
     tables = sorted(name for name in os.listdir(serial) if name.endswith(".csv"))
     assert tables == ["box.forecast.csv", "box.survey.csv", "wall.forecast.csv", "wall.survey.csv"]
     for name in tables:
         assert (dask / name).read_text(encoding="utf-8") == (serial / name).read_text(encoding="utf-8"), name
     record = json.loads((dask / "wall.survey.json").read_text(encoding="utf-8"))
-    assert record["north_degrees"] == 30.0 and record["source"]["blend_file"] == str(blends[3])
+    assert record["objects"][0]["north_angle_degrees"] == 30.0 and record["source"]["blend_file"] == str(blends[3])
     assert record["objects"][0]["area_m2"] == pytest.approx(4 * EDGE**2)  # half of four faces, two whole ones
 
 
@@ -356,7 +361,9 @@ def test_name_with_several_files_exits_2_before_any_work(blends, tmp_path):
 def test_the_options_a_dask_worker_is_given_are_those_chosen():
     from porous_weathering.cli import entry
 
-    chosen = survey.SurveyOptions(years="25,10", environment="RURAL", out_dir="/data/out", north=-12.5, force=True)
+    chosen = survey.SurveyOptions(
+        years="25,10", environment="RURAL", out_dir="/data/out", north_angle=-12.5, force=True
+    )
     args = entry.build_parser().parse_args(["survey", "a.blend", *chosen.to_argv()])
     values = {item.name: getattr(args, item.dest) for item in survey.condition.option_entries()}
     assert survey.SurveyOptions(**values) == chosen
@@ -376,14 +383,24 @@ def test_faces_are_read_from_north():
         "up",
         "down",
     ]
-    options = survey.SurveyOptions(ages=(0.5,), north=90.0)  # north along the scene's -X
-    assert options.north_vector() == pytest.approx((-1.0, 0.0))
-    assert [condition.FACES[i] for i in condition.faces_of(normals[:4], options.north_vector())] == [
-        "south",
-        "east",  # east is north turned clockwise seen from above: +Y
+    # north 90° clockwise from +Y seen from above, as the sun map's --north-angle: along the scene's +X
+    north = solar.site_to_scene(90.0)[:2, 1]
+    assert north == pytest.approx((1.0, 0.0))
+    assert [condition.FACES[i] for i in condition.faces_of(normals[:4], north)] == [
         "north",
         "west",
+        "south",
+        "east",  # east is north turned clockwise seen from above: -Y
     ]
+
+
+def test_north_is_the_one_given_else_the_one_the_sun_map_was_baked_with(fresh_scene):
+    obj = box(1.0, {}, modes=("soiling",))
+    assert survey.SurveyOptions(ages=(0.5,)).north_of(obj) == 0.0  # no sun map, no Sun Position: +Y
+    settings = sun.SunSettings(latitude=50.0, north_angle=30.0, samples=1)
+    bake.bake_maps([obj], bake.BakeOptions(maps=("sun",), target="attribute", sun_settings=settings))
+    assert survey.SurveyOptions(ages=(0.5,)).north_of(obj) == 30.0
+    assert survey.SurveyOptions(ages=(0.5,), north_angle=-12.5).north_of(obj) == -12.5
 
 
 def test_the_forecast_gives_the_age_a_front_first_shows_on_each_face(tmp_path):
@@ -468,7 +485,7 @@ def test_the_condition_survey_button_runs_the_survey(registered, tmp_path):
     assert ("operator", ("porous_weathering.condition_survey",)) in calls
     operator = bpy.ops.porous_weathering.condition_survey
     declared = {entry.dest for entry in survey.condition.option_entries() if entry.option.ui}
-    assert declared == {"years", "environment", "out_dir", "name", "north", "force"}
+    assert declared == {"years", "environment", "out_dir", "name", "north_angle", "force"}
     assert declared <= {prop.identifier for prop in operator.get_rna_type().properties}
     assert operator(years="10,25", out_dir=str(tmp_path / "out"), name="panel") == {"FINISHED"}
     drawings = [f"panel.Box.{years}y.{kind}" for years in (10, 25) for kind in ("png", "svg")]

@@ -7,12 +7,14 @@ Make button is a thin wrapper over ``weathered_material_for``.
 May import: bpy, ``core``, ``common``, ``blender``, ``shading``, ``maps.registry`` and ``maps.scan_checks``.
 """
 
+import json
 import warnings
 from collections.abc import Iterable, Mapping
 from typing import Any
 
 import bpy
 
+from ..common import imageio
 from ..contracts import map_image_property
 from ..core import environments, model, stones
 from ..core import modes as weathering_modes
@@ -41,6 +43,20 @@ def discover_maps(obj: "bpy.types.Object") -> dict[str, "bpy.types.Image | str"]
         elif obj.type == "MESH" and attribute and attribute in obj.data.attributes:
             found[kind.name] = attribute
     return found
+
+
+def recorded_settings(obj: "bpy.types.Object", map_name: str) -> dict[str, Any] | None:
+    """The settings ``obj``'s map ``map_name`` was baked with, as its map records them (the EXR
+    header of its image, or its attribute's mesh property; ``bake``'s ``SETTINGS_KEY``), or
+    None when the object has no such map or it records none."""
+    source = discover_maps(obj).get(map_name)
+    if isinstance(source, bpy.types.Image):
+        text = imageio.read_metadata(bpy.path.abspath(source.filepath)).get(imageio.SETTINGS_KEY)
+    elif isinstance(source, str):
+        text = obj.data.get(f"{source}_settings")
+    else:
+        return None
+    return json.loads(text) if isinstance(text, str) else None
 
 
 def _source(item, have):

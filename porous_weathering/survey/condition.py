@@ -13,7 +13,7 @@ import math
 import numbers
 import os
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import bpy
 
@@ -21,8 +21,9 @@ import numpy as np
 
 from ..common.options import check, entries, option, to_argv
 from ..contracts import safe_file_name
-from ..core import aging, condition, environments
+from ..core import aging, condition, environments, solar
 from ..core.patterns import CLEANING_LOSS, NO_VISIBLE_CHANGE
+from ..maps import linking, sun
 from ..publish.paradata import extension_version, json_value
 from ..publish.textures import porous_node
 from ..shading.material import metres_per_unit
@@ -109,16 +110,17 @@ class SurveyOptions:
         metavar="NAME",
         tooltip="Name of the survey's files, NAME.survey.csv and NAME.survey.json (default: the .blend's name)",
     )
-    north: float = option(
-        0.0,
-        label="North",
-        flag="--north",
-        low=-360.0,
-        high=360.0,
+    north_angle: float | None = option(
+        None,
+        label="North Angle",
+        flag="--north-angle",
+        finite=True,
+        auto=0.0,
         unit="degrees",
-        metavar="DEGREES",
-        tooltip="Where north lies: its angle from the scene's +Y axis, counter-clockwise seen from above "
-        "(the forecast's faces and the drawings' views)",
+        metavar="DEG",
+        tooltip="Angle from +Y to north, clockwise seen from above (0: +Y is north), for the forecast's faces and the "
+        "drawings' views; unset (0 in the dialog): the north each object's sun map was baked with, else the scene's "
+        "Sun Position north offset, else 0",
     )
     force: bool = option(
         False,
@@ -155,10 +157,14 @@ class SurveyOptions:
         carbon = environments.get(self.environment).elemental_carbon
         return tuple((years, aging.age_for_years(years, carbon)) for years in self.years)
 
-    def north_vector(self) -> tuple[float, float]:
-        """North as a unit vector in the scene's xy plane."""
-        angle = math.radians(self.north)
-        return (-math.sin(angle), math.cos(angle))
+    def north_of(self, obj: "bpy.types.Object") -> float:
+        """North's angle from +Y, clockwise seen from above, in degrees, for ``obj``: the one
+        given, else the site its sun map was baked at (docs/model.md §9.1), else the scene's."""
+        if self.north_angle is not None:
+            return float(self.north_angle)
+        recorded = linking.recorded_settings(obj, "sun") or {}
+        given = {field.name: recorded[field.name] for field in fields(sun.SunSettings) if field.name in recorded}
+        return sun.site(sun.SunSettings(**given), sun.scene_of(obj))[1]
 
     def to_argv(self) -> list[str]:
         """The ``survey`` command-line words that give these options (for the Dask workers)."""
@@ -196,20 +202,26 @@ def condition_survey(
     out_dir: str,
     environment: str = environments.DEFAULT_ENVIRONMENT,
     name: str | None = None,
-    north: float = 0.0,
+    north_angle: float | None = None,
     force: bool = False,
     progress: Callable[[float, str], None] | None = None,
 ) -> SurveyResult:
     """Survey the weathered ``objects`` at ``years`` of exposure in ``environment`` (or at ``ages``
     t directly): the area in m² of each pattern, per object and age, in ``OUT/<name>.survey.csv``,
     the forecast per face and pattern in ``OUT/<name>.forecast.csv`` and the paradata in
-    ``OUT/<name>.survey.json`` (docs/survey.md); ``north`` is north's angle from the scene's +Y,
-    counter-clockwise, in degrees. ValueError before any work for
-    bad input (negative years, ages outside [0, 1], an object without a Porous Weathering
+    ``OUT/<name>.survey.json`` (docs/survey.md); ``north_angle`` is north's angle from the scene's
+    +Y, clockwise seen from above, in degrees (None: each object's sun map's, else the scene's).
+    ValueError before any work for bad input (negative years, ages outside [0, 1], an object without a Porous Weathering
     material); OverwriteRefused (a ValueError) when ``out_dir`` holds a survey of that name made
     from another .blend or other objects, unless ``force``."""
     options = SurveyOptions(
-        years=years, ages=ages, environment=environment, out_dir=out_dir, name=name, north=north, force=force
+        years=years,
+        ages=ages,
+        environment=environment,
+        out_dir=out_dir,
+        name=name,
+        north_angle=north_angle,
+        force=force,
     )
     result = None
     for step in iter_survey(objects, options):
@@ -247,6 +259,7 @@ class _Surveyed:
     at each surveyed age and at each age of the forecast."""
 
     obj: "bpy.types.Object"
+    north_angle: float
     surface: points.Surface
     materials: dict
     patterns: tuple
@@ -282,7 +295,8 @@ def _steps(objects, options, out_dir, name, paths):
             for slot in sorted(set(found.slots.tolist()))
         }
         patterns = tally.union(materials.values())
-        faces = condition.faces_of(found.normals, options.north_vector())
+        north = options.north_of(obj)
+        faces = condition.faces_of(found.normals, solar.site_to_scene(north)[:2, 1])
         done += 1
         tallies = []
         for years, t in stages:
@@ -298,7 +312,7 @@ def _steps(objects, options, out_dir, name, paths):
                 )
             )
             done += 1
-        surveyed.append(_Surveyed(obj, found, materials, patterns, tallies, forecast.forecast(patterns, ahead)))
+        surveyed.append(_Surveyed(obj, north, found, materials, patterns, tallies, forecast.forecast(patterns, ahead)))
     yield Step(done / total, f"writing {os.path.basename(paths['csv'])}")
     created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     rows, ahead_rows = _rows(surveyed, stages), _forecast_rows(surveyed, options)
@@ -379,7 +393,6 @@ def _paradata(options, stages, surveyed, created):
                 "law": "sqrt",
                 "years_to_t_1": aging.years_for_full_age(site.elemental_carbon),
             },
-            "north_degrees": options.north,
             "cleaning_threshold_loss": CLEANING_LOSS,
             "ages": [{"years": years, "t": t} for years, t in stages],
             "forecast": {
@@ -407,6 +420,7 @@ def _paradata(options, stages, surveyed, created):
 def _object_record(item, stages):
     return {
         "name": item.obj.name,
+        "north_angle_degrees": item.north_angle,  # from +Y, clockwise seen from above
         # the surface surveyed: its triangles' world corners in metres (float32)
         "geometry_sha256": hashlib.sha256(item.surface.triangles_m.astype(np.float32).tobytes()).hexdigest(),
         "triangles": len(item.surface.areas_m2),
@@ -453,7 +467,7 @@ def _drawings(surveyed, options, stages, out_dir, name, created):
                 pattern_index=order[counted.dominant],
                 patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
                 areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
-                north=options.north_vector(),
+                north=tuple(solar.site_to_scene(item.north_angle)[:2, 1]),
                 forecast=ahead,
             )
             found[(stem + ".svg", stem + ".png")] = lambda svg, png, data=data: sheet.write_sheets(data, svg, png)
