@@ -9,8 +9,8 @@ for cleaning.  The model's grey area darkens linearly in t, so t is the loss ove
 
 import math
 
+from . import modes
 from .arguments import choice, real_number
-from .modes.biological import BIOLOGICAL_YEARS
 
 #: Reflectance loss of a sheltered surface at t = 1 (Pio et al. 1998: 30% calls for cleaning).
 LOSS_AT_FULL_AGE = 0.30
@@ -65,12 +65,15 @@ def years_for_age(age: float, elemental_carbon: float, law: str = "sqrt") -> flo
 
 
 def ages_for_years(years: float, elemental_carbon: float, law: str = "sqrt") -> dict:
-    """{clock input: value} after ``years`` at a site (docs/model.md §9.4): the soiling's t
-    (``age_for_years``: soot accumulates with the dose, years x concentration) and the biological
-    clock, the years themselves (life's pace is set by water and light, not by soot; a site's air
-    sets how much life there is, its level and lichen density), capped at its input's range.
-    ValueError as ``age_for_years``."""
-    return dict(
-        time=age_for_years(years, elemental_carbon, law),
-        biological_years=min(float(years), BIOLOGICAL_YEARS.high),
-    )
+    """{clock input: value} after ``years`` at a site (docs/model.md §9.4), for every mode's clock
+    (``Input.clock``): "age", the soiling's t (``age_for_years``: soot accumulates with the dose,
+    years x concentration); "years", the years themselves, capped at the input's range (life's
+    pace is set by water and light, not by soot; a site's air sets how much life there is, its
+    level and lichen density). ValueError as ``age_for_years``."""
+    clocks = {}
+    for item in modes.inputs().values():
+        if item.clock == "age":
+            clocks[item.name] = age_for_years(years, elemental_carbon, law)
+        elif item.clock == "years":
+            clocks[item.name] = min(float(years), item.high)
+    return clocks

@@ -40,6 +40,9 @@ class Input:
     panel: bool = False
     #: The map read in its place where the object has no ``map`` (docs/model.md §7.2).
     fallback_map: str | None = None
+    #: A clock that Years and Keyframe Aging set (docs/model.md §9.4): "age", the soiling's t by
+    #: the site's law; "years", the years themselves.
+    clock: str | None = None
 
     @property
     def socket(self) -> str:
@@ -110,7 +113,14 @@ class Mode:
 
 # --- inputs every mode shares -----------------------------------------------------------------
 
-TIME = Input("time", 0.0, 0.0, 1.0, "Age t: 0 is the clean material exactly, 1 fully weathered. Keyframe it to animate")
+TIME = Input(
+    "time",
+    0.0,
+    0.0,
+    1.0,
+    "Age t: 0 is the clean material exactly, 1 fully weathered. Keyframe it to animate",
+    clock="age",
+)
 FRONT_WIDTH = Input(
     "front_width", 0.1, 0.01, 1.0, "Width, in mask units, over which a point goes from clean to fully filled"
 )
@@ -134,16 +144,6 @@ RUNOFF = Input(
     "How much of the run-off map counts as water reaching the surface: 0 is the rain map alone",
     panel=True,
 )
-DAMP_MAP = Input(
-    "damp_map",
-    0.0,
-    0.0,
-    1.0,
-    "Rising damp D: 1 below the steady front of water drawn up from the ground, 0 above it (docs/model.md §9.2)",
-    mask=True,
-    map="damp",
-)
-
 DAMP_MAP = Input(
     "damp_map",
     0.0,

@@ -78,6 +78,7 @@ BIOLOGICAL_YEARS = Input(
     200.0,
     "Years since the stone was last clean: the biological clock (algae in months, lichens in years). "
     "Keyframe it to animate",
+    clock="years",
 )
 BIOLOGICAL_LEVEL = Input(
     "biological_level",
