@@ -1,8 +1,8 @@
 """The artist's front end: the scene's settings (``settings``), the panel that draws them
 (``panel``), its operators (``operators``: add porous material, make material, make
 efflorescence map, keyframe aging), the bake, export and condition survey operators
-(``bake_operator``, ``export_operator``, ``survey_operator``) and the modal stepping they share
-(``steps``). Thin: every operator calls
+(``bake_operator``, ``export_operator``, ``survey_operator``) and what they share (``steps``:
+the selection's poll, the dialog of their declared options, the modal stepping). Thin: every operator calls
 the public functions of the layers below. ``register``/``unregister`` register every ui class,
 in one place.
 

@@ -9,10 +9,9 @@ import warnings
 
 import bpy
 
-from ..common import options
 from ..maps import bake
 from ..maps import registry as maps
-from .steps import SteppedOperator, absolute_folder
+from .steps import SteppedOperator, absolute_folder, generated_operator
 
 
 class BakeMapsOperator(SteppedOperator):
@@ -22,31 +21,15 @@ class BakeMapsOperator(SteppedOperator):
     bl_label = "Bake Weathering Maps"
     bl_options = {"REGISTER", "UNDO"}
 
-    @classmethod
-    def poll(cls, context):
-        if not any(obj.type == "MESH" for obj in context.selected_objects):
-            cls.poll_message_set("Select the mesh objects to bake")
-            return False
-        return True
+    select_message = "Select the mesh objects to bake"
+    entries = staticmethod(bake.option_entries)
 
-    def invoke(self, context, event):
-        return context.window_manager.invoke_props_dialog(self)
-
-    def execute(self, context):
-        try:
-            values = options.operator_values(self, bake.option_entries())
-            values["maps"] = tuple(name for name in maps.names() if name in self.maps)
-            # attribute maps need no folder: an unsaved .blend bakes them
-            values["out_dir"] = absolute_folder(self.out_dir) if self.target == "image" else self.out_dir
-            chosen = bake.options_from_values(values)
-            objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
-            self._steps = bake.iter_bake(objects, chosen)  # refuses bad objects or folders here
-        except (ValueError, OSError) as error:
-            self.report({"ERROR"}, str(error))
-            return {"CANCELLED"}
-        self._objects, self._options = objects, chosen
+    def make_steps(self, values, meshes):
+        values["maps"] = tuple(name for name in maps.names() if name in self.maps)
+        # attribute maps need no folder: an unsaved .blend bakes them
+        values["out_dir"] = absolute_folder(self.out_dir) if self.target == "image" else self.out_dir
         self._outcomes = []
-        return self.start(context)
+        return bake.iter_bake(meshes, bake.options_from_values(values))  # refuses bad objects or folders here
 
     def _cancelled_message(self):
         return f"Bake cancelled after {len(self._outcomes)} map(s)"
@@ -87,32 +70,11 @@ def operator_class():
     """The bake operator, with one property per bake option and a map set of every registered
     map (generated at registration, so a map registered before it is offered too)."""
     map_items = [(kind.name, kind.label, kind.description) for kind in maps.all_kinds()]
-    properties = {
-        "maps": bpy.props.EnumProperty(
-            name="Maps",
-            options={"ENUM_FLAG"},
-            default=set(maps.names()),
-            items=map_items,
-            description="Which maps to bake: the weathering modes read them (rain exposure, edge/cavity mask, ...)",
-        ),
-        **options.operator_properties(bpy.props, bake.option_entries()),
-    }
-    return type(
-        "PW_OT_bake_maps",
-        (BakeMapsOperator, bpy.types.Operator),
-        {"__annotations__": properties, "__doc__": BakeMapsOperator.__doc__},
+    chosen_maps = bpy.props.EnumProperty(
+        name="Maps",
+        options={"ENUM_FLAG"},
+        default=set(maps.names()),
+        items=map_items,
+        description="Which maps to bake: the weathering modes read them (rain exposure, edge/cavity mask, ...)",
     )
-
-
-_registered = None
-
-
-def register():
-    """Register the bake operator alone (the add-on registers it through ui.register)."""
-    global _registered
-    _registered = operator_class()
-    bpy.utils.register_class(_registered)
-
-
-def unregister():
-    bpy.utils.unregister_class(_registered)
+    return generated_operator("PW_OT_bake_maps", BakeMapsOperator, {"maps": chosen_maps})

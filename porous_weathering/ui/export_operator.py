@@ -4,7 +4,6 @@ nothing behind). Its properties are generated from the export's option declarati
 
 import bpy
 
-from ..common import options
 from ..publish import export
 from .steps import SteppedOperator, absolute_folder, generated_operator
 
@@ -16,29 +15,22 @@ class ExportVariantsOperator(SteppedOperator):
     bl_label = "Export Weathered States (glTF)"
     bl_options = {"REGISTER", "UNDO"}  # it may add a lightmap UV map to the meshes
 
+    select_message = "Select the mesh objects to export"
+    entries = staticmethod(export.option_entries)
+
     @classmethod
     def poll(cls, context):
-        if not any(obj.type == "MESH" for obj in context.selected_objects):
-            cls.poll_message_set("Select the mesh objects to export")
+        if not super().poll(context):
             return False
         if not bpy.data.filepath:
             cls.poll_message_set("Save the .blend first: the paradata names the file it comes from")
             return False
         return True
 
-    def invoke(self, context, event):
-        return context.window_manager.invoke_props_dialog(self)
-
-    def execute(self, context):
-        def steps():
-            values = options.operator_values(self, export.option_entries())
-            values["ages"] = export.parse_ages(values["ages"])
-            values["out_dir"] = absolute_folder(values["out_dir"])
-            chosen = export.ExportOptions(**values)
-            objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
-            return export.iter_export(objects, chosen)  # refuses bad objects or folders here
-
-        return self.start_steps(context, steps)
+    def make_steps(self, values, meshes):
+        values["ages"] = export.parse_ages(values["ages"])
+        values["out_dir"] = absolute_folder(values["out_dir"])
+        return export.iter_export(meshes, export.ExportOptions(**values))  # refuses bad objects or folders here
 
     def _cancelled_message(self):
         return "Export cancelled: nothing was written"
@@ -51,4 +43,4 @@ class ExportVariantsOperator(SteppedOperator):
 
 def operator_class():
     """The export operator, with one property per export option (generated at registration)."""
-    return generated_operator("PW_OT_export_variants", ExportVariantsOperator, export.option_entries())
+    return generated_operator("PW_OT_export_variants", ExportVariantsOperator)

@@ -21,11 +21,39 @@ def absolute_folder(path: str) -> str:
 
 
 class SteppedOperator:
-    """Mixin: ``start`` runs ``self._steps``; subclasses say what a step shows (``_show``) and
-    what Esc reports (``_cancelled_message``), and may wrap ``_next_step`` and ``_finish``."""
+    """Mixin: an operator on the selected meshes whose dialog shows its options (``entries``,
+    declared once) and whose Run starts the steps ``make_steps(values, meshes)`` returns;
+    subclasses say what a step shows (``_show``) and what Esc reports (``_cancelled_message``),
+    and may wrap ``_next_step`` and ``_finish``."""
 
     _steps = None
     _timer = None
+    #: What the greyed-out button says while no mesh is selected.
+    select_message = "Select the mesh objects"
+
+    @staticmethod
+    def entries() -> list:
+        """The option entries the dialog shows (``options.option`` declarations)."""
+        raise NotImplementedError
+
+    def make_steps(self, values: dict, meshes: list):
+        """The steps for the dialog's ``values`` on ``meshes``; ValueError or OSError (one line)
+        before any work."""
+        raise NotImplementedError
+
+    @classmethod
+    def poll(cls, context):
+        if not any(obj.type == "MESH" for obj in context.selected_objects):
+            cls.poll_message_set(cls.select_message)
+            return False
+        return True
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_props_dialog(self)
+
+    def execute(self, context):
+        meshes = [obj for obj in context.selected_objects if obj.type == "MESH"]
+        return self.start_steps(context, lambda: self.make_steps(options.operator_values(self, self.entries()), meshes))
 
     def start_steps(self, context, make_steps):
         """Start the steps ``make_steps()`` returns; it checks the options, objects and folder
@@ -33,7 +61,8 @@ class SteppedOperator:
         try:
             self._steps = make_steps()
         except OverwriteRefused as error:
-            self.report({"ERROR"}, f"{error}: choose another folder or file name, or tick Replace")
+            replace = ", or tick Replace" if hasattr(self, "force") else ""
+            self.report({"ERROR"}, f"{error}: choose another folder or file name{replace}")
             return {"CANCELLED"}
         except (ValueError, OSError) as error:
             self.report({"ERROR"}, str(error))
@@ -93,11 +122,9 @@ class SteppedOperator:
         return result
 
 
-def generated_operator(name: str, base: type, entries) -> type:
-    """The operator ``name`` of the mixin ``base``, with one property per option entry (the
-    options declared once: ``options.option``), made at registration."""
-    return type(
-        name,
-        (base, bpy.types.Operator),
-        {"__annotations__": options.operator_properties(bpy.props, entries), "__doc__": base.__doc__},
-    )
+def generated_operator(name: str, base: type, extra: dict | None = None) -> type:
+    """The operator ``name`` of the mixin ``base``, with one property per option entry of
+    ``base.entries()`` (the options declared once: ``options.option``) and the ``extra``
+    properties, made at registration."""
+    properties = {**(extra or {}), **options.operator_properties(bpy.props, base.entries())}
+    return type(name, (base, bpy.types.Operator), {"__annotations__": properties, "__doc__": base.__doc__})

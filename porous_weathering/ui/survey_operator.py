@@ -2,7 +2,6 @@
 step per timer tick, progress in the window manager's progress bar, Esc cancels between steps and
 writes nothing). Its properties are generated from the survey's option declarations."""
 
-from ..common import options
 from ..survey import condition
 from .steps import SteppedOperator, absolute_folder, generated_operator
 
@@ -14,25 +13,12 @@ class ConditionSurveyOperator(SteppedOperator):
     bl_label = "Condition Survey"
     bl_options = {"REGISTER", "UNDO"}  # as every operator here; the survey changes nothing in the file
 
-    @classmethod
-    def poll(cls, context):
-        if not any(obj.type == "MESH" for obj in context.selected_objects):
-            cls.poll_message_set("Select the weathered mesh objects to survey")
-            return False
-        return True
+    select_message = "Select the weathered mesh objects to survey"
+    entries = staticmethod(condition.option_entries)
 
-    def invoke(self, context, event):
-        return context.window_manager.invoke_props_dialog(self)
-
-    def execute(self, context):
-        def steps():
-            values = options.operator_values(self, condition.option_entries())
-            values["out_dir"] = absolute_folder(values["out_dir"])
-            chosen = condition.SurveyOptions(**values)
-            objects = [obj for obj in context.selected_objects if obj.type == "MESH"]
-            return condition.iter_survey(objects, chosen)  # refuses bad objects or folders here
-
-        return self.start_steps(context, steps)
+    def make_steps(self, values, meshes):
+        values["out_dir"] = absolute_folder(values["out_dir"])
+        return condition.iter_survey(meshes, condition.SurveyOptions(**values))  # refuses bad objects or folders here
 
     def _cancelled_message(self):
         return "Condition survey cancelled: nothing was written"
@@ -45,4 +31,4 @@ class ConditionSurveyOperator(SteppedOperator):
 
 def operator_class():
     """The survey operator, with one property per survey option (generated at registration)."""
-    return generated_operator("PW_OT_condition_survey", ConditionSurveyOperator, condition.option_entries())
+    return generated_operator("PW_OT_condition_survey", ConditionSurveyOperator)
