@@ -65,13 +65,8 @@ def hard_values(item):
     return tuple(dict.fromkeys(values))
 
 
-#: Hard values of every weathering input of every mode (the mode registry). The lichens are laid
-#: where a texture of the point's place puts their seeds (``Mode.fields``, docs/model.md §9.3),
-#: which the numpy model is given from a probe render (tests/test_biological.py checks them so):
-#: here, without that read-back, their density is held at 0.
-STATE_VALUES = {item.name: hard_values(item) for item in weathering_modes.inputs().values()} | {
-    "lichen_density": (0.0,)
-}
+#: Hard values of every weathering input of every mode (the mode registry).
+STATE_VALUES = {item.name: hard_values(item) for item in weathering_modes.inputs().values()}
 #: Groups under test: label -> (weathering modes, light mode).
 GROUPS = {
     "porous (key sun)": ((), nodes.SUN),
@@ -99,8 +94,14 @@ def draw_cases(modes, count, seed=0):
     return {name: value.astype(np.float32).astype(np.float64) for name, value in cases.items()}
 
 
-def model_outputs(cases, modes, light_mode):
-    """(k_d (N, 3), k_s (N,), k_water (N, 3)) of the numpy model for ``cases``."""
+def fields_of(modes):
+    """The per-point fields ``modes`` read from the point's place (``Mode.fields``), each once."""
+    return tuple(dict.fromkeys(name for mode in modes for name in weathering_modes.get(mode).fields))
+
+
+def model_outputs(cases, modes, light_mode, fields=None):
+    """(k_d (N, 3), k_s (N,), k_water (N, 3)) of the numpy model for ``cases``, given the
+    ``fields`` of the point's place its modes read ({name: tuple of (N,) arrays})."""
     n_dot_l = None if light_mode == nodes.AMBIENT else cases["n_dot_l"]
     args = (cases["kd"], cases["ks"], cases["m"], cases["alpha"], cases["sp"], n_dot_l, cases["n_dot_v"])
     with warnings.catch_warnings():
@@ -109,7 +110,7 @@ def model_outputs(cases, modes, light_mode):
             kd, ks = model.porous_coefficients(*args)
             return kd, ks, np.zeros_like(kd)
         state = {name: cases[name] for name in model.inputs_of(modes)}
-        return model.weathered_coefficients(*args, modes=modes, **state)
+        return model.weathered_coefficients(*args, modes=modes, fields=fields, **state)
 
 
 # --- the node side: one face per case --------------------------------------------------------
@@ -188,8 +189,26 @@ def specular_readout(graph, group_node, zero):
     return graph.node("ShaderNodeCombineXYZ", {"X": outputs["Specular Weight"], "Y": water_red, "Z": flag}).outputs[0]
 
 
+def field_readout(name):
+    """A readout of the field ``name`` (its shader builder, ``nodes.FIELDS``), from what feeds
+    the group node's inputs: its first two components as a colour."""
+
+    def readout(graph, group_node, zero):
+        inputs = {
+            socket.name: graph.wrap(socket.links[0].from_socket) if socket.is_linked else socket.default_value
+            for socket in group_node.inputs
+            if hasattr(socket, "default_value")
+        }
+        first, second = nodes.FIELDS[name](graph, inputs)
+        return graph.node("ShaderNodeCombineXYZ", {"X": first, "Y": second}).outputs[0]
+
+    return readout
+
+
 def rendered_outputs(cases, modes, light_mode, size):
-    """(k_d (N, 3), k_s (N,), k_water red (N,), finite flag (N,)) of the node group, one Cycles render pair."""
+    """(k_d (N, 3), k_s (N,), k_water red (N,), finite flag (N,)) of the node group, one Cycles
+    render pair, and {field: its two components (N,) each} read back at the same points (the
+    lichens' seeds, a texture of the point's place: docs/model.md §9.3)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     obj = tilted_grid(scene, cases["n_dot_v"], size)
@@ -206,15 +225,20 @@ def rendered_outputs(cases, modes, light_mode, size):
         studio.assign(obj, probe_material(group, sockets, readout))
         images.append(render.render_array(scene)[..., :3].reshape(-1, 3))
     diffuse, special = images
-    return diffuse, special[:, 0], special[:, 1], special[:, 2]
+    fields = {}
+    for name in fields_of(modes):
+        studio.assign(obj, probe_material(group, sockets, field_readout(name)))
+        read = render.render_array(scene)[..., :2].reshape(-1, 2).astype(np.float64)
+        fields[name] = (read[:, 0], read[:, 1])
+    return diffuse, special[:, 0], special[:, 1], special[:, 2], fields
 
 
 def compare(label, size, seed=0):
     """One table row's numbers for the group ``label``: a dict."""
     modes, light_mode = GROUPS[label]
     cases = draw_cases(modes, size * size, seed)
-    kd, ks, water = model_outputs(cases, modes, light_mode)
-    node_kd, node_ks, node_water, flag = rendered_outputs(cases, modes, light_mode, size)
+    node_kd, node_ks, node_water, flag, fields = rendered_outputs(cases, modes, light_mode, size)
+    kd, ks, water = model_outputs(cases, modes, light_mode, fields)
     errors = np.stack([np.abs(node_kd - kd).max(1), np.abs(node_ks - ks), np.abs(node_water - water[:, 0])], 1)
     worst = int(np.argmax(errors.max(1)))
     return {
@@ -251,7 +275,9 @@ def model_sweep(count=200_000, seed=1):
         for name in ("m", "sp", "alpha"):  # sprinkle NaN and infinities, which the model must clamp
             poison = rng.random(count) < 0.02
             cases[name] = np.where(poison, rng.choice([np.nan, np.inf, -np.inf], count), cases[name])
-        kd, ks, water = model_outputs(cases, modes, light_mode)
+        # the fields of the point's place anywhere in their range: a distance of up to two cells
+        fields = {name: (2.0 * rng.random(count), rng.random(count)) for name in fields_of(modes)}
+        kd, ks, water = model_outputs(cases, modes, light_mode, fields)
         outputs = np.column_stack([kd, ks, water])
         rows.append(
             [

@@ -24,7 +24,7 @@ from ..core.shader_math import Graph, dot, normalize
 #: are those the registries give it now (``_reuse``).  (The stone groups and the receptive
 #: weathered groups of docs/model.md §8 came new in build 7, which left every other group as it
 #: was; build 8 gave them the stone's uptake and deposit mix, §8.6–8.7.)
-BUILD_VERSION = 8
+BUILD_VERSION = 9
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"

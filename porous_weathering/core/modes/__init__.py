@@ -186,7 +186,9 @@ def weathered_point(
     sp = xp.maximum(sp, 0.0)
     n_dot_v = xp.clip(n_dot_v, 0.0, 1.0)  # pore_geometry clamps it likewise (no second node)
     gp, theta_i, theta_r = porous.pore_geometry(xp, m, n_dot_l, n_dot_v)
-    ka = 1.0 - xp.channel(ks) - kd
+    # below 1, so that pores a fill has filled (n_b = 0) return what fills them on a black stone
+    # too: (1 - k_a)^0 is 1 in both backends, where the shader's 0^0 is 0 (docs/model.md §4.0)
+    ka = xp.minimum(1.0 - xp.channel(ks) - kd, 1.0 - porous.EPSILON)
     kd_w, ks_w = porous.porous_weights(xp, kd, ks, alpha, gp, porous.pore_return(xp, kd, ks, sp, theta_i, theta_r))
     point = Point(kd, ka, m, sp, xp.channel(alpha * gp), theta_i, theta_r, n_dot_v, kd_w, ks_w, state)
     if variation is not None:
