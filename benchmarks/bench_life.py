@@ -365,32 +365,24 @@ def measure(name, args):
     row["sun"] = {r: sun_sums[r] / counts[r] for r in counts if counts[r]}
     row["lab"] = {f"{r} | {c}": [round(float(v), 2) for v in value] for (r, c), value in lab.items()}
 
-    def delta(region, a, b):
-        if (region, a) not in lab:
-            return float("nan")
-        return float(np.linalg.norm(lab[region, a] - lab[region, b]))
+    def difference(a, b):
+        """ΔE*ab between two (region, condition) means; nan where either is not measured."""
+        return float(np.linalg.norm(lab[a] - lab[b])) if a in lab and b in lab else float("nan")
 
-    def between(a_region, b_region, condition):
-        if (a_region, condition) not in lab or (b_region, condition) not in lab:
-            return float("nan")
-        return float(np.linalg.norm(lab[a_region, condition] - lab[b_region, condition]))
-
+    north, south = ("north faces", "rural"), ("south faces", "rural")
+    row["north_south_de"] = difference(north, south)
+    row["north_south_da"] = float(lab[north][1] - lab[south][1]) if north in lab and south in lab else float("nan")
     walls = ("north faces", "south faces", "east and west faces")
-    row["north_south_de"] = between("north faces", "south faces", "rural")
-    row["north_south_da"] = (
-        float(lab["north faces", "rural"][1] - lab["south faces", "rural"][1])
-        if ("north faces", "rural") in lab and ("south faces", "rural") in lab
-        else float("nan")
-    )
-    row["colonised"] = {r: delta(r, "rural", "off") for r in (*walls, "washed tops")}
+    row["colonised"] = {r: difference((r, "rural"), (r, "off")) for r in (*walls, "washed tops")}
     plinth_y = [luminance_y(sums["plinth", c]) for c in ("rural", "off")] if ("plinth", "off") in lab else None
     row["plinth_ratio"] = float(plinth_y[0] / plinth_y[1]) if plinth_y else float("nan")
-    row["above_front_de"] = delta("above the front", "rural", "rural, D = 0")
-    row["below_front_damp_de"] = delta("plinth", "rural", "rural, D = 0")
+    row["above_front_de"] = difference(("above the front", "rural"), ("above the front", "rural, D = 0"))
+    row["below_front_damp_de"] = difference(("plinth", "rural"), ("plinth", "rural, D = 0"))
     row["rural_de"] = float(np.mean(np.concatenate(per_pixel["rural"])))
     row["urban_de"] = float(np.mean(np.concatenate(per_pixel["urban"])))
     row["noise_de"] = max(
-        (delta(r, "off, seed 1", "off, seed 0") for r in counts if (r, "off, seed 1") in lab), default=0.0
+        (difference((r, "off, seed 1"), (r, "off, seed 0")) for r in counts if (r, "off, seed 1") in lab),
+        default=0.0,
     )
     row["verdicts"] = verdicts(row)
     return row
