@@ -21,16 +21,12 @@ from porous_weathering.maps import sky_bake, sun
 
 #: The box's faces: roof, the four walls (scene frame) and the floor, which no sun reaches.
 FACES = {"roof": (0, 0, 1), "+y": (0, 1, 0), "-y": (0, -1, 0), "+x": (1, 0, 0), "-x": (-1, 0, 0), "floor": (0, 0, -1)}
-#: Samples of the box bakes. Nothing shadows a box's faces, so the bake is the table's exposure
-#: of their normals (docs/model.md §9.1, "The bake"), within 5e-4, but for a corner none of
-#: whose samples finds the sun in front (then 0): on a north wall at 50° N, where 12% of the
-#: year's beam comes from the north, one in 4000 corners at 64 samples.
-BOX_SAMPLES = 64
-BOX_TOLERANCE = 1e-3
-#: Samples of the shadowed wall: in the shadow's edge the bake keeps the noise of a plain bake,
-#: measured per corner at 256 samples as RMSE 0.007 on an east wall, so a corner is within 0.03
-#: (about 4 of its standard deviations) of the ray test.
-SHADOW_SAMPLES = 256
+#: Samples of the box bakes. Measured per corner on a box subdivided 16 times, 50° N, at 64
+#: samples: RMSE 0.003 on the roof, 0.008 on the south wall, 0.016 on the east wall; at 256 about
+#: 2.3 times less (benchmarks/bench_sun.py), 0.007 on the east wall, so a face's mean of 4
+#: corners is within 0.02 (about 5 of its standard deviations) of the exact S.
+BOX_SAMPLES = 256
+BOX_TOLERANCE = 0.02
 
 
 # --- the year in numpy against an independent integral ------------------------------------------------
@@ -99,15 +95,6 @@ def test_the_weights_are_the_suns_share_and_a_plane_facing_each_sun_gets_one():
     assert noon == pytest.approx((0.0, -math.sin(math.radians(50)), math.cos(math.radians(50))))
 
 
-@pytest.mark.parametrize("latitude, north_angle", [(50.0, 0.0), (-35.0, 30.0), (90.0, 0.0)])
-def test_the_table_of_open_planes_is_the_years_sum(latitude, north_angle):
-    """open_plane_exposures (a table, for the bake) against open_plane_exposure (the year's sum)."""
-    normals = np.random.default_rng(1).normal(size=(60, 3))
-    normals = np.vstack([normals / np.linalg.norm(normals, axis=1, keepdims=True), np.eye(3), -np.eye(3)])
-    exact = [solar.open_plane_exposure(normal, latitude, north_angle) for normal in normals]
-    assert solar.open_plane_exposures(normals, latitude, north_angle) == pytest.approx(exact, abs=5e-4)
-
-
 def test_the_north_angle_turns_the_site_clockwise_seen_from_above():
     """North 90° clockwise from +Y is +X, so the south wall of the site faces -X."""
     assert solar.site_to_scene(90.0) @ np.array([0.0, 1.0, 0.0]) == pytest.approx((1.0, 0.0, 0.0))
@@ -169,7 +156,7 @@ def test_a_box_bakes_to_an_image_of_its_faces(fresh_scene):
     """The image target at 50° N: each face's texels (inside its UV rectangle) average to its S."""
     obj = box()
     size = 64
-    image = sun.bake_sun_image(obj, "UVMap", size, sun.SunSettings(latitude=50.0, samples=BOX_SAMPLES), margin=0)
+    image = sun.bake_sun_image(obj, "UVMap", size, sun.SunSettings(latitude=50.0, samples=64), margin=0)
     uv = np.empty(len(obj.data.loops) * 2, np.float32)
     obj.data.uv_layers["UVMap"].data.foreach_get("uv", uv)
     uv = uv.reshape(-1, 2)
@@ -222,7 +209,7 @@ def corner_points(obj):
 
 def test_a_wall_in_the_shadow_of_another_bakes_to_the_ray_test(fresh_scene):
     wall = shadowed_wall()
-    settings = sun.SunSettings(latitude=50.0, samples=SHADOW_SAMPLES)
+    settings = sun.SunSettings(latitude=50.0, samples=BOX_SAMPLES)
     baked = sun.bake_sun_corners(wall, settings, sky_bake.default_occluders(wall))
     points = corner_points(wall)
     inside = (points[:, 2] > 0.1) & (points[:, 2] < 0.9) & (points[:, 0] > 0.1) & (points[:, 0] < 0.9)

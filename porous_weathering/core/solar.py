@@ -9,7 +9,6 @@ weights sum to 1, the year's irradiation of a surface always facing the sun. The
 max(0, n·s) is S of an open plane of normal n.
 """
 
-import functools
 import math
 
 import numpy as np
@@ -21,14 +20,6 @@ DAYS = 365
 #: Instants a day: every 5 minutes (the hour angle in 1.25° steps); S of any plane is then within
 #: 1e-4 of the year integrated continuously in the time of day (tests/test_sun.py).
 STEPS_PER_DAY = 288
-#: The table of open-plane exposures (``open_plane_exposures``): the year's instants in blocks of
-#: BLOCK_DAYS days x BLOCK_STEPS instants, each block one sun of the block's weight at its
-#: weighted mean direction (exact for a plane that sees all of a block or none of it), and the
-#: normals every TABLE_STEP degrees of an equirectangular grid, interpolated bilinearly: S of any
-#: plane is then within 5e-4 of ``open_plane_exposure`` (tests/test_sun.py), in a second.
-BLOCK_DAYS = 5
-BLOCK_STEPS = 4
-TABLE_STEP = 2.0
 #: The earth's obliquity in Cooper's declination (degrees).
 OBLIQUITY = 23.44
 
@@ -80,19 +71,12 @@ def year(latitude: float, steps_per_day: int = STEPS_PER_DAY) -> tuple[np.ndarra
     latitude = real_number("latitude", latitude)
     if not -90.0 <= latitude <= 90.0:
         raise ValueError(f"latitude must be in [-90, 90] degrees, not {latitude}")
-    directions, weights = _year_grid(latitude, steps_per_day)
-    directions, weights = directions.reshape(-1, 3), weights.ravel()
-    up = weights > 0.0
-    return directions[up], weights[up] / weights[up].sum()
-
-
-def _year_grid(latitude, steps_per_day):
-    """(directions (DAYS, steps_per_day, 3), beams (DAYS, steps_per_day)): every instant of the
-    year, below the horizon too (beam 0 there)."""
     day = np.arange(1, DAYS + 1)
     hour_angle = 2.0 * np.pi * ((np.arange(steps_per_day) + 0.5) / steps_per_day - 0.5)
-    directions = sun_vector(latitude, declination(day)[:, None], hour_angle[None, :])
-    return directions, beam(directions[..., 2])
+    directions = sun_vector(latitude, declination(day)[:, None], hour_angle[None, :]).reshape(-1, 3)
+    weights = beam(directions[:, 2])
+    up = weights > 0.0
+    return directions[up], weights[up] / weights[up].sum()
 
 
 def site_to_scene(north_angle: float) -> np.ndarray:
@@ -115,39 +99,3 @@ def open_plane_exposure(normal, latitude: float, north_angle: float = 0.0) -> fl
     directions, weights = year(latitude)
     cosines = scene_directions(directions, north_angle) @ np.asarray(normal, dtype=np.float64)
     return float(weights @ np.maximum(cosines, 0.0))
-
-
-def open_plane_exposures(normals: np.ndarray, latitude: float, north_angle: float = 0.0) -> np.ndarray:
-    """S of unshadowed planes of unit ``normals`` (N, 3) given in the scene's frame, as float64
-    (N,): ``open_plane_exposure`` of each, from a table (``BLOCK_DAYS``), for the millions of
-    texels of a bake (docs/model.md §9.1, "The bake")."""
-    normals = np.asarray(normals, dtype=np.float64) @ site_to_scene(north_angle)  # into the site frame
-    zenith, azimuth, table = _exposure_table(real_number("latitude", latitude))
-    row = np.arccos(np.clip(normals[:, 2], -1.0, 1.0)) / (zenith[1] - zenith[0])
-    column = (np.arctan2(normals[:, 1], normals[:, 0]) - azimuth[0]) / (azimuth[1] - azimuth[0])
-    i = np.clip(row.astype(np.int64), 0, len(zenith) - 2)
-    j = np.clip(column.astype(np.int64), 0, len(azimuth) - 2)
-    a, b = row - i, column - j
-    lower = (1 - b) * table[i, j] + b * table[i, j + 1]
-    upper = (1 - b) * table[i + 1, j] + b * table[i + 1, j + 1]
-    return (1 - a) * lower + a * upper
-
-
-@functools.lru_cache(maxsize=4)
-def _exposure_table(latitude):
-    """(zenith angles (R,), azimuths (C,), S (R, C)) of open planes on the grid of normals (site
-    frame, every TABLE_STEP degrees), over the year's suns merged in blocks (``BLOCK_DAYS``)."""
-    directions, beams = _year_grid(latitude, STEPS_PER_DAY)
-    block = (np.arange(DAYS)[:, None] // BLOCK_DAYS) * STEPS_PER_DAY + np.arange(STEPS_PER_DAY)[None, :] // BLOCK_STEPS
-    weights = np.bincount(block.ravel(), weights=beams.ravel())
-    moments = np.stack([np.bincount(block.ravel(), weights=(beams * directions[..., k]).ravel()) for k in range(3)], 1)
-    up = weights > 0.0
-    suns, weights = moments[up] / weights[up, None], weights[up] / weights[up].sum()
-    zenith = np.radians(np.arange(0.0, 180.0 + TABLE_STEP / 2, TABLE_STEP))
-    azimuth = np.radians(np.arange(-180.0, 180.0 + TABLE_STEP / 2, TABLE_STEP))
-    zenith_grid, azimuth_grid = np.meshgrid(zenith, azimuth, indexing="ij")
-    across = np.sin(zenith_grid)
-    grid = np.stack([across * np.cos(azimuth_grid), across * np.sin(azimuth_grid), np.cos(zenith_grid)], -1)
-    grid = grid.reshape(-1, 3)
-    table = np.concatenate([np.maximum(part @ suns.T, 0.0) @ weights for part in np.array_split(grid, 16)])
-    return zenith, azimuth, table.reshape(zenith_grid.shape)

@@ -6,12 +6,6 @@ Cycles' DIFFUSE bake with only the direct pass returns irradiance / π: ∫ L(ω
 over the directions ω the sky lights, V the visibility. A sky sets its radiance L so that this is
 the map.
 
-A sky that knows its map where nothing casts a shadow (``Sky.unshadowed``, a function of the
-normal alone) is baked twice with the same seed, as it is and with every shadow taken away, and
-the map is that function times the ratio of the two: Cycles draws the same directions in both, so
-the ratio is exactly 1 where nothing shadows and only shadowed points keep noise (docs/model.md
-§9.1, "The bake").
-
 The bake runs in a temporary scene on copies of the objects (the target's mesh copied, the
 occluders' meshes shared), all with plain opaque materials, so the user's scene, materials,
 meshes and selection are never touched and nothing is left behind, even on failure.
@@ -46,15 +40,13 @@ class Sky:
     (lamps or a world, recorded in ``ledger``); ``reaches(normals)`` says, for unit normals
     (V, 3) in the scene's frame, which surfaces any of it can reach (the others get exactly 0,
     unbaked); ``samples`` and ``seed`` are Cycles' per texel or corner; ``label`` names the
-    temporary datablocks ("PW <label> Bake"); ``unshadowed(normals)``, where given, is the map
-    exactly for unit normals (V, 3) where nothing shadows (see the module's docstring)."""
+    temporary datablocks ("PW <label> Bake")."""
 
     label: str
     samples: int
     seed: int
     add: Callable[[bpy.types.Scene, scratch_scene.Ledger], None]
     reaches: Callable[[np.ndarray], np.ndarray]
-    unshadowed: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 def default_occluders(
@@ -93,27 +85,22 @@ def bake_image(
         if smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices):
             at_vertices = _bake_vertices(obj, copy, sky)
         else:
-            return _bake_image(copy, uv_map, size, margin, sky)
+            return _bake_image(copy, uv_map, size, margin, sky.label)
     return scratch_scene.bake_point_values(obj, uv_map, size, at_vertices, margin=margin)[0]
 
 
-def _bake_image(copy, uv_map, size, margin, sky):
+def _bake_image(copy, uv_map, size, margin, label):
     """The map baked at every texel of ``copy``'s UV map ``uv_map`` (size, size), top row first."""
     with scratch_scene.Ledger() as made:
-        image = made.add(bpy.data.images.new(f"PW {sky.label} Bake", size, size, alpha=False, float_buffer=True))
+        image = made.add(bpy.data.images.new(f"PW {label} Bake", size, size, alpha=False, float_buffer=True))
         copy.data.uv_layers.active = copy.data.uv_layers[uv_map]
         texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
         texture.image = image
         copy.active_material.node_tree.nodes.active = texture
-        baked = _bake(copy, sky, "IMAGE_TEXTURES", margin, lambda: _image_colours(image))
-        return baked.reshape(size, size)[::-1].copy()  # Blender stores the bottom row first
-
-
-def _image_colours(image):
-    """The RGB of every pixel of ``image`` (W·H, 3), bottom row first."""
-    pixels = np.empty(len(image.pixels), dtype=np.float32)
-    image.pixels.foreach_get(pixels)
-    return pixels.reshape(-1, 4)[:, :3]
+        _bake(copy, target="IMAGE_TEXTURES", margin=margin)
+        pixels = np.empty(size * size * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        return pixels.reshape(size, size, 4)[::-1, :, 0].copy()  # Blender stores the bottom row first
 
 
 def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.Object] = ()) -> np.ndarray:
@@ -128,14 +115,10 @@ def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.
             return _bake_vertices(obj, copy, sky)[mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)]
         attribute = copy.data.color_attributes.new(f"PW {sky.label} Bake", "FLOAT_COLOR", "CORNER")
         copy.data.color_attributes.active_color = attribute
-        return _bake(copy, sky, "VERTEX_COLORS", 0, lambda: _attribute_colours(attribute))
-
-
-def _attribute_colours(attribute):
-    """The RGB of every element of the colour ``attribute`` (N, 3)."""
-    colours = np.empty(len(attribute.data) * 4, dtype=np.float32)
-    attribute.data.foreach_get("color", colours)
-    return colours.reshape(-1, 4)[:, :3]
+        _bake(copy, target="VERTEX_COLORS", margin=0)
+        colours = np.empty(len(attribute.data) * 4, dtype=np.float32)
+        attribute.data.foreach_get("color", colours)
+    return colours[0::4].copy()
 
 
 def smooth_at_vertices(obj: bpy.types.Object) -> bool:
@@ -173,11 +156,11 @@ def _bake_vertices(target, copy, sky):
     lit = sky.reaches(normals)
     exposure = np.zeros(len(points), dtype=np.float32)
     if lit.any():
-        exposure[lit] = _bake_probes(copy, points[lit], normals[lit], step, sky)
+        exposure[lit] = _bake_probes(copy, points[lit], normals[lit], step)
     return exposure
 
 
-def _bake_probes(copy, points, normals, step, sky):
+def _bake_probes(copy, points, normals, step):
     """The map baked at ``points`` (P, 3) on probes across their unit ``normals``, ``step`` in size
     (``_bake_vertices``), in ``copy``'s scene."""
     count = len(points)
@@ -207,89 +190,32 @@ def _bake_probes(copy, points, normals, step, sky):
         texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
         texture.image = image
         copy.active_material.node_tree.nodes.active = texture
-        baked = _bake(probe, sky, "IMAGE_TEXTURES", 0, lambda: _image_colours(image))
-        return baked[:count]  # texel (column i % side, row i // side from the bottom)
+        with bpy.context.temp_override(**scratch_scene.only_selected(probe)):
+            bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, margin=0, use_clear=True)
+        pixels = np.empty(side * side * 4, dtype=np.float32)
+        image.pixels.foreach_get(pixels)
+        return pixels[0::4][:count].copy()  # texel (column i % side, row i // side from the bottom)
 
 
-def _bake(obj, sky, target, margin, read):
-    """The map baked on ``obj`` (alone selected in its temporary scene) into ``target``, read
-    back by ``read()`` (its RGB, (N, 3)), as float32 (N,).
-
-    With ``sky.unshadowed``, three bakes (see the module's docstring): the map as it is, the
-    shading normals (one sample), and the map with no shadows at the same seed; the map is then
-    unshadowed(normal) × as it is / with no shadows, where that has no shadows is positive.
-    """
+def _bake(copy, target, margin):
     # Renders shade an inside-out mesh from outside (a back face turns its normal to the
     # viewer); the bake weighs the light by the stored normal, so it bakes the copy turned right
     # way out, then turns it back, which restores the order of its face corners.
-    inside_out = mesh_arrays.is_inside_out(obj.data)
+    inside_out = mesh_arrays.is_inside_out(copy.data)
     if inside_out:
-        obj.data.flip_normals()
-    try:
-        shadowed = _baked(obj, read, type="DIFFUSE", pass_filter={"DIRECT"}, target=target, margin=margin)[:, 0]
-        if sky.unshadowed is None:
-            return shadowed.copy()
-        normals = _shading_normals(obj, read, target, margin)
-        with _no_shadows(obj):
-            open_ = _baked(obj, read, type="DIFFUSE", pass_filter={"DIRECT"}, target=target, margin=margin)[:, 0]
-    finally:
-        if inside_out:
-            obj.data.flip_normals()
-    exposure = shadowed.copy()
-    lit = open_ > 0.0  # with no light at all the bake says nothing more than its 0
-    # unshadowed(N) is linear in N over the samples of a texel (they see the same suns, but for
-    # those at a grazing angle), so its mean over them is that of their mean normal, |N̄| unshadowed(N̄ / |N̄|)
-    length = np.linalg.norm(normals[lit], axis=1)
-    unit = normals[lit] / np.maximum(length, 1e-30)[:, None]
-    exposure[lit] = length * sky.unshadowed(unit) * (shadowed[lit] / open_[lit])
-    return exposure
-
-
-def _baked(obj, read, **bake):
-    with bpy.context.temp_override(**scratch_scene.only_selected(obj)):
-        bpy.ops.object.bake(margin_type="EXTEND", use_clear=True, use_selected_to_active=False, **bake)
-    return read()
-
-
-def _shading_normals(obj, read, target, margin):
-    """The shading normals (N, 3) in the scene's frame that the bake into ``target`` sees, each
-    the mean over the bake's samples (a NORMAL bake in object space at the same samples and seed,
-    turned by the inverse transpose of the object's), as long as that mean in the object's frame."""
-    encoded = _baked(
-        obj,
-        read,
-        type="NORMAL",
-        normal_space="OBJECT",
-        normal_r="POS_X",
-        normal_g="POS_Y",
-        normal_b="POS_Z",
-        target=target,
-        margin=margin,
-    )
-    local = 2.0 * encoded.astype(np.float64) - 1.0  # unit normals' mean: shorter where they spread
-    turned = local @ np.linalg.inv(np.array(obj.matrix_world)[:3, :3])
-    length = np.linalg.norm(local, axis=1, keepdims=True)
-    return turned * (length / np.maximum(np.linalg.norm(turned, axis=1, keepdims=True), 1e-30))
-
-
-@contextmanager
-def _no_shadows(obj):
-    """``obj``'s temporary scene with every other object hidden and ``obj`` seen by no ray but
-    the bake's own, so that nothing shadows it; restored afterwards."""
-    others = [o for o in obj.users_scene[0].objects if o != obj and not o.hide_render]
-    rays = ("visible_shadow", "visible_diffuse", "visible_glossy", "visible_transmission", "visible_volume_scatter")
-    seen = {name: getattr(obj, name) for name in rays}
-    try:
-        for other in others:
-            other.hide_render = True
-        for name in rays:
-            setattr(obj, name, False)
-        yield
-    finally:
-        for other in others:
-            other.hide_render = False
-        for name, value in seen.items():
-            setattr(obj, name, value)
+        copy.data.flip_normals()
+    with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
+        bpy.ops.object.bake(
+            type="DIFFUSE",
+            pass_filter={"DIRECT"},
+            target=target,
+            margin=margin,
+            margin_type="EXTEND",
+            use_clear=True,
+            use_selected_to_active=False,
+        )
+    if inside_out:
+        copy.data.flip_normals()
 
 
 @contextmanager

@@ -10,9 +10,7 @@ holds the year's sun path: each position's w_i falls in its pixel of an equirect
 (nearest-pixel lookup, so the radiance is constant over each pixel), as radiance π w_i / Ω, Ω the
 pixel's solid angle; ∫ L max(0, N·ω) V dω / π is then S, within the pixel's size (a few tenths
 of a degree). Cycles draws the world's directions from the image's own importance map, so the
-samples go where the sun was. The exposure of an open plane (``solar.open_plane_exposures``)
-is the bake's control variate (``Sky.unshadowed``, docs/model.md §9.1, "The bake"): only shadow
-edges keep noise (docs/maps.md, "Sun exposure", for the noise measured).
+samples go where the sun was (docs/maps.md, "Sun exposure", for the noise measured).
 
 The site: ``latitude`` and ``north_angle`` of the settings where given; else the scene's Sun
 Position add-on's (``scene.sun_pos_properties``: latitude in degrees, north offset in radians,
@@ -138,7 +136,6 @@ def sky(settings: SunSettings, latitude: float, north_angle: float) -> sky_bake.
         add=lambda scene, made: _add_sky(scene, radiance, made),
         # the sun stands somewhere above nearly every plane over a year: no surface is left out
         reaches=lambda normals: np.ones(len(normals), dtype=bool),
-        unshadowed=lambda normals: solar.open_plane_exposures(normals, latitude, north_angle),
     )
 
 
