@@ -21,7 +21,7 @@ from helpers import run_cli
 from porous_weathering import survey
 from porous_weathering.core import aging, colorimetry, condition, environments, model, patterns
 from porous_weathering.core import modes as weathering_modes
-from porous_weathering.core.modes import soiling
+from porous_weathering.core.modes import biological, soiling
 from porous_weathering.maps.provenance import OverwriteRefused
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
@@ -169,6 +169,23 @@ def test_a_front_on_a_box_covers_the_area_above_its_height(unit, mode, mask, pat
     for t in (0.3, 0.5, 0.8):
         assert areas(result, t)[pattern] == pytest.approx(front_height_area(t), rel=EXACT)
         assert sum(areas(result, t).values()) == pytest.approx(6 * EDGE**2, rel=1e-9)
+
+
+def test_lichens_on_a_box_cover_what_the_boolean_model_says(tmp_path):
+    """A box damp and lit all over (the lichens' establishment L = 1) in RURAL: its lichen area is
+    the Boolean model's 1 - exp(-lambda pi r^2) of the box (docs/model.md §9.3), from the seeds the
+    render draws (docs/model.md §10.1), within the mode's 0.025 of the law and the seeds' scatter."""
+    site = environments.get("RURAL")
+    density = site.values["lichen_density"]
+    years = 40.0  # r = 38.5 mm: u = lambda pi r^2 = 0.93
+    masks = {"damp_map": dict.fromkeys(FACES, 1.0), "sun_map": dict.fromkeys(FACES, 1.0)}
+    obj = box(1.0, masks, modes=("biological",), environment="RURAL")
+    result = survey.condition_survey([obj], years=(years,), environment="RURAL", out_dir=tmp_path, name="box")
+    found = {row["pattern"]: float(row["area_m2"]) for row in result.rows}
+    radius = (years - biological.LICHEN_LAG_YEARS) * biological.LICHEN_GROWTH.default * 0.0005
+    boolean = 1.0 - np.exp(-density * np.pi * radius**2)
+    assert found["lichen"] / (6 * EDGE**2) == pytest.approx(boolean, abs=0.03)
+    assert found["algae"] == 0.0  # the sun dries the film below what covers the stone
 
 
 def test_the_csv_has_its_columns_and_an_objects_shares_sum_to_one(tmp_path):

@@ -6,7 +6,7 @@ edges, as the mask's Image Texture node), the stone's structure as its mean."""
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import bpy
 
@@ -45,7 +45,9 @@ class Surface:
     """An object's mesh as rendered, in metres: its triangles' world corners ``triangles_m``
     (n, 3, 3), their corners' loop indices (n, 3), material slot (n,), areas in m² (n,) and
     unit normals (n, 3); its UV maps ({name: (corners, 2)}, "" the active render one) and colour
-    attributes ({name: (corners,)}, the Attribute node's Fac) per corner."""
+    attributes ({name: (corners,)}, the Attribute node's Fac) per corner; and its origin in the
+    world in metres (the Object Info node's Location: the shader's textures of the point's place
+    are read from it, docs/model.md §8.2)."""
 
     triangles_m: np.ndarray
     loops: np.ndarray
@@ -54,6 +56,7 @@ class Surface:
     normals: np.ndarray
     uv_maps: dict
     colour_attributes: dict
+    origin_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def splits(self, target: int = TARGET_SAMPLES, triangles: np.ndarray | None = None) -> np.ndarray:
         """k per triangle (of ``triangles``, default all): about ``target`` sample points over
@@ -100,7 +103,8 @@ def surface(obj: "bpy.types.Object") -> Surface:
     cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     doubled = np.linalg.norm(cross, axis=1)
     normals = cross / np.maximum(doubled, 1e-300)[:, None]
-    return Surface(triangles, loops.reshape(-1, 3), slots, doubled / 2.0, normals, uv_maps, colours)
+    origin = matrix[:3, 3] * scale
+    return Surface(triangles, loops.reshape(-1, 3), slots, doubled / 2.0, normals, uv_maps, colours, origin)
 
 
 # --- a material's inputs at the points ---------------------------------------------------------

@@ -284,8 +284,8 @@ def rasterise(
         with np.errstate(divide="ignore", invalid="ignore"):  # edge-on triangles cover no cell
             s = (ap[:, 0] * ac[:, 1] - ap[:, 1] * ac[:, 0]) / area
             t = (ab[:, 0] * ap[:, 1] - ab[:, 1] * ap[:, 0]) / area
-        tolerance = 1e-9
-        inside = (s >= -tolerance) & (t >= -tolerance) & (s + t <= 1 + tolerance) & (np.abs(area) > 1e-12)
+            tolerance = 1e-9
+            inside = (s >= -tolerance) & (t >= -tolerance) & (s + t <= 1 + tolerance) & (np.abs(area) > 1e-12)
         d, s, t = depth[triangle[inside]], s[inside], t[inside]  # edge-on triangles' s and t are not numbers
         z = d[:, 0] + s * (d[:, 1] - d[:, 0]) + t * (d[:, 2] - d[:, 0])
         cell = (row * columns + column)[inside]

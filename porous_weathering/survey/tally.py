@@ -7,11 +7,23 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..blender.compat import VORONOI_HASH
 from ..core import condition
+from ..core import modes as weathering_modes
+from ..core.modes import biological
 from . import points
 
 #: Sample points classified per call of the model (bounds the memory a scan takes).
 CHUNK = 250_000
+
+#: The numpy side of each per-point field a mode's record names (``Mode.fields``), as
+#: shading/nodes.py's FIELDS builds it in the shader: (metres from the object's origin (n, s, 3),
+#: unit normals (n, s, 3), the material's inputs at the points) -> the field (docs/model.md §10.1).
+FIELDS = {
+    biological.LICHEN_SEEDS: lambda metres, normals, inputs: biological.lichen_seeds_at(
+        metres, normals, inputs, VORONOI_HASH
+    )
+}
 
 
 @dataclass(frozen=True)
@@ -71,7 +83,8 @@ def tally(
                     if clock in inputs:
                         inputs[clock] = np.full((len(triangles), len(bary)), float(value))
                 stone = [inputs.pop(key) for key in points.STONE_INPUTS]
-                index, loss = condition.classify(*stone, material.modes, **inputs)
+                fields = _fields(found, material.modes, triangles, bary, inputs)
+                index, loss = condition.classify(*stone, material.modes, fields=fields, **inputs)
                 index = local[index]
                 weight = np.broadcast_to((found.areas_m2[triangles] / len(bary))[:, None], index.shape)
                 areas += np.bincount(index.ravel(), weight.ravel(), minlength=count)
@@ -83,3 +96,15 @@ def tally(
                     per += np.bincount(cell.ravel(), weight.ravel(), minlength=len(per))
     dominant = None if per is None else per.reshape(-1, count).argmax(axis=1)
     return Tally(areas, face_areas.reshape(faces_count, count), face_loss, dominant)
+
+
+def _fields(found, modes, triangles, bary, inputs):
+    """{field: value} of the per-point fields ``modes`` read, at the sample points ``bary`` of
+    ``triangles``: from the points' place in metres from the object's origin and their triangle's
+    normal (a smooth-shaded surface's shader reads its interpolated normal instead)."""
+    names = dict.fromkeys(name for mode in modes for name in weathering_modes.get(mode).fields)
+    if not names:
+        return None
+    metres = np.einsum("nkc,sk->nsc", found.triangles_m[triangles], bary) - found.origin_m
+    normals = np.broadcast_to(found.normals[triangles][:, None, :], metres.shape)
+    return {name: FIELDS[name](metres, normals, inputs) for name in names}
