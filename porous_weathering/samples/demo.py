@@ -44,6 +44,7 @@ from ..core import modes as weathering_modes
 from ..maps import bake, efflorescence_map, rain, sun
 from ..maps import registry as maps
 from ..shading import material, presets, weathering
+from ..survey import condition_survey
 from . import studio
 
 DOCS_IMAGES = os.path.join(EXTENSION_ROOT, "docs", "images")
@@ -471,10 +472,8 @@ def render_facade_life(work, size, samples, bake_samples):
 def survey_facade(facade, years, out_dir):
     """The condition survey (docs/survey.md) of the façade (an opened ``Sample``) soiled in its
     site at ``years``, its files in ``out_dir``: the ``SurveyResult``."""
-    from .. import survey
-
     facade.show(model.SOILING, 0.0)
-    return survey.condition_survey(
+    return condition_survey(
         facade.objects, years=years, environment=facade.recipe.environment, out_dir=out_dir, name="facade", force=True
     )
 
