@@ -6,9 +6,11 @@ import csv
 import json
 import os
 import pathlib
+import re
 import signal
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 
 import bpy
 
@@ -169,6 +171,24 @@ def test_a_front_on_a_box_covers_the_area_above_its_height(unit, mode, mask, pat
     for t in (0.3, 0.5, 0.8):
         assert areas(result, t)[pattern] == pytest.approx(front_height_area(t), rel=EXACT)
         assert sum(areas(result, t).values()) == pytest.approx(6 * EDGE**2, rel=1e-9)
+    # the drawing shows the front where the areas put it, though it crosses the face's two triangles
+    svg = next(path for path in result.drawings if path.endswith(".t0.5.svg"))
+    above_m = (front_height_area(0.5) - EDGE**2) / (4 * EDGE)
+    assert drawn_height_mm(svg, "region-south-0") == pytest.approx(above_m * 1000 / 50, abs=1.0)  # 1:50
+
+
+def drawn_height_mm(svg, group_id):
+    """The height on paper of the paths of an SVG group (docs/survey.md's ids)."""
+    root = ET.parse(svg).getroot()
+    mm_per_unit = 420.0 / float(root.get("viewBox").split()[2])
+    group = next(g for g in root.iter("{http://www.w3.org/2000/svg}g") if g.get("id") == group_id)
+    numbers = [
+        float(n)
+        for path in group.iter("{http://www.w3.org/2000/svg}path")
+        for n in re.findall(r"-?\d+(?:\.\d+)?", path.get("d"))
+    ]
+    y = np.array(numbers).reshape(-1, 2)[:, 1]
+    return (y.max() - y.min()) * mm_per_unit
 
 
 def test_lichens_on_a_box_cover_what_the_boolean_model_says(tmp_path):

@@ -287,7 +287,7 @@ def _steps(objects, options, out_dir, name, paths):
         tallies = []
         for years, t in stages:
             yield Step(done / total, f"{obj.name}: t = {t:.4g}")
-            tallies.append(tally.tally(found, materials, patterns, clocks(years, t), faces, per_triangle=drawn))
+            tallies.append(tally.tally(found, materials, patterns, clocks(years, t), faces, drawn=drawn))
             done += 1
         ahead, read = [], forecast.triangles(len(found.areas_m2))
         for t in forecast.FORECAST_AGES:
@@ -449,8 +449,8 @@ def _drawings(surveyed, options, stages, out_dir, name, created):
                 years=years,
                 t=t,
                 date=created[:10],
-                triangles_m=item.surface.triangles_m,
-                pattern_index=order[counted.dominant],
+                triangles_m=counted.drawn_triangles,
+                pattern_index=order[counted.drawn_patterns],
                 patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
                 areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
                 north=options.north_vector(),

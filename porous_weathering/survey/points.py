@@ -40,6 +40,15 @@ def barycentric_centroids(k: int) -> np.ndarray:
     return np.column_stack([1.0 - second.sum(axis=1), second])
 
 
+def sub_triangles(k: int) -> np.ndarray:
+    """(k², 3, 3) barycentric corners of the k² equal triangles that split a triangle k times along
+    each edge, in the order of ``barycentric_centroids`` and wound as the triangle is."""
+    up = [[(i, j), (i + 1, j), (i, j + 1)] for i in range(k) for j in range(k - i)]
+    down = [[(i + 1, j), (i + 1, j + 1), (i, j + 1)] for i in range(k - 1) for j in range(k - 1 - i)]
+    second = np.array(up + down, dtype=np.float64).reshape(-1, 3, 2) / k
+    return np.concatenate([1.0 - second.sum(axis=-1, keepdims=True), second], axis=-1)
+
+
 @dataclass
 class Surface:
     """An object's mesh as rendered, in metres: its triangles' world corners ``triangles_m``

@@ -1,7 +1,7 @@
 """An object's patterns counted at one age (docs/model.md §10): every sample point of its surface
 (``points``) classed by the numpy model (``core.condition.classify``) and its area added to its
-pattern's, over the whole object, per face (``core.condition.FACES``), and per triangle (the
-pattern a drawing shows on it: the one covering most of it)."""
+pattern's, over the whole object and per face (``core.condition.FACES``); and, for a drawing, the
+small triangle each sample point stands for, in its pattern."""
 
 from dataclasses import dataclass
 
@@ -29,12 +29,14 @@ FIELDS = {
 @dataclass(frozen=True)
 class Tally:
     """Areas in m² at one age: per pattern (P,), per face and pattern (F, P), the loss of visible
-    reflectance times area per face (F,), and the pattern covering most of each triangle (n,)."""
+    reflectance times area per face (F,); and for a drawing, the small triangles the sample points
+    stand for (m, 3, 3), in metres, and the pattern of each (m,) (None: not asked for)."""
 
     areas: np.ndarray
     face_areas: np.ndarray
     face_loss: np.ndarray
-    dominant: np.ndarray | None
+    drawn_triangles: np.ndarray | None = None
+    drawn_patterns: np.ndarray | None = None
 
 
 def union(materials) -> tuple:
@@ -53,25 +55,27 @@ def tally(
     clocks: dict,
     faces: np.ndarray,
     *,
-    per_triangle: bool = False,
+    drawn: bool = False,
     triangles: np.ndarray | None = None,
     target: int = points.TARGET_SAMPLES,
 ) -> Tally:
     """The ``Tally`` of ``found`` (``points.Surface``) at the age ``clocks`` ({clock input: value}:
     ``time`` t and the clocks in years, docs/model.md §9.4); ``materials`` {slot: Material},
-    ``faces`` the face index of each triangle; ``per_triangle``: find each triangle's pattern too.
+    ``faces`` the face index of each triangle; ``drawn``: keep the sample points' small triangles
+    and patterns too (``Tally.drawn_triangles``), so that a drawing shows what the areas count.
     ``triangles`` (default: all) and about ``target`` sample points on them: a coarser tally
     (the forecast's, which reads shares of faces)."""
     count, faces_count = len(patterns), len(condition.FACES)
     areas = np.zeros(count)
     face_areas = np.zeros(faces_count * count)
     face_loss = np.zeros(faces_count)
-    per = np.zeros(len(found.areas_m2) * count) if per_triangle else None
+    pieces, kinds = [], []
     names = [pattern.name for pattern in patterns]
     chosen_triangles = np.arange(len(found.areas_m2)) if triangles is None else triangles
     splits = found.splits(target, chosen_triangles)
     for k in np.unique(splits):
         bary = points.barycentric_centroids(int(k))
+        corners = points.sub_triangles(int(k)) if drawn else None
         step = max(1, CHUNK // len(bary))
         for slot, material in materials.items():
             chosen = chosen_triangles[(splits == k) & (found.slots[chosen_triangles] == slot)]
@@ -91,11 +95,16 @@ def tally(
                 face = np.broadcast_to(faces[triangles][:, None], index.shape)
                 face_areas += np.bincount((face * count + index).ravel(), weight.ravel(), minlength=faces_count * count)
                 face_loss += np.bincount(face.ravel(), (loss * weight).ravel(), minlength=faces_count)
-                if per is not None:
-                    cell = np.broadcast_to(triangles[:, None], index.shape) * count + index
-                    per += np.bincount(cell.ravel(), weight.ravel(), minlength=len(per))
-    dominant = None if per is None else per.reshape(-1, count).argmax(axis=1)
-    return Tally(areas, face_areas.reshape(faces_count, count), face_loss, dominant)
+                if drawn:
+                    drawn_at = np.einsum("nkc,sjk->nsjc", found.triangles_m[triangles], corners)
+                    pieces.append(drawn_at.reshape(-1, 3, 3))
+                    kinds.append(index.ravel().astype(np.int16))
+    if drawn:
+        whole = (
+            (np.concatenate(pieces), np.concatenate(kinds)) if pieces else (np.zeros((0, 3, 3)), np.zeros(0, np.int16))
+        )
+        return Tally(areas, face_areas.reshape(faces_count, count), face_loss, *whole)
+    return Tally(areas, face_areas.reshape(faces_count, count), face_loss)
 
 
 def _fields(found, modes, triangles, bary, inputs):
