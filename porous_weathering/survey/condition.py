@@ -443,18 +443,23 @@ def _drawings(surveyed, options, stages, out_dir, name, created):
         for (years, t), counted in zip(stages, item.tallies):
             label = f"{years:g}y" if years is not None else f"t{t:g}"
             stem = os.path.join(out_dir, f"{name}.{safe_file_name(item.obj.name)}.{label}")
-            data = sheet.SheetData(
-                object_name=item.obj.name,
-                environment=options.environment,
-                years=years,
-                t=t,
-                date=created[:10],
-                triangles_m=counted.drawn_triangles,
-                pattern_index=order[counted.drawn_patterns],
-                patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
-                areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
-                north=options.north_vector(),
-                forecast=ahead,
-            )
-            found[(stem + ".svg", stem + ".png")] = lambda svg, png, data=data: sheet.write_sheets(data, svg, png)
+
+            def draw(svg, png, item=item, counted=counted, years=years, t=t, shown=shown, order=order, ahead=ahead):
+                """One sheet; its small triangles are made when it is drawn (one sheet's at a time)."""
+                data = sheet.SheetData(
+                    object_name=item.obj.name,
+                    environment=options.environment,
+                    years=years,
+                    t=t,
+                    date=created[:10],
+                    triangles_m=points.small_triangles(item.surface, *counted.drawn_points, item.surface.splits()),
+                    pattern_index=order[counted.drawn_patterns],
+                    patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
+                    areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
+                    north=options.north_vector(),
+                    forecast=ahead,
+                )
+                sheet.write_sheets(data, svg, png)
+
+            found[(stem + ".svg", stem + ".png")] = draw
     return found

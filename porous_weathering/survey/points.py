@@ -49,6 +49,19 @@ def sub_triangles(k: int) -> np.ndarray:
     return np.concatenate([1.0 - second.sum(axis=-1, keepdims=True), second], axis=-1)
 
 
+def small_triangles(found: "Surface", triangle: np.ndarray, part: np.ndarray, splits: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) world corners in metres of the small triangles ``part`` (an index into
+    ``sub_triangles(k)``) of ``found``'s triangles ``triangle``, each split ``splits[triangle]``
+    times along its edges: what each sample point stands for."""
+    corners = np.empty((len(triangle), 3, 3))
+    k_of = splits[triangle]
+    for k in np.unique(k_of):
+        chosen = k_of == k
+        bary = sub_triangles(int(k))[part[chosen]]
+        corners[chosen] = np.einsum("mkc,mjk->mjc", found.triangles_m[triangle[chosen]], bary)
+    return corners
+
+
 @dataclass
 class Surface:
     """An object's mesh as rendered, in metres: its triangles' world corners ``triangles_m``

@@ -29,13 +29,14 @@ FIELDS = {
 @dataclass(frozen=True)
 class Tally:
     """Areas in m² at one age: per pattern (P,), per face and pattern (F, P), the loss of visible
-    reflectance times area per face (F,); and for a drawing, the small triangles the sample points
-    stand for (m, 3, 3), in metres, and the pattern of each (m,) (None: not asked for)."""
+    reflectance times area per face (F,); and for a drawing, the sample points (m,) as the small
+    triangles they stand for (their triangle and which of its k² parts: ``points.small_triangles``)
+    and the pattern of each (None: not asked for)."""
 
     areas: np.ndarray
     face_areas: np.ndarray
     face_loss: np.ndarray
-    drawn_triangles: np.ndarray | None = None
+    drawn_points: tuple[np.ndarray, np.ndarray] | None = None
     drawn_patterns: np.ndarray | None = None
 
 
@@ -61,21 +62,20 @@ def tally(
 ) -> Tally:
     """The ``Tally`` of ``found`` (``points.Surface``) at the age ``clocks`` ({clock input: value}:
     ``time`` t and the clocks in years, docs/model.md §9.4); ``materials`` {slot: Material},
-    ``faces`` the face index of each triangle; ``drawn``: keep the sample points' small triangles
-    and patterns too (``Tally.drawn_triangles``), so that a drawing shows what the areas count.
+    ``faces`` the face index of each triangle; ``drawn``: keep the sample points and their patterns
+    too (``Tally.drawn_points``), so that a drawing shows what the areas count.
     ``triangles`` (default: all) and about ``target`` sample points on them: a coarser tally
     (the forecast's, which reads shares of faces)."""
     count, faces_count = len(patterns), len(condition.FACES)
     areas = np.zeros(count)
     face_areas = np.zeros(faces_count * count)
     face_loss = np.zeros(faces_count)
-    pieces, kinds = [], []
+    pieces, parts, kinds = [], [], []
     names = [pattern.name for pattern in patterns]
     chosen_triangles = np.arange(len(found.areas_m2)) if triangles is None else triangles
     splits = found.splits(target, chosen_triangles)
     for k in np.unique(splits):
         bary = points.barycentric_centroids(int(k))
-        corners = points.sub_triangles(int(k)) if drawn else None
         step = max(1, CHUNK // len(bary))
         for slot, material in materials.items():
             chosen = chosen_triangles[(splits == k) & (found.slots[chosen_triangles] == slot)]
@@ -96,15 +96,14 @@ def tally(
                 face_areas += np.bincount((face * count + index).ravel(), weight.ravel(), minlength=faces_count * count)
                 face_loss += np.bincount(face.ravel(), (loss * weight).ravel(), minlength=faces_count)
                 if drawn:
-                    drawn_at = np.einsum("nkc,sjk->nsjc", found.triangles_m[triangles], corners)
-                    pieces.append(drawn_at.reshape(-1, 3, 3))
+                    pieces.append(np.repeat(triangles, len(bary)).astype(np.int32))
+                    parts.append(np.tile(np.arange(len(bary), dtype=np.int16), len(triangles)))
                     kinds.append(index.ravel().astype(np.int16))
-    if drawn:
-        whole = (
-            (np.concatenate(pieces), np.concatenate(kinds)) if pieces else (np.zeros((0, 3, 3)), np.zeros(0, np.int16))
-        )
-        return Tally(areas, face_areas.reshape(faces_count, count), face_loss, *whole)
-    return Tally(areas, face_areas.reshape(faces_count, count), face_loss)
+    if not drawn:
+        return Tally(areas, face_areas.reshape(faces_count, count), face_loss)
+    empty = (np.zeros(0, np.int32), np.zeros(0, np.int16), np.zeros(0, np.int16))
+    which, part, kind = (np.concatenate(chunks) for chunks in (pieces, parts, kinds)) if pieces else empty
+    return Tally(areas, face_areas.reshape(faces_count, count), face_loss, (which, part), kind)
 
 
 def _fields(found, modes, triangles, bary, inputs):
