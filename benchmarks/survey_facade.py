@@ -1,33 +1,48 @@
 """docs/survey.md's figures: the main job's limestone façade (samples/demo.py, its maps baked as the
-demo bakes them) soiled, surveyed at 10, 25 and 50 years in its environment; prints the survey's
-tables (the totals over the façade's objects per age and pattern, and the forecast per face).
+demo bakes them) soiled, surveyed at the years given in its environment; prints the survey's time
+and tables (the totals over the façade's objects per age and pattern, and the forecast per face);
+with ``--images DIR``, renders the façade at each age by the survey's clocks and writes each
+condition map beside its render there (``demo.render_facade_survey``, as ``demo --docs`` does in
+docs/images).
 
-    .venv-5.2/bin/python benchmarks/survey_facade.py [--bake-samples 16] [--out /tmp/pw-survey]
+    .venv-5.2/bin/python benchmarks/survey_facade.py [--years 10,25,50] [--bake-samples 32]
+        [--out /tmp/pw-survey] [--images docs/images]
 """
 
 import argparse
 import collections
 import os
+import subprocess
 import sys
+import time
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--bake-samples", type=int, default=16)
+    parser.add_argument("--years", default="10,25,50")
+    parser.add_argument("--bake-samples", type=int, default=32)
     parser.add_argument("--out", default="/tmp/pw-survey")
+    parser.add_argument("--images", default=None, help="write the renders and condition maps here")
+    parser.add_argument("--size", type=int, default=540)
+    parser.add_argument("--samples", type=int, default=4)
     args = parser.parse_args()
     sys.path.insert(0, ROOT)
-    from porous_weathering import survey
-    from porous_weathering.core import model
     from porous_weathering.samples import demo
+    from porous_weathering.survey.condition import parse_numbers
 
+    started = time.perf_counter()
     facade = demo.Sample(demo.FACADE, map_dir=args.out, bake_samples=args.bake_samples)
-    facade.show(model.SOILING, 0.0)
-    result = survey.condition_survey(
-        facade.objects, years=(10, 25, 50), environment=facade.recipe.environment, out_dir=args.out, name="facade"
-    )
+    baked = time.perf_counter()
+    result = demo.survey_facade(facade, parse_numbers(args.years, "years"), args.out)
+    surveyed = time.perf_counter()
+    load = subprocess.run(["uptime"], capture_output=True, text=True).stdout.strip()
+    print(f"bake {baked - started:.1f} s, survey {surveyed - baked:.1f} s ({load})")
+    if args.images:
+        facade.use_cycles(args.size, args.samples)
+        for path in demo.render_facade_survey(facade, result, args.out, args.images):
+            print("wrote", path)
     totals = collections.defaultdict(float)
     for row in result.rows:
         totals[(row["years"], row["t"], row["pattern"])] += float(row["area_m2"])

@@ -6,9 +6,11 @@ import csv
 import json
 import os
 import pathlib
+import re
 import signal
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 
 import bpy
 
@@ -21,7 +23,7 @@ from helpers import run_cli
 from porous_weathering import survey
 from porous_weathering.core import aging, colorimetry, condition, environments, model, patterns, solar
 from porous_weathering.core import modes as weathering_modes
-from porous_weathering.core.modes import soiling
+from porous_weathering.core.modes import biological, soiling
 from porous_weathering.maps import bake, sun
 from porous_weathering.maps.provenance import OverwriteRefused
 
@@ -170,6 +172,41 @@ def test_a_front_on_a_box_covers_the_area_above_its_height(unit, mode, mask, pat
     for t in (0.3, 0.5, 0.8):
         assert areas(result, t)[pattern] == pytest.approx(front_height_area(t), rel=EXACT)
         assert sum(areas(result, t).values()) == pytest.approx(6 * EDGE**2, rel=1e-9)
+    # the drawing shows the front where the areas put it, though it crosses the face's two triangles
+    svg = next(path for path in result.drawings if path.endswith(".t0.5.svg"))
+    above_m = (front_height_area(0.5) - EDGE**2) / (4 * EDGE)
+    assert drawn_height_mm(svg, "region-south-0") == pytest.approx(above_m * 1000 / 50, abs=1.0)  # 1:50
+
+
+def drawn_height_mm(svg, group_id):
+    """The height on paper of the paths of an SVG group (docs/survey.md's ids)."""
+    root = ET.parse(svg).getroot()
+    mm_per_unit = 420.0 / float(root.get("viewBox").split()[2])
+    group = next(g for g in root.iter("{http://www.w3.org/2000/svg}g") if g.get("id") == group_id)
+    numbers = [
+        float(n)
+        for path in group.iter("{http://www.w3.org/2000/svg}path")
+        for n in re.findall(r"-?\d+(?:\.\d+)?", path.get("d"))
+    ]
+    y = np.array(numbers).reshape(-1, 2)[:, 1]
+    return (y.max() - y.min()) * mm_per_unit
+
+
+def test_lichens_on_a_box_cover_what_the_boolean_model_says(tmp_path):
+    """A box damp and lit all over (the lichens' establishment L = 1) in RURAL: its lichen area is
+    the Boolean model's 1 - exp(-lambda pi r^2) of the box (docs/model.md §9.3), from the seeds the
+    render draws (docs/model.md §10.1), within the mode's 0.025 of the law and the seeds' scatter."""
+    site = environments.get("RURAL")
+    density = site.values["lichen_density"]
+    years = 40.0  # r = 38.5 mm: u = lambda pi r^2 = 0.93
+    masks = {"damp_map": dict.fromkeys(FACES, 1.0), "sun_map": dict.fromkeys(FACES, 1.0)}
+    obj = box(1.0, masks, modes=("biological",), environment="RURAL")
+    result = survey.condition_survey([obj], years=(years,), environment="RURAL", out_dir=tmp_path, name="box")
+    found = {row["pattern"]: float(row["area_m2"]) for row in result.rows}
+    radius = (years - biological.LICHEN_LAG_YEARS) * biological.LICHEN_GROWTH.default * 0.0005
+    boolean = 1.0 - np.exp(-density * np.pi * radius**2)
+    assert found["lichen"] / (6 * EDGE**2) == pytest.approx(boolean, abs=0.03)
+    assert found["algae"] == 0.0  # the sun dries the film below what covers the stone
 
 
 def test_the_csv_has_its_columns_and_an_objects_shares_sum_to_one(tmp_path):

@@ -223,6 +223,20 @@ def test_nearer_surfaces_are_drawn_over_farther_ones(tmp_path, monkeypatch, chun
         assert colour_at(png, root, x0 + 5, y0 + 5) == pytest.approx(PATTERNS[4][1], abs=0.02)
 
 
+def test_the_views_draw_where_the_surface_steps_forward_and_a_flat_face_gets_no_line(tmp_path, box_sheet):
+    """A 1 m cube standing 1 m proud of a slab's north face: the north view draws the square where
+    the surface steps forward, 20 mm a side at 1:50, about its centre; the box's flat faces none."""
+    big, big_names = box((4.0, 1.0, 4.0))
+    small, small_names = box((1.0, 1.0, 1.0), offset=(1.5, 2.0, 1.5))
+    data = data_for(np.concatenate([big, small]), big_names + small_names, {}, views=("north",))
+    root, _, _ = write(tmp_path, data)
+    x0, y0, x1, y1 = extent_mm(root, "edges-north")
+    assert (x1 - x0, y1 - y0) == pytest.approx((20.0, 20.0), abs=0.3)
+    ox0, oy0, ox1, oy1 = extent_mm(root, "outline-north")
+    assert ((x0 + x1) / 2, (y0 + y1) / 2) == pytest.approx(((ox0 + ox1) / 2, (oy0 + oy1) / 2), abs=0.3)
+    assert groups(box_sheet[1], "edges-") == {}
+
+
 def test_hatch_lines_are_2_mm_apart_on_paper_at_1_to_50(box_sheet):
     _, root, _, _ = box_sheet
     hatches = groups(root, "hatch-")

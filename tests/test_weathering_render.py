@@ -29,6 +29,7 @@ from helpers import (
     paper_modes,
     weathered,
 )
+from porous_weathering.blender import compat
 from porous_weathering.core import model
 from porous_weathering.core.backends import NumpyOps
 from porous_weathering.core.modes import biological
@@ -288,6 +289,21 @@ def lichen_seed_probe(plane):
 
     probe = plane.render(studio.emission_probe("Seed Probe", build))
     return probe[..., 0], probe[..., 1]
+
+
+def test_the_numpy_lichen_seeds_are_the_renders(fresh_scene):
+    """The seeds the survey draws in numpy (biological.lichen_seeds_at, docs/model.md §10.1) are the
+    Voronoi texture's at each pixel's place on the plane, with this Blender's hash."""
+    plane = MaskedPlane(fresh_scene)
+    seeds = lichen_seed_probe(plane)
+    place = plane.render(studio.emission_probe("Place Probe", lambda graph, geometry: geometry.outputs["Position"]))
+    covered = place[..., 3] > 0.999
+    metres = place[..., :3][covered]
+    normals = np.broadcast_to((0.0, 0.0, 1.0), metres.shape)
+    distance, value = biological.lichen_seeds_at(metres, normals, BIOLOGICAL_STATE, compat.VORONOI_HASH)
+    assert np.abs(distance - seeds[0][covered]).max() < 1e-5
+    assert np.array_equal(value.astype(np.float32), seeds[1][covered])
+    assert len(np.unique(value)) > 4  # several seeds on the plane
 
 
 def test_biological_matches_model(fresh_scene):

@@ -2,7 +2,14 @@
 
 import bpy
 
+from ..core import voronoi
+
 BLENDER_5 = bpy.app.version >= (5, 0, 0)
+
+#: How the Voronoi texture hashes its cells (core/voronoi.py): 5.x the cells' integer coordinates
+#: (PCG), 4.x the bits of their float ones (lookup3); so the two lines put the lichens' seeds in
+#: different places.
+VORONOI_HASH = voronoi.PCG if BLENDER_5 else voronoi.LOOKUP3
 
 #: The EEVEE engine id: renamed back to BLENDER_EEVEE in 5.0.
 EEVEE_ENGINE = "BLENDER_EEVEE" if BLENDER_5 else "BLENDER_EEVEE_NEXT"

@@ -3,7 +3,7 @@ an age, takes the pattern its modes produce there (``Mode.patterns``), by the ru
 ``patterns`` read on the numpy model (``model.weathered_point``), face on in ambient light, as a
 colorimeter reads a surface (``colorimetry.appearance``). No bpy."""
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -38,14 +38,18 @@ def classify(
     modes: Iterable[str],
     *,
     receptivity: ArrayLike | None = None,
+    fields: Mapping[str, tuple[ArrayLike, ...]] | None = None,
     **state: ArrayLike,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(index, loss) per point: the index into ``survey_patterns(modes)`` of its pattern, the
     first in precedence order whose rule holds (``NO_VISIBLE_CHANGE`` where none does), and the
     fraction of the clean stone's visible reflectance it has lost. The arguments are
-    ``model.weathered_point``'s (per point, broadcast), seen face on in ambient light."""
+    ``model.weathered_point``'s (per point, broadcast; ``fields`` the modes' per-point fields,
+    ``Mode.fields``), seen face on in ambient light."""
     modes = model.weathering_modes(modes)
-    point = model.weathered_point(kd, ks, m, alpha, sp, None, 1.0, modes, receptivity=receptivity, **state)
+    point = model.weathered_point(
+        kd, ks, m, alpha, sp, None, 1.0, modes, receptivity=receptivity, fields=fields, **state
+    )
     clean_kd, clean_ks = model.porous_coefficients(point.kd, np.asarray(ks), m, alpha, sp, None, 1.0)
     clean = visible_reflectance(clean_kd, clean_ks)
     loss = 1.0 - visible_reflectance(point.kd_w, point.ks_w, point.water_w) / np.maximum(clean, model.EPSILON)

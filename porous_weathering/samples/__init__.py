@@ -3,5 +3,5 @@ checks and pictures (``studio``) and the ``demo`` command that bakes and renders
 ``sample_blends/`` (shipped in the extension's zip beside this package).
 
 May import: bpy and every layer below ``ui`` (``core``, ``common``, ``blender``, ``shading``,
-``maps``, ``publish``).
+``maps``, ``publish``, ``survey``).
 """

@@ -11,8 +11,10 @@
 ``porous_vs_base.png``, ``facade_aging.png`` (the façade new and fully weathered, a row per
 mode), ``<mode>_before_after.png``, a sample scene new (left) and fully weathered (right) for
 each mode (DOCS_BEFORE_AFTER), ``stone_flat_vs_structured.png`` and ``stone_mm_vs_m.png``, a wall
-of the façade's stone flat and structured, in metres and in millimetres (STONE_WALL), and
-``bust_weathering.png``, the scan-like bust (DOCS_BUST).
+of the façade's stone flat and structured, in metres and in millimetres (STONE_WALL),
+``bust_weathering.png``, the scan-like bust (DOCS_BUST), and docs/survey.md's
+``facade_survey_<years>y.png`` and ``facade_survey_<years>y_render.png``, the soiled façade's
+condition map and its render at each of DOCS_SURVEY_YEARS.
 
 Pictures are ``--size`` pixels high (default 540: the façade's are 960 x 540), denoised, each
 labelled with its mode and age; the documentation's are written at DOCS_SCALE.
@@ -23,6 +25,7 @@ the tests of the sample scenes use too.
 
 import math
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -41,6 +44,7 @@ from ..core import modes as weathering_modes
 from ..maps import bake, efflorescence_map, rain, sun
 from ..maps import registry as maps
 from ..shading import material, presets, weathering
+from ..survey import condition_survey
 from . import studio
 
 DOCS_IMAGES = os.path.join(EXTENSION_ROOT, "docs", "images")
@@ -180,6 +184,9 @@ DOCS_RUNOFF = (("rain alone", dict(runoff=0.0, streaks=0.0)), ("rain and run-off
 #: façade in the shade most of the day, at 50° N: a fact of the site, given to its sun map.
 DOCS_LIFE_YEARS = (5.0, 20.0, 50.0)
 LIFE = "biological"
+#: docs/survey.md (docs/model.md §10): the soiled façade in its site surveyed at these years, each
+#: condition map (docs/images/facade_survey_<years>y.png) beside its render (..._render.png).
+DOCS_SURVEY_YEARS = (10.0, 25.0, 50.0)
 #: docs/images/stone_flat_vs_structured.png and stone_mm_vs_m.png (docs/model.md §8): a square wall
 #: of the façade's stone and masonry, ``side`` metres, new and soiled, its masks constant (a wall
 #: half reached by the rain, mid-way down the edge mask): what varies is the stone's alone.
@@ -288,6 +295,20 @@ class Sample:
         weathering.set_input(weathered.node_tree.nodes[GROUP_NODE], "time", age)
         for obj in self.objects:
             studio.assign(obj, weathered)
+
+    def render_years(self, mode, years, path):
+        """A picture of ``mode`` after ``years`` in the recipe's site: every clock of its
+        material set from the years (``aging.ages_for_years``, docs/model.md §9.4), as the
+        condition survey sets them."""
+        weathered = self.material(mode)
+        group = weathered.node_tree.nodes[GROUP_NODE]
+        carbon = environments.get(self.recipe.environment).elemental_carbon
+        for clock, value in aging.ages_for_years(years, carbon).items():
+            if socket_name(clock) in group.inputs:
+                weathering.set_input(group, clock, value)
+        for obj in self.objects:
+            studio.assign(obj, weathered)
+        return render.render_picture(self.scene, path, view_transform="Standard")
 
     def render(self, mode, age, path, **changes):
         """A picture of ``mode`` at ``age`` (``changes``: see ``material``). The Standard view
@@ -401,6 +422,9 @@ def docs_pictures(args):
                 written.append(side_by_side(pictures, 2, out, labels, DOCS_SCALE))
         written += render_stone_walls(work, args.size, args.samples)
         written.append(render_facade_life(work, args.size, args.samples, args.bake_samples))
+        facade = Sample(FACADE, bake_samples=args.bake_samples, map_dir=work, progress=True)
+        facade.use_cycles(args.size, args.samples)
+        written += render_facade_survey(facade, survey_facade(facade, DOCS_SURVEY_YEARS, work), work)
         bust = Sample("bust", bake_samples=args.bake_samples, map_dir=work, progress=True)
         bust.use_cycles(args.size, args.samples)
         pictures = [bust.render(mode, age, os.path.join(work, f"bust_{mode}_{age}.png")) for mode, age in DOCS_BUST]
@@ -438,20 +462,40 @@ def render_facade_life(work, size, samples, bake_samples):
     recipe = replace(RECIPES[FACADE], modes=(LIFE,), environment="RURAL", sun=dict(latitude=50.0, north_angle=180.0))
     facade = Sample(FACADE, bake_samples=bake_samples, map_dir=work, progress=True, recipe=recipe)
     facade.use_cycles(size, samples)
-    weathered = facade.material(LIFE)
-    group = weathered.node_tree.nodes[GROUP_NODE]
-    carbon = environments.get(recipe.environment).elemental_carbon
-    pictures = []
-    for years in DOCS_LIFE_YEARS:
-        for clock, value in aging.ages_for_years(years, carbon).items():
-            if socket_name(clock) in group.inputs:
-                weathering.set_input(group, clock, value)
-        for obj in facade.objects:
-            studio.assign(obj, weathered)
-        path = os.path.join(work, f"facade_life_{years:g}.png")
-        pictures.append(render.render_picture(facade.scene, path, view_transform="Standard"))
+    pictures = [
+        facade.render_years(LIFE, years, os.path.join(work, f"facade_life_{years:g}.png")) for years in DOCS_LIFE_YEARS
+    ]
     labels = [f"biological, rural, {years:g} years" for years in DOCS_LIFE_YEARS]
     return side_by_side(pictures, len(pictures), os.path.join(DOCS_IMAGES, "facade_life.png"), labels, DOCS_SCALE)
+
+
+def survey_facade(facade, years, out_dir):
+    """The condition survey (docs/survey.md) of the façade (an opened ``Sample``) soiled in its
+    site at ``years``, its files in ``out_dir``: the ``SurveyResult``."""
+    facade.show(model.SOILING, 0.0)
+    return condition_survey(
+        facade.objects, years=years, environment=facade.recipe.environment, out_dir=out_dir, name="facade", force=True
+    )
+
+
+def render_facade_survey(facade, result, work, out=DOCS_IMAGES):
+    """The façade (an opened ``Sample``) rendered soiled at each age of its survey ``result``
+    (``survey_facade``), by the survey's clocks, beside that age's condition map: the pictures
+    written to ``out``, per age ``facade_survey_<years>y.png`` (the map; none without matplotlib)
+    and ``facade_survey_<years>y_render.png``."""
+    environment = facade.recipe.environment
+    carbon = environments.get(environment).elemental_carbon
+    written = []
+    for age in sorted({float(row["years"]) for row in result.rows}):
+        stem = os.path.join(out, f"facade_survey_{age:g}y")
+        drawn = [path for path in result.drawings if path.endswith(f".{age:g}y.png")]
+        if drawn:  # none where matplotlib is missing (docs/survey.md)
+            shutil.copyfile(drawn[0], stem + ".png")
+            written.append(stem + ".png")
+        picture = facade.render_years(model.SOILING, age, os.path.join(work, f"facade_survey_{age:g}y.png"))
+        label = f"soiling, {environment.lower()}, {age:g} years (t = {aging.age_for_years(age, carbon):.2f})"
+        written.append(side_by_side([picture], 1, stem + "_render.png", [label], DOCS_SCALE))
+    return written
 
 
 def stone_wall_scene(metres_per_unit):

@@ -301,7 +301,7 @@ def _steps(objects, options, out_dir, name, paths):
         tallies = []
         for years, t in stages:
             yield Step(done / total, f"{obj.name}: t = {t:.4g}")
-            tallies.append(tally.tally(found, materials, patterns, clocks(years, t), faces, per_triangle=drawn))
+            tallies.append(tally.tally(found, materials, patterns, clocks(years, t), faces, drawn=drawn))
             done += 1
         ahead, read = [], forecast.triangles(len(found.areas_m2))
         for t in forecast.FORECAST_AGES:
@@ -457,18 +457,23 @@ def _drawings(surveyed, options, stages, out_dir, name, created):
         for (years, t), counted in zip(stages, item.tallies):
             label = f"{years:g}y" if years is not None else f"t{t:g}"
             stem = os.path.join(out_dir, f"{name}.{safe_file_name(item.obj.name)}.{label}")
-            data = sheet.SheetData(
-                object_name=item.obj.name,
-                environment=options.environment,
-                years=years,
-                t=t,
-                date=created[:10],
-                triangles_m=item.surface.triangles_m,
-                pattern_index=order[counted.dominant],
-                patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
-                areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
-                north=tuple(solar.site_to_scene(item.north_angle)[:2, 1]),
-                forecast=ahead,
-            )
-            found[(stem + ".svg", stem + ".png")] = lambda svg, png, data=data: sheet.write_sheets(data, svg, png)
+
+            def draw(svg, png, item=item, counted=counted, years=years, t=t, shown=shown, order=order, ahead=ahead):
+                """One sheet; its small triangles are made when it is drawn (one sheet's at a time)."""
+                data = sheet.SheetData(
+                    object_name=item.obj.name,
+                    environment=options.environment,
+                    years=years,
+                    t=t,
+                    date=created[:10],
+                    triangles_m=points.small_triangles(item.surface, *counted.drawn_points, item.surface.splits()),
+                    pattern_index=order[counted.drawn_patterns],
+                    patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
+                    areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
+                    north=tuple(solar.site_to_scene(item.north_angle)[:2, 1]),
+                    forecast=ahead,
+                )
+                sheet.write_sheets(data, svg, png)
+
+            found[(stem + ".svg", stem + ".png")] = draw
     return found

@@ -6,7 +6,7 @@ edges, as the mask's Image Texture node), the stone's structure as its mean."""
 
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import bpy
 
@@ -40,12 +40,36 @@ def barycentric_centroids(k: int) -> np.ndarray:
     return np.column_stack([1.0 - second.sum(axis=1), second])
 
 
+def sub_triangles(k: int) -> np.ndarray:
+    """(k², 3, 3) barycentric corners of the k² equal triangles that split a triangle k times along
+    each edge, in the order of ``barycentric_centroids`` and wound as the triangle is."""
+    up = [[(i, j), (i + 1, j), (i, j + 1)] for i in range(k) for j in range(k - i)]
+    down = [[(i + 1, j), (i + 1, j + 1), (i, j + 1)] for i in range(k - 1) for j in range(k - 1 - i)]
+    second = np.array(up + down, dtype=np.float64).reshape(-1, 3, 2) / k
+    return np.concatenate([1.0 - second.sum(axis=-1, keepdims=True), second], axis=-1)
+
+
+def small_triangles(found: "Surface", triangle: np.ndarray, part: np.ndarray, splits: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) world corners in metres of the small triangles ``part`` (an index into
+    ``sub_triangles(k)``) of ``found``'s triangles ``triangle``, each split ``splits[triangle]``
+    times along its edges: what each sample point stands for."""
+    corners = np.empty((len(triangle), 3, 3))
+    k_of = splits[triangle]
+    for k in np.unique(k_of):
+        chosen = k_of == k
+        bary = sub_triangles(int(k))[part[chosen]]
+        corners[chosen] = np.einsum("mkc,mjk->mjc", found.triangles_m[triangle[chosen]], bary)
+    return corners
+
+
 @dataclass
 class Surface:
     """An object's mesh as rendered, in metres: its triangles' world corners ``triangles_m``
     (n, 3, 3), their corners' loop indices (n, 3), material slot (n,), areas in m² (n,) and
     unit normals (n, 3); its UV maps ({name: (corners, 2)}, "" the active render one) and colour
-    attributes ({name: (corners,)}, the Attribute node's Fac) per corner."""
+    attributes ({name: (corners,)}, the Attribute node's Fac) per corner; and its origin in the
+    world in metres (the Object Info node's Location: the shader's textures of the point's place
+    are read from it, docs/model.md §8.2)."""
 
     triangles_m: np.ndarray
     loops: np.ndarray
@@ -54,6 +78,7 @@ class Surface:
     normals: np.ndarray
     uv_maps: dict
     colour_attributes: dict
+    origin_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def splits(self, target: int = TARGET_SAMPLES, triangles: np.ndarray | None = None) -> np.ndarray:
         """k per triangle (of ``triangles``, default all): about ``target`` sample points over
@@ -100,7 +125,8 @@ def surface(obj: "bpy.types.Object") -> Surface:
     cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     doubled = np.linalg.norm(cross, axis=1)
     normals = cross / np.maximum(doubled, 1e-300)[:, None]
-    return Surface(triangles, loops.reshape(-1, 3), slots, doubled / 2.0, normals, uv_maps, colours)
+    origin = matrix[:3, 3] * scale
+    return Surface(triangles, loops.reshape(-1, 3), slots, doubled / 2.0, normals, uv_maps, colours, origin)
 
 
 # --- a material's inputs at the points ---------------------------------------------------------

@@ -45,6 +45,11 @@ MAPPING_CELLS = 4
 HATCH_SPACING_MM = 2.0
 HATCH_LINE_MM = 0.13
 OUTLINE_MM = 0.35
+#: The elevation's own lines (docs/survey.md): where the surface seen steps back or forward by more
+#: than this many cells' width between neighbouring cells (a reveal, a moulding's face, a plinth),
+#: drawn this thick, so that a white (unchanged) area still shows where it is on the building.
+EDGE_STEP_CELLS = 4.0
+EDGE_MM = 0.18
 PNG_DPI = 150
 #: The scales a sheet steps through when the views do not fit at the one asked for.
 STANDARD_SCALES = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000, 20000, 50000)
@@ -100,10 +105,12 @@ class SheetData:
 class View:
     """One view rasterised at the sheet's scale (``PIXEL_MM`` cells on paper, one empty cell of
     margin around the object): ``labels[row, column]`` is the pattern index seen in that cell,
-    ``BACKGROUND`` where no triangle is; row 0 at the bottom."""
+    ``BACKGROUND`` where no triangle is; row 0 at the bottom. ``steps``: the cell boundaries where
+    the surface seen steps back or forward (``EDGE_STEP_CELLS``), as (vertical, horizontal) masks."""
 
     name: str
     labels: np.ndarray
+    steps: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 0), bool), np.zeros((0, 0), bool))
 
 
 def write_sheets(data: SheetData, svg_path: str | os.PathLike, png_path: str | os.PathLike) -> None:
@@ -284,8 +291,8 @@ def rasterise(
         with np.errstate(divide="ignore", invalid="ignore"):  # edge-on triangles cover no cell
             s = (ap[:, 0] * ac[:, 1] - ap[:, 1] * ac[:, 0]) / area
             t = (ab[:, 0] * ap[:, 1] - ab[:, 1] * ap[:, 0]) / area
-        tolerance = 1e-9
-        inside = (s >= -tolerance) & (t >= -tolerance) & (s + t <= 1 + tolerance) & (np.abs(area) > 1e-12)
+            tolerance = 1e-9
+            inside = (s >= -tolerance) & (t >= -tolerance) & (s + t <= 1 + tolerance) & (np.abs(area) > 1e-12)
         d, s, t = depth[triangle[inside]], s[inside], t[inside]  # edge-on triangles' s and t are not numbers
         z = d[:, 0] + s * (d[:, 1] - d[:, 0]) + t * (d[:, 2] - d[:, 0])
         cell = (row * columns + column)[inside]
@@ -298,7 +305,36 @@ def rasterise(
         nearer = z < nearest[cell]
         nearest[cell[nearer]] = z[nearer]
         seen[cell[nearer]] = labels[triangle[nearer]]
-    return View(name, seen.reshape(rows, columns))
+    return View(name, seen.reshape(rows, columns), steps(nearest.reshape(rows, columns), EDGE_STEP_CELLS * cell_m))
+
+
+def steps(depth: np.ndarray, least: float) -> tuple[np.ndarray, np.ndarray]:
+    """(between columns (rows, columns - 1), between rows (rows - 1, columns)): where the depth
+    seen changes by more than ``least`` from one cell to the next, both cells on the object (the
+    object's own outline is drawn apart)."""
+    with np.errstate(invalid="ignore"):  # inf - inf off the object
+        across = np.abs(np.diff(depth, axis=1)) > least
+        up = np.abs(np.diff(depth, axis=0)) > least
+    on = np.isfinite(depth)
+    return across & on[:, 1:] & on[:, :-1], up & on[1:] & on[:-1]
+
+
+def step_lines(view: View, x0: float, y0: float, cell_mm: float) -> np.ndarray:
+    """The segments (k, 2, 2) in paper mm along ``view.steps``, each straight run as one."""
+    segments = []
+    for mask, vertical in ((view.steps[0], True), (view.steps[1], False)):
+        runs = mask.T if vertical else mask  # along the run's direction: its last axis
+        padded = np.pad(runs, ((0, 0), (1, 1)))
+        line, start = np.nonzero(padded[:, 1:] & ~padded[:, :-1])
+        _, stop = np.nonzero(~padded[:, 1:] & padded[:, :-1])
+        at = line + 1.0  # the boundary after the line's cell (the cells' row or column)
+        ends = np.stack([start, stop], axis=-1).astype(float)
+        if vertical:
+            xy = np.stack([np.stack([at, at], -1), ends], axis=-1)
+        else:
+            xy = np.stack([ends, np.stack([at, at], -1)], axis=-1)
+        segments.append(xy * cell_mm + (x0, y0))
+    return np.concatenate(segments) if segments else np.zeros((0, 2, 2))
 
 
 def generalise(labels: np.ndarray, patterns: int) -> np.ndarray:
@@ -411,7 +447,7 @@ def draw(data: SheetData, views: list[View], scale: int, corners: list[tuple[flo
     """The sheet as a matplotlib Figure whose data coordinates are paper millimetres (drawn in
     ``STYLE``). The parts a
     reader (or a test) looks up carry ids in the SVG: ``region-<view>-<pattern>``,
-    ``hatch-<view>-<pattern>``, ``outline-<view>``, ``legend-name-<pattern>``,
+    ``hatch-<view>-<pattern>``, ``outline-<view>``, ``edges-<view>``, ``legend-name-<pattern>``,
     ``legend-area-<pattern>``, ``north-arrow``, ``scale-bar``."""
     from matplotlib.figure import Figure
     from matplotlib.patches import Rectangle
@@ -437,6 +473,7 @@ def draw(data: SheetData, views: list[View], scale: int, corners: list[tuple[flo
 
 def draw_view(axes, data: SheetData, view: View, corner: tuple[float, float]) -> set[int]:
     """Draw one view with its lower-left corner at ``corner`` (paper mm); the patterns drawn."""
+    from matplotlib.collections import LineCollection
     from matplotlib.patches import PathPatch
 
     x0, y0 = corner[0] - PIXEL_MM, corner[1] - PIXEL_MM  # the margin cell
@@ -455,6 +492,11 @@ def draw_view(axes, data: SheetData, view: View, corner: tuple[float, float]) ->
         axes.add_artist(region)
         draw_hatch(axes, code, colour, path.get_extents().extents, region, f"hatch-{view.name}-{index}")
         drawn.add(index)
+    edges = step_lines(view, x0, y0, PIXEL_MM)
+    if len(edges):
+        axes.add_collection(
+            LineCollection(edges, colors="black", linewidths=EDGE_MM * _PT_PER_MM, gid=f"edges-{view.name}")
+        )
     outline = trace(labels != BACKGROUND, x0, y0, PIXEL_MM)
     if outline is not None:
         axes.add_artist(PathPatch(outline, fill=False, lw=OUTLINE_MM * _PT_PER_MM, gid=f"outline-{view.name}"))

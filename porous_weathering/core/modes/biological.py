@@ -14,6 +14,9 @@ to the nearest seed, in cells, and that seed's own random value); the numpy mode
 
 import math
 
+import numpy as np
+
+from .. import voronoi
 from ..patterns import NSD, Pattern, shown
 from .base import (
     COVER_ALGAE,
@@ -210,6 +213,26 @@ def lichen_cover(xp, state, distance, seed):
     inside = 1.0 - xp.smoothstep(radius - LICHEN_RIM, radius, distance * spacing)
     established = xp.smoothstep(seed, seed + SEED_RIM, lichen_suitability(xp, state))
     return inside * established
+
+
+def lichen_seeds_at(metres, normals, state, kind):
+    """The lichens' seeds (LICHEN_SEEDS: distance in cells, seed value) at points ``metres`` (..., 3)
+    from their object's origin whose surface faces ``normals`` (..., 3), as the shader's Voronoi
+    texture gives them with the hash ``kind`` of the Blender that renders it (docs/model.md §9.3;
+    ``voronoi``: the same hash, in single precision): on
+    the world plane the surface faces most, each plane shifted by PLANE_OFFSET, one seed per cell
+    of side 1/sqrt(lambda)."""
+    metres, normals = np.asarray(metres, dtype=np.float32), np.abs(np.asarray(normals, dtype=np.float32))
+    ax, ay, az = np.moveaxis(normals, -1, 0)
+    x, y, z = np.moveaxis(metres, -1, 0)
+    faces_z = az > np.maximum(ax, ay) - np.float32(1e-6)  # tops and bottoms
+    faces_x = ~faces_z & (ax > ay)  # faces along y (their normal along x)
+    offset = np.float32(PLANE_OFFSET)
+    u = np.where(faces_x, y + offset, x)
+    v = np.where(faces_z, y + offset, z)
+    density = np.maximum(np.asarray(state["lichen_density"], dtype=np.float32), np.float32(LEAST_DENSITY))
+    distance, seed = voronoi.voronoi_f1(u, v, np.sqrt(density), kind)
+    return distance.astype(np.float64), seed.astype(np.float64)
 
 
 def lay_lichens(xp, point):

@@ -1,0 +1,100 @@
+"""Blender's Voronoi texture (2D, F1, Euclidean, randomness 1: the node's defaults) as Cycles
+computes it, in numpy and in single precision as the shader works, so that a point's nearest seed
+is the render's (docs/model.md §10.1: the survey's lichens). Each cell's seed and value are a hash
+of the cell, which Blender changed in 5.0: ``LOOKUP3`` (up to 4.5: Bob Jenkins' lookup3 of the
+bits of the cell's float coordinates) or ``PCG`` (from 5.0: the PCG hash of its integer
+coordinates, Jarzynski & Olano 2020), both as Cycles' ``util/hash.h`` writes them. No bpy."""
+
+import numpy as np
+
+LOOKUP3 = "lookup3"
+PCG = "pcg"
+
+#: lookup3's starting value for a hash of n words: 0xdeadbeef + (n << 2) + 13.
+_START = {2: 0xDEADBEEF + (2 << 2) + 13, 3: 0xDEADBEEF + (3 << 2) + 13}
+_PCG_MULTIPLIER, _PCG_INCREMENT = np.int32(1664525), np.int32(1013904223)
+
+
+def _rotate(x: np.ndarray, k: int) -> np.ndarray:
+    return (x << np.uint32(k)) | (x >> np.uint32(32 - k))
+
+
+def _final(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """lookup3's ``final`` mix of three uint32 words: its c."""
+    c = (c ^ b) - _rotate(b, 14)
+    a = (a ^ c) - _rotate(c, 11)
+    b = (b ^ a) - _rotate(a, 25)
+    c = (c ^ b) - _rotate(b, 16)
+    a = (a ^ c) - _rotate(c, 4)
+    b = (b ^ a) - _rotate(a, 14)
+    return (c ^ b) - _rotate(b, 24)
+
+
+def lookup3(*words: np.ndarray) -> np.ndarray:
+    """Cycles' ``hash_float2_to_float`` / ``hash_float3_to_float``: lookup3 of the words' float32
+    bits, as a float32 in [0, 1]."""
+    bits = [np.ascontiguousarray(word, dtype=np.float32).view(np.uint32) for word in words]
+    a = np.full(bits[0].shape, _START[len(bits)], dtype=np.uint32)
+    b, c = a.copy(), a.copy()
+    a, b = a + bits[0], b + bits[1]
+    if len(bits) == 3:
+        c = c + bits[2]
+    return _final(a, b, c).astype(np.float32) * np.float32(2.0**-32)
+
+
+def _pcg2d(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cycles' ``hash_pcg2d_i`` (int32, wrapping; its shift is arithmetic)."""
+    x, y = x * _PCG_MULTIPLIER + _PCG_INCREMENT, y * _PCG_MULTIPLIER + _PCG_INCREMENT
+    x = x + y * _PCG_MULTIPLIER
+    y = y + x * _PCG_MULTIPLIER
+    x, y = x ^ (x >> 16), y ^ (y >> 16)
+    x = x + y * _PCG_MULTIPLIER
+    y = y + x * _PCG_MULTIPLIER
+    return x & 0x7FFFFFFF, y & 0x7FFFFFFF
+
+
+def _pcg3d_x(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The first word of Cycles' ``hash_pcg3d_i``."""
+    x, y, z = (w * _PCG_MULTIPLIER + _PCG_INCREMENT for w in (x, y, z))
+    x = x + y * z
+    y = y + z * x
+    z = z + x * y
+    x, y, z = x ^ (x >> 16), y ^ (y >> 16), z ^ (z >> 16)
+    return (x + y * z) & 0x7FFFFFFF
+
+
+def _to_unit(h: np.ndarray) -> np.ndarray:
+    return h.astype(np.float32) * np.float32(2.0**-31)
+
+
+def cell_hash(cx: np.ndarray, cy: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(seed x, seed y in the cell, the cell's value: the Color's red) of cells (cx, cy)."""
+    if kind == LOOKUP3:
+        own = lookup3(cx, cy)
+        return own, lookup3(cx, cy, np.ones_like(cx)), own
+    if kind == PCG:
+        ix, iy = cx.astype(np.int32), cy.astype(np.int32)
+        sx, sy = _pcg2d(ix, iy)
+        return _to_unit(sx), _to_unit(sy), _to_unit(_pcg3d_x(ix, iy, np.zeros_like(ix)))
+    raise ValueError(f"the Voronoi hash is {LOOKUP3!r} or {PCG!r}, not {kind!r}")
+
+
+def voronoi_f1(x: np.ndarray, y: np.ndarray, scale: np.ndarray | float, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """(Distance, Color's red) of the Voronoi texture node (2D, F1) at ``(x, y) * scale``, its
+    cells hashed by ``kind`` (LOOKUP3 or PCG): the distance in cells to the nearest seed and that
+    seed's own value in [0, 1]."""
+    with np.errstate(over="ignore"):
+        coord = [np.asarray(axis, dtype=np.float32) * np.asarray(scale, dtype=np.float32) for axis in (x, y)]
+        cell = [np.floor(axis) for axis in coord]
+        local = [axis - corner for axis, corner in zip(coord, cell)]
+        best = np.full(coord[0].shape, np.inf, dtype=np.float32)
+        value = np.zeros(coord[0].shape, dtype=np.float32)
+        for j in (-1, 0, 1):  # Cycles' order: a tie keeps the first seed found
+            for i in (-1, 0, 1):
+                sx, sy, own = cell_hash(cell[0] + np.float32(i), cell[1] + np.float32(j), kind)
+                dx, dy = np.float32(i) + sx - local[0], np.float32(j) + sy - local[1]
+                distance = np.sqrt(dx * dx + dy * dy)
+                nearer = distance < best
+                best = np.where(nearer, distance, best)
+                value = np.where(nearer, own, value)
+    return best, value
