@@ -204,7 +204,7 @@ def _carbon_from_rain(xp, point):
     s = point.state
     sheltered = soiling.sheltered_fraction(xp, s["rain_map"], s["rain_threshold"], s["front_width"])
     fill = mode_base.pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
-    carbon = sheltered * mode_base.local_share(xp, fill, point.spread)
+    carbon = mode_base.local_share(xp, sheltered * fill, point.spread)
     ap = mode_base.filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
     polluted = soiling.polluted_diffuse(xp, point.kd, s["pollution_color"], point.pore, ap)
     point.kd_w = mode_base.blend(xp, point.kd_w, polluted, xp.channel(carbon))

@@ -158,6 +158,19 @@ def test_local_share_keeps_the_mean_and_the_ends():
     assert base.local_share(XP, share, None) is share
 
 
+def test_the_wash_front_breaks_up_along_the_stone():
+    """docs/model.md §8.7: the share is taken of the sheltered fill, so at the wash's edge (half
+    sheltered, a saturated crust front) the receptive part keeps a full crust and the resistant part
+    none, of mean the half crust of the model without a stone (which keeps its own product)."""
+    crust, width = 0.8, 0.1
+    plain = soiling.crust_coverage(XP, 0.5, 1.0, 1.0, 1.0, width, crust)
+    spread = base.uptake_spread(XP, np.linspace(-1.0, 1.0, 401), 1.0)
+    local = soiling.crust_coverage(XP, 0.5, 1.0, 1.0, 1.0, width, crust, spread)
+    assert plain == pytest.approx(0.5 * crust, abs=1e-12)
+    assert local[0] == 0.0 and local[-1] == pytest.approx(crust, abs=1e-12)
+    assert local.mean() == pytest.approx(plain, abs=1e-12)
+
+
 def test_the_deposit_darkens_red_brick():
     """docs/model.md §8.6: without a stone a grey deposit lightens red brick's green and blue; with
     the brick's stone it filters the brick's own colour, darker in every channel; on the reference

@@ -23,7 +23,8 @@ from ..core.shader_math import Graph, dot, normalize
 #: files rebuild. A new mode, input or map needs no bump: a group is reused only if its sockets
 #: are those the registries give it now (``_reuse``).  (The stone groups and the receptive
 #: weathered groups of docs/model.md §8 came new in build 7, which left every other group as it
-#: was; build 8 gave them the stone's uptake and deposit mix, §8.6–8.7.)
+#: was; build 8 gave them the stone's uptake and deposit mix, §8.6–8.7; build 9 the uptake of
+#: the sheltered share, §8.7, and every weathered group k_a below 1, §4.0.)
 BUILD_VERSION = 9
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.

@@ -125,7 +125,7 @@ def fill_with_carbon(xp, point):
     s = point.state
     sheltered = sheltered_fraction(xp, water_of(xp, s), s["rain_threshold"], s["front_width"])
     fill = pore_fill(xp, s["edge_map"], s["time"], s["soiling_level"], s["front_width"])
-    carbon = sheltered * local_share(xp, fill, point.spread)
+    carbon = local_share(xp, sheltered * fill, point.spread)  # sheltering included (docs/model.md §8.7)
     ap = filled_absorption(xp, point.ka, point.sp, carbon, point.theta_i, point.theta_r)
     point.kd_w = blend(
         xp, point.kd_w, polluted_diffuse(xp, point.kd, s["pollution_color"], point.pore, ap), xp.channel(carbon)
@@ -135,9 +135,12 @@ def fill_with_carbon(xp, point):
 
 def crust_coverage(xp, sheltered, edge_map, time, level, width, crust, spread=None):
     """c (docs/model.md §6): ``crust`` times how far the black area's carbon fill has progressed past
-    saturation (at the point of the stone: docs/model.md §8.7); ``crust`` itself at a fully black
-    point (sheltered, mask 1) at t = 1, level 1."""
-    return crust * sheltered * local_share(xp, past_saturation(xp, edge_map, time, level, width), spread)
+    saturation where it is sheltered (at the point of the stone, sheltering included: docs/model.md
+    §8.7); ``crust`` itself at a fully black point (sheltered, mask 1) at t = 1, level 1."""
+    past = past_saturation(xp, edge_map, time, level, width)
+    if spread is None:  # without a stone: the product in the order the model's renders were made with
+        return crust * sheltered * past
+    return crust * local_share(xp, sheltered * past, spread)
 
 
 def deposit_seen(xp, kd, deposit_color, variation):
