@@ -567,9 +567,9 @@ def texture_value(graph, metres, texture):
 
 def place_across_the_face(graph, metres):
     """The point's place (u, v, 0) on the world's plane most nearly along its face, the plane
-    across the face normal's largest axis: (x, y) on a face along Z, (y, z) along X, (z, x) along
-    Y (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a 3D Voronoi's
-    neighbour cells, and a face sees the same cells as in 3D, stretched at most sqrt(3)."""
+    across the face normal's largest axis: (x, y) on a face facing mostly along Z, (y, z) along
+    X, (z, x) along Y (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a
+    3D Voronoi's neighbour cells, the same cell size, stretched at most sqrt(3) on a tilted face."""
     normal = graph.wrap(graph.node("ShaderNodeNewGeometry", depth=0).outputs["True Normal"])
     axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": graph.math("ABSOLUTE", normal)})
     nx, ny, nz = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
