@@ -317,6 +317,33 @@ def test_without_masonry_the_material_is_todays(fresh_scene):
     assert not np.array_equal(wall.render(today), wall.render(ashlar))
 
 
+#: The texture node each kind of a stone's layer is built as (docs/model.md §8.1).
+TEXTURE_NODES = {stones.CELLS: "TEX_VORONOI", stones.WAVE: "TEX_WAVE", stones.NOISE: "TEX_NOISE"}
+
+
+def texture_nodes(group):
+    """The group's procedural texture nodes by type, sorted: what it evaluates at every point."""
+    return sorted(node.type for node in group.nodes if node.type.startswith("TEX_"))
+
+
+def test_each_group_builds_only_the_textures_it_uses():
+    """A stone's group builds one texture per layer and nothing of masonry; its ashlar group adds
+    the blocks' one White Noise, its group of the mesh's blocks that and the face attribute."""
+    for key, preset in PRESETS.items():
+        if preset.structure is None:
+            continue
+        layers = sorted(TEXTURE_NODES[texture.kind] for texture in preset.structure.textures)
+        stone = nodes.stone_group(key, preset.structure)
+        ashlar = nodes.masonry_group(key, preset.structure)
+        blocks = nodes.mesh_blocks_group(key, preset.structure, stones.BLOCK_ATTRIBUTE)
+        assert texture_nodes(stone) == layers, key
+        assert texture_nodes(ashlar) == texture_nodes(blocks) == sorted([*layers, "TEX_WHITE_NOISE"]), key
+        assert [node for node in stone.nodes if node.type == "ATTRIBUTE"] == [], key
+        assert [node for node in ashlar.nodes if node.type == "ATTRIBUTE"] == [], key
+        assert len([node for node in blocks.nodes if node.type == "ATTRIBUTE"]) == 1, key
+        assert not any(name.startswith("Mortar") for name in stone.interface.items_tree.keys()), key
+
+
 # --- blocks the mesh knows (MeshBlocks, mark_blocks) -------------------------------------------
 
 

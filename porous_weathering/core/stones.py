@@ -29,9 +29,11 @@ NOISE, WAVE, CELLS = "NOISE", "WAVE", "CELLS"
 
 #: Per kind, the factor that spreads a texture's value v (mean 1/2) into z = clip(gain (v - 1/2),
 #: -1, 1).  A Voronoi cell's random value and a sine band are uniform-like over [0, 1] (gain 2);
-#: Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is larger.  Each
-#: distribution is symmetric about 1/2, and the clip is symmetric, so z has mean 0.
-GAIN = {NOISE: 3.0, WAVE: 2.0, CELLS: 2.0}
+#: Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is larger (2.5 for
+#: the presets' two octaves, whose spread is 1.14-1.21 times that of the three or four they had
+#: at gain 3: docs/model.md §8.1).  Each distribution is symmetric about 1/2, and the clip is
+#: symmetric, so z has mean 0.
+GAIN = {NOISE: 2.5, WAVE: 2.0, CELLS: 2.0}
 
 #: Blender's Wave texture (bands) has the phase 20 x (scale x coordinate): its period along the
 #: bands' direction is 2 pi / 20 / scale.  So a period P metres needs the scale 2 pi / (20 P).

@@ -17,14 +17,15 @@ from ..core import modes as weathering_modes
 from ..core import porous, stones
 from ..core.backends import NODE_OPS
 from ..core.modes import biological
-from ..core.shader_math import Graph, dot, normalize
+from ..core.shader_math import Graph, dot, maximum, normalize
 
 #: The node builder's build: bumped when it builds the same sockets with other maths, so old
 #: files rebuild. A new mode, input or map needs no bump: a group is reused only if its sockets
 #: are those the registries give it now (``_reuse``).  (The stone groups and the receptive
 #: weathered groups of docs/model.md §8 came new in build 7, which left every other group as it
 #: was; build 8 gave them the stone's uptake and deposit mix, §8.6–8.7; build 9 the uptake of
-#: the sheltered share, §8.7, and every weathered group k_a below 1, §4.0.)
+#: the sheltered share, §8.7, every weathered group k_a below 1, §4.0, and the grains' cells
+#: drawn in 2D across the face, §8.1.)
 BUILD_VERSION = 9
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
@@ -559,6 +560,27 @@ def texture_value(graph, metres, texture):
             wave_profile="SIN",
         )
         return graph.wrap(node.outputs[1])  # "Fac" (4.5) / "Factor" (5.x)
-    node = graph.node("ShaderNodeTexVoronoi", common, voronoi_dimensions="3D", feature="F1", distance="EUCLIDEAN")
+    cells = {**common, "Vector": place_across_the_face(graph, metres)}
+    node = graph.node("ShaderNodeTexVoronoi", cells, voronoi_dimensions="2D", feature="F1", distance="EUCLIDEAN")
     red = graph.node("ShaderNodeSeparateColor", {"Color": node.outputs["Color"]})  # each cell's own random value
     return graph.wrap(red.outputs["Red"])
+
+
+def place_across_the_face(graph, metres):
+    """The point's place (u, v, 0) on the world's plane most nearly along its face, the plane
+    across the face normal's largest axis: (x, y) on a face facing mostly along Z, (y, z) along
+    X, (z, x) along Y (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a
+    3D Voronoi's neighbour cells, the same cell size, stretched at most sqrt(3) on a tilted face."""
+    normal = graph.wrap(graph.node("ShaderNodeNewGeometry", depth=0).outputs["True Normal"])
+    axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": graph.math("ABSOLUTE", normal)})
+    nx, ny, nz = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
+    along_z = 1.0 - graph.math("GREATER_THAN", maximum(nx, ny), nz)  # one of the three weights is 1
+    along_x = (1.0 - along_z) * graph.math("GREATER_THAN", nx, ny)
+    along_y = 1.0 - along_z - along_x
+
+    def vector(x, y, z):
+        return graph.wrap(graph.node("ShaderNodeCombineXYZ", {"X": x, "Y": y, "Z": z}).outputs[0])
+
+    u = dot(vector(along_z, along_x, along_y), metres)
+    v = dot(vector(along_y, along_z, along_x), metres)
+    return vector(u, v, 0.0)

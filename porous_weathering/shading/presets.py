@@ -85,8 +85,8 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.0005, 0.35, 0.25),  # sand grains, ~0.5 mm
-                Texture(WAVE, 0.04, 0.45, 0.55, detail=2.0, distortion=1.5, direction="Z"),  # bedding, cm
-                Texture(NOISE, 0.15, 0.2, 0.2, detail=3.0),  # cementation patches, dm
+                Texture(WAVE, 0.04, 0.45, 0.55, detail=0.0, distortion=1.5, direction="Z"),  # bedding, cm
+                Texture(NOISE, 0.15, 0.2, 0.2, detail=1.0),  # cementation patches, dm
             ),
             porosity=0.3,
             roughness=0.15,
@@ -109,8 +109,8 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.001, 0.3, 0.15),  # ooids, ~1 mm
-                Texture(WAVE, 0.12, 0.35, 0.45, detail=2.0, distortion=1.0, direction="Z"),  # bedding, dm
-                Texture(NOISE, 0.08, 0.35, 0.4, detail=3.0),  # patches, cm-dm
+                Texture(WAVE, 0.12, 0.35, 0.45, detail=0.0, distortion=1.0, direction="Z"),  # bedding, dm
+                Texture(NOISE, 0.08, 0.35, 0.4, detail=1.0),  # patches, cm-dm
             ),
             porosity=0.3,
             roughness=0.15,
@@ -134,7 +134,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.002, 0.5, 0.2),  # calcite crystals, ~2 mm
-                Texture(WAVE, 0.15, 0.5, 0.8, detail=4.0, distortion=6.0, direction="DIAGONAL"),  # veins
+                Texture(WAVE, 0.15, 0.5, 0.8, detail=2.0, distortion=6.0, direction="DIAGONAL"),  # veins
             ),
             porosity=0.2,
             roughness=0.1,
@@ -158,7 +158,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.004, 0.4, 0.85),  # feldspar, quartz and mica crystals, ~4 mm
-                Texture(NOISE, 0.1, 0.6, 0.15, detail=2.0),  # weathered patches
+                Texture(NOISE, 0.1, 0.6, 0.15, detail=1.0),  # weathered patches
             ),
             porosity=0.3,
             roughness=0.1,
@@ -182,8 +182,8 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.0015, 0.3, 0.2),  # grog and sand, ~1.5 mm
-                Texture(NOISE, 0.1, 0.5, 0.6, detail=2.0),  # firing patches, dm
-                Texture(NOISE, 0.01, 0.2, 0.2, detail=2.0),  # mottling, cm
+                Texture(NOISE, 0.1, 0.5, 0.6, detail=1.0),  # firing patches, dm
+                Texture(NOISE, 0.01, 0.2, 0.2, detail=1.0),  # mottling, cm
             ),
             porosity=0.25,
             roughness=0.1,
@@ -207,7 +207,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.001, 0.3, 0.2),  # fine grog, ~1 mm
-                Texture(NOISE, 0.06, 0.7, 0.6, detail=2.0),  # firing patches
+                Texture(NOISE, 0.06, 0.7, 0.6, detail=1.0),  # firing patches
             ),
             porosity=0.2,
             roughness=0.1,
@@ -230,7 +230,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.0008, 0.2, 0.1),  # lime and sand grains
-                Texture(NOISE, 0.05, 0.8, 0.7, detail=3.0),  # trowelling, carbonation patches
+                Texture(NOISE, 0.05, 0.8, 0.7, detail=1.0),  # trowelling, carbonation patches
             ),
             porosity=0.25,
             roughness=0.15,
@@ -252,7 +252,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.008, 0.5, 0.55),  # aggregate against paste, ~8 mm
-                Texture(NOISE, 0.2, 0.5, 0.35, detail=2.0),  # pour and curing patches
+                Texture(NOISE, 0.2, 0.5, 0.35, detail=1.0),  # pour and curing patches
             ),
             porosity=0.3,
             roughness=0.15,
@@ -276,7 +276,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.001, 0.3, 0.3),  # sand in lime, ~1 mm
-                Texture(NOISE, 0.03, 0.7, 0.7, detail=2.0),  # pointing and carbonation patches, cm
+                Texture(NOISE, 0.03, 0.7, 0.7, detail=1.0),  # pointing and carbonation patches, cm
             ),
             porosity=0.25,
             roughness=0.1,
