@@ -15,7 +15,6 @@ import pytest
 from porous_weathering.cli import bake as bake_command
 from porous_weathering.common import imageio, options
 from porous_weathering.maps import bake, edges
-from porous_weathering.ui import bake_operator as ops_bake
 from scripts import load_script
 
 scan_generator = load_script("sample_blends/scan_generator.py")
@@ -267,14 +266,7 @@ def test_command_line_keeps_the_edge_radius_and_adds_the_scale_and_weights():
     assert parse_bake_command(*bake.BakeOptions(edge_radius=0.3).to_argv()).edge_settings.radius == 0.3
 
 
-@pytest.fixture
-def bake_operator():
-    ops_bake.register()
-    yield
-    ops_bake.unregister()
-
-
-def test_operator_shows_the_automatic_radius_as_0_and_bakes_with_it(fresh_scene, bake_operator):
+def test_operator_shows_the_automatic_radius_as_0_and_bakes_with_it(fresh_scene, registered):
     radius = next(entry for entry in bake.option_entries() if entry.dest == "edge_radius")
     assert options.operator_value(radius.option, 0.0) is None
     assert options.operator_value(radius.option, 0.3) == 0.3

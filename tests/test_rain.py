@@ -249,17 +249,11 @@ def test_non_mesh_object_is_named_in_the_error(fresh_scene, tmp_path):
         bake.bake_maps([empty], bake.BakeOptions(out_dir=str(tmp_path)))
 
 
-def test_operator_bakes_the_selected_meshes(fresh_scene, tmp_path):
-    from porous_weathering.ui import bake_operator as ops_bake
-
+def test_operator_bakes_the_selected_meshes(fresh_scene, registered, tmp_path):
     plane = grid(fresh_scene, "Plane", 2, 2, 1)
     plane.select_set(True)
     bpy.context.view_layer.objects.active = plane
-    ops_bake.register()
-    try:
-        result = bpy.ops.porous_weathering.bake_maps(resolution=SIZE, samples=4, out_dir=str(tmp_path))
-    finally:
-        ops_bake.unregister()
+    result = bpy.ops.porous_weathering.bake_maps(resolution=SIZE, samples=4, out_dir=str(tmp_path))
     assert result == {"FINISHED"}
     pixels, _ = imageio.read_image(tmp_path / "Plane.rain.exr")
     assert pixels.mean() == pytest.approx(1.0, abs=0.02)

@@ -16,7 +16,6 @@ import pytest
 
 from porous_weathering.blender import mesh_arrays, scratch_scene
 from porous_weathering.maps import bake, edges, lightmap, rain, scan_checks, sky_bake
-from porous_weathering.ui import bake_operator as ops_bake
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 SAMPLES = sorted((ROOT / "sample_blends").glob("*.blend"))
@@ -109,17 +108,11 @@ def test_the_command_line_prints_each_warning_as_one_line(bust, tmp_path):
     assert not any("scan_checks" in line or "warnings.warn" in line for line in lines)  # no source line
 
 
-def test_the_operator_reports_the_warnings(bust, tmp_path, capfd):
+def test_the_operator_reports_the_warnings(bust, registered, tmp_path, capfd):
     obj = bust(rotation=TURNED["Z-up read as Y-up"])
     obj.select_set(True)
     bpy.context.view_layer.objects.active = obj
-    ops_bake.register()
-    try:
-        result = bpy.ops.porous_weathering.bake_maps(
-            maps={"rain"}, target="attribute", samples=1, out_dir=str(tmp_path)
-        )
-    finally:
-        ops_bake.unregister()
+    result = bpy.ops.porous_weathering.bake_maps(maps={"rain"}, target="attribute", samples=1, out_dir=str(tmp_path))
     assert result == {"FINISHED"}
     assert "object 'Bust' looks as if it lies on its side" in capfd.readouterr().out
 
