@@ -214,8 +214,18 @@ def project(data: SheetData, name: str) -> tuple[str, np.ndarray, np.ndarray, np
     depth (m, 3) away from the viewer, pattern index (m,), lower and upper corner of the view)."""
     triangles = np.asarray(data.triangles_m, float)
     toward, right, up = view_axes(data.north, name)
-    normals = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    facing = normals @ toward > 0.0  # triangles facing away are culled
+    # the normal's component toward the viewer, (e1 x e2) . toward = e1 . (e2 x toward), without
+    # the normals themselves (the drawings' triangles are one per sample point: millions)
+    e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
+    across = np.stack(
+        [
+            e2[:, 1] * toward[2] - e2[:, 2] * toward[1],
+            e2[:, 2] * toward[0] - e2[:, 0] * toward[2],
+            e2[:, 0] * toward[1] - e2[:, 1] * toward[0],
+        ],
+        axis=-1,
+    )
+    facing = np.einsum("ij,ij->i", e1, across) > 0.0  # triangles facing away are culled
     seen = triangles[facing]
     uv = np.stack([seen @ right, seen @ up], axis=-1)
     if len(seen):
