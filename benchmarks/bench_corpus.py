@@ -53,7 +53,7 @@ import scan_generator  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
 from benchmarks import corpus_regions, machine  # noqa: E402
-from porous_weathering.blender import mesh_arrays, render  # noqa: E402
+from porous_weathering.blender import compat, mesh_arrays, render  # noqa: E402
 from porous_weathering.contracts import GROUP_NODE  # noqa: E402
 from porous_weathering.core import model  # noqa: E402
 from porous_weathering.core import modes as weathering_modes  # noqa: E402
@@ -99,8 +99,7 @@ def build_scene(shape, unit):
     obj = scan_generator.add_to_scene(shape, vertices, triangles, scene.collection)
     studio.add_sun(scene, towards=SUN_TOWARDS, strength=SUN_STRENGTH)
     world = bpy.data.worlds.new("Sky")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
+    compat.use_world_nodes(world)
     background = world.node_tree.nodes["Background"]
     background.inputs["Color"].default_value = (*SKY[0], 1.0)
     background.inputs["Strength"].default_value = SKY[1]
@@ -109,8 +108,9 @@ def build_scene(shape, unit):
     return obj
 
 
-def frame(scene, vertices, view_from):
-    """An orthographic camera looking at the object from ``view_from``, fitting it."""
+def frame(scene, vertices, view_from, margin=1.08):
+    """An orthographic camera looking at the object from ``view_from``, fitting it with ``margin``
+    to spare; the scene's camera, returned."""
     low, high = vertices.min(axis=0), vertices.max(axis=0)
     centre, diagonal = (low + high) / 2, float(np.linalg.norm(high - low))
     view = Vector(view_from).normalized()
@@ -123,8 +123,9 @@ def frame(scene, vertices, view_from):
     camera.rotation_euler = (-view).to_track_quat("-Z", "Y").to_euler()
     rotation = np.array(camera.rotation_euler.to_matrix())
     across = (vertices - centre) @ rotation[:, :2]  # along the camera's right and up
-    data.ortho_scale = 1.08 * 2.0 * float(np.abs(across).max())
+    data.ortho_scale = margin * 2.0 * float(np.abs(across).max())
     scene.camera = camera
+    return camera
 
 
 def bake(path):

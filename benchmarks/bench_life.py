@@ -49,7 +49,6 @@ bake's cost over before's; the maps before left out are also timed one by one on
 
 import argparse
 import json
-import math
 import os
 import pathlib
 import sys
@@ -66,10 +65,10 @@ import numpy as np  # noqa: E402
 import scan_generator  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-from benchmarks import corpus_regions, machine  # noqa: E402
-from porous_weathering.blender import render  # noqa: E402
+from benchmarks import bench_corpus, corpus_regions, machine  # noqa: E402
+from porous_weathering.blender import compat, render  # noqa: E402
 from porous_weathering.contracts import GROUP_NODE, SAMPLES_DIR, socket_name  # noqa: E402
-from porous_weathering.core import aging, colorimetry, environments  # noqa: E402
+from porous_weathering.core import aging, colorimetry, environments, solar  # noqa: E402
 from porous_weathering.core import modes as weathering_modes  # noqa: E402
 from porous_weathering.maps import bake, linking, sun  # noqa: E402
 from porous_weathering.maps import registry as maps  # noqa: E402
@@ -184,37 +183,17 @@ def light_and_frame(scene, objects, north_angle):
         if obj.type == "LIGHT" or (obj.type == "MESH" and obj not in objects):
             obj.hide_render = True
     world = bpy.data.worlds.new("White sky")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
+    compat.use_world_nodes(world)
     background = world.node_tree.nodes["Background"]
     background.inputs["Color"].default_value = (1.0, 1.0, 1.0, 1.0)
     background.inputs["Strength"].default_value = 1.0
     scene.world = world
     corners = np.array([obj.matrix_world @ Vector(c) for obj in objects for c in obj.bound_box])
-    return {view: camera(scene, corners, scene_direction(towards, north_angle)) for view, towards in VIEWS.items()}
-
-
-def scene_direction(site, north_angle):
-    """A direction of the site's frame in the scene's: north is +Y turned clockwise by north_angle."""
-    turn = math.radians(north_angle)
-    x, y, z = site
-    return Vector((x * math.cos(turn) + y * math.sin(turn), -x * math.sin(turn) + y * math.cos(turn), z))
-
-
-def camera(scene, corners, towards):
-    low, high = corners.min(axis=0), corners.max(axis=0)
-    centre, diagonal = (low + high) / 2, float(np.linalg.norm(high - low))
-    view = towards.normalized()
-    data = bpy.data.cameras.new("Camera")
-    data.type = "ORTHO"
-    data.clip_start, data.clip_end = 0.01 * diagonal, 10.0 * diagonal
-    obj = bpy.data.objects.new("Camera", data)
-    scene.collection.objects.link(obj)
-    obj.location = Vector(centre) + view * 2.0 * diagonal
-    obj.rotation_euler = (-view).to_track_quat("-Z", "Y").to_euler()
-    rotation = np.array(obj.rotation_euler.to_matrix())
-    data.ortho_scale = 1.05 * 2.0 * float(np.abs((corners - centre) @ rotation[:, :2]).max())
-    return obj
+    to_scene = solar.site_to_scene(north_angle)
+    return {
+        view: bench_corpus.frame(scene, corners, to_scene @ np.asarray(towards, float), margin=1.05)
+        for view, towards in VIEWS.items()
+    }
 
 
 def assign(objects, material):

@@ -1,6 +1,20 @@
-"""A one-line text progress bar on stderr, shared by the serial and the Dask bakes (no bpy)."""
+"""A one-line text progress bar on stderr, shared by the serial and the Dask bakes, and the loop
+that runs a command's steps to its result (no bpy)."""
 
 import sys
+from collections.abc import Callable, Iterable
+from typing import Any
+
+
+def run_steps(steps: Iterable[Any], progress: Callable[[float, str], None] | None = None) -> Any:
+    """Run ``steps`` (each with ``fraction``, ``message`` and ``result``) to the end, calling
+    ``progress(fraction, message)`` as each starts; the last result a step carried, or None."""
+    result = None
+    for step in steps:
+        if progress is not None:
+            progress(step.fraction, step.message)
+        result = step.result or result
+    return result
 
 
 class ProgressBar:

@@ -38,6 +38,7 @@ import numpy as np
 from ..blender import scratch_scene
 from ..common import atomic
 from ..common.options import check, entries, option
+from ..common.progress import run_steps
 from ..contracts import MODES_PROPERTY, TEMPORARY_PREFIX, safe_file_name
 from ..core import modes as weathering_modes
 from ..maps import bake, lightmap
@@ -423,12 +424,7 @@ def export_variants(
         notes={} if notes is None else notes,
         force=force,
     )
-    result = None
-    for step in iter_export(objects, options):
-        if progress is not None:
-            progress(step.fraction, step.message)
-        result = step.result or result
-    return result
+    return run_steps(iter_export(objects, options), progress)
 
 
 def iter_export(objects: Sequence["bpy.types.Object"], options: ExportOptions) -> Iterator[Step]:

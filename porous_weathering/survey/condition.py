@@ -20,6 +20,7 @@ import bpy
 import numpy as np
 
 from ..common.options import check, entries, option, to_argv
+from ..common.progress import run_steps
 from ..contracts import safe_file_name
 from ..core import aging, condition, environments, solar
 from ..core.patterns import CLEANING_LOSS, NO_VISIBLE_CHANGE
@@ -211,9 +212,9 @@ def condition_survey(
     the forecast per face and pattern in ``OUT/<name>.forecast.csv`` and the paradata in
     ``OUT/<name>.survey.json`` (docs/survey.md); ``north_angle`` is north's angle from the scene's
     +Y, clockwise seen from above, in degrees (None: each object's sun map's, else the scene's).
-    ValueError before any work for bad input (negative years, ages outside [0, 1], an object without a Porous Weathering
-    material); OverwriteRefused (a ValueError) when ``out_dir`` holds a survey of that name made
-    from another .blend or other objects, unless ``force``."""
+    ValueError before any work for bad input (negative years, ages outside [0, 1], an object
+    without a Porous Weathering material); OverwriteRefused (a ValueError) when ``out_dir`` holds
+    a survey of that name made from another .blend or other objects, unless ``force``."""
     options = SurveyOptions(
         years=years,
         ages=ages,
@@ -223,12 +224,7 @@ def condition_survey(
         north_angle=north_angle,
         force=force,
     )
-    result = None
-    for step in iter_survey(objects, options):
-        if progress is not None:
-            progress(step.fraction, step.message)
-        result = step.result or result
-    return result
+    return run_steps(iter_survey(objects, options), progress)
 
 
 def iter_survey(objects: Sequence["bpy.types.Object"], options: SurveyOptions) -> Iterator[Step]:
