@@ -94,11 +94,6 @@ def draw_cases(modes, count, seed=0):
     return {name: value.astype(np.float32).astype(np.float64) for name, value in cases.items()}
 
 
-def fields_of(modes):
-    """The per-point fields ``modes`` read from the point's place (``Mode.fields``), each once."""
-    return tuple(dict.fromkeys(name for mode in modes for name in weathering_modes.get(mode).fields))
-
-
 def model_outputs(cases, modes, light_mode, fields=None):
     """(k_d (N, 3), k_s (N,), k_water (N, 3)) of the numpy model for ``cases``, given the
     ``fields`` of the point's place its modes read ({name: tuple of (N,) arrays})."""
@@ -226,7 +221,7 @@ def rendered_outputs(cases, modes, light_mode, size):
         images.append(render.render_array(scene)[..., :3].reshape(-1, 3))
     diffuse, special = images
     fields = {}
-    for name in fields_of(modes):
+    for name in weathering_modes.fields_of(modes):
         studio.assign(obj, probe_material(group, sockets, field_readout(name)))
         read = render.render_array(scene)[..., :2].reshape(-1, 2).astype(np.float64)
         fields[name] = (read[:, 0], read[:, 1])
@@ -276,7 +271,7 @@ def model_sweep(count=200_000, seed=1):
             poison = rng.random(count) < 0.02
             cases[name] = np.where(poison, rng.choice([np.nan, np.inf, -np.inf], count), cases[name])
         # the fields of the point's place anywhere in their range: a distance of up to two cells
-        fields = {name: (2.0 * rng.random(count), rng.random(count)) for name in fields_of(modes)}
+        fields = {name: (2.0 * rng.random(count), rng.random(count)) for name in weathering_modes.fields_of(modes)}
         kd, ks, water = model_outputs(cases, modes, light_mode, fields)
         outputs = np.column_stack([kd, ks, water])
         rows.append(

@@ -294,7 +294,7 @@ def weathered_group(modes, light_mode, receptive=False):
             **_light_input(light_mode),
             **weathering_inputs(modes),
             **(RECEPTIVITY_INPUT if receptive else {}),
-            **(METRES_PER_UNIT_INPUT if _fields_of(modes) else {}),
+            **(METRES_PER_UNIT_INPUT if weathering_modes.fields_of(modes) else {}),
         },
         outputs,
         varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY, FIELD},
@@ -320,7 +320,7 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         inputs.get(RECEPTIVITY),
         inputs.get(FIELD),
         inputs.get(VARIATION),
-        {name: FIELDS[name](graph, inputs) for name in _fields_of(modes)},
+        {name: FIELDS[name](graph, inputs) for name in weathering_modes.fields_of(modes)},
     )
     bsdf = diffuse_plus_glossy(graph, kd_w, ks_w, roughness)
     results = {"BSDF": bsdf, "Diffuse Weight": kd_w, "Specular Weight": ks_w}
@@ -331,11 +331,6 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         results["BSDF"] = graph.node("ShaderNodeAddShader", [bsdf, water.outputs[0]]).outputs[0]
         results["Water Weight"] = water_w
     return results
-
-
-def _fields_of(modes):
-    """The per-point fields ``modes`` read (``Mode.fields``), each once."""
-    return tuple(dict.fromkeys(name for mode in modes for name in weathering_modes.get(mode).fields))
 
 
 def lichen_seeds(graph, inputs):

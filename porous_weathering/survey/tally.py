@@ -110,7 +110,7 @@ def _fields(found, modes, triangles, bary, inputs):
     """{field: value} of the per-point fields ``modes`` read, at the sample points ``bary`` of
     ``triangles``: from the points' place in metres from the object's origin and their triangle's
     normal (a smooth-shaded surface's shader reads its interpolated normal instead)."""
-    names = dict.fromkeys(name for mode in modes for name in weathering_modes.get(mode).fields)
+    names = weathering_modes.fields_of(modes)
     if not names:
         return None
     metres = np.einsum("nkc,sk->nsc", found.triangles_m[triangles], bary) - found.origin_m

@@ -112,6 +112,11 @@ def inputs() -> dict[str, Input]:
     return found
 
 
+def fields_of(modes: Iterable[str]) -> tuple[str, ...]:
+    """The per-point fields of the point's place ``modes`` read (``Mode.fields``), each once."""
+    return tuple(dict.fromkeys(name for mode in checked(modes) for name in _REGISTRY[mode].fields))
+
+
 def inputs_of(modes: Iterable[str]) -> list[Input]:
     """The inputs ``modes`` use, in socket order."""
     wanted = {item.name for name in checked(modes) for item in _REGISTRY[name].inputs}
