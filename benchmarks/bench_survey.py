@@ -42,25 +42,26 @@ def main():
     )
     obj.data.materials.append(material)
     built = time.perf_counter() - start
-    steps = {}
-    last = [time.perf_counter()]
+    steps = {}  # message: (wall clock, this process's CPU time) when the step began
 
     def progress(fraction, message):
-        now = time.perf_counter()
-        steps[message] = now
-        last[0] = now
+        steps[message] = (time.perf_counter(), time.process_time())
 
-    start = time.perf_counter()
+    start = (time.perf_counter(), time.process_time())
     with tempfile.TemporaryDirectory() as out:
         result = survey.condition_survey([obj], ages=args.ages, out_dir=out, name="scan", progress=progress)
-    total = time.perf_counter() - start
+    end = (time.perf_counter(), time.process_time())
+    # on a machine shared with other jobs the CPU time is near what the survey takes alone
+    print(f"{len(obj.data.polygons)} triangles, built in {built:.1f} s; survey of {args.ages}: ", end="")
+    print(f"{end[0] - start[0]:.1f} s ({end[1] - start[1]:.1f} s of CPU)")
     marks = sorted(steps.items(), key=lambda item: item[1])
-    print(f"{len(obj.data.polygons)} triangles, built in {built:.1f} s; survey of {args.ages}: {total:.1f} s")
-    for (message, at), (_, following) in zip(marks, [*marks[1:], ("end", start + total)]):
-        if not message.startswith("Scan: forecast"):
-            print(f"  {message:40} {following - at:6.2f} s")
     forecast = [at for message, at in marks if message.startswith("Scan: forecast")]
-    print(f"  forecast ({len(forecast)} ages) {marks[-1][1] - forecast[0]:6.2f} s" if forecast else "")
+    shown = [item for item in marks if not item[0].startswith("Scan: forecast")]
+    if forecast:
+        shown.append((f"forecast ({len(forecast)} ages)", forecast[0]))
+        shown.sort(key=lambda item: item[1])
+    for (message, at), (_, following) in zip(shown, [*shown[1:], ("end", end)]):
+        print(f"  {message:40} {following[0] - at[0]:6.2f} s ({following[1] - at[1]:.2f} s of CPU)")
     print(f"  rows: {len(result.rows)}; load: {os.getloadavg()[0]:.1f}")
 
 

@@ -342,3 +342,23 @@ def test_without_matplotlib_a_sheet_fails_in_one_line(tmp_path, monkeypatch):
     with pytest.raises(ImportError, match="^the condition-map drawings need matplotlib, which this Python lacks"):
         write(tmp_path, data_for(triangles, names, {"north": 0}))
     assert os.listdir(tmp_path) == []
+
+
+def test_one_frame_draws_every_age_as_the_sheet_made_alone_would(tmp_path):
+    """The survey makes an object's views once and draws each age's patterns on them: the same
+    SVG as a sheet that makes its own views; a frame of other views is refused in one line."""
+    triangles, names = split_north_face(*box((4.0, 3.0, 2.5)))
+    frame = sheet.make_frame(triangles, (0.0, 1.0), tuple(sheet.ELEVATIONS), sheet.PRINT_SCALE)
+    for age, pattern_of in enumerate(({"north-west": 0, "east": 1}, {"north-east": 2, "top": 4, "south": 3})):
+        alone = data_for(triangles, names, pattern_of)
+        write(tmp_path, alone, f"alone{age}")
+        sheet.write_sheets(
+            dataclasses.replace(alone, triangles_m=None),
+            tmp_path / f"framed{age}.svg",
+            tmp_path / f"framed{age}.png",
+            frame,
+        )
+        assert (tmp_path / f"framed{age}.svg").read_bytes() == (tmp_path / f"alone{age}.svg").read_bytes()
+    other = data_for(triangles, names, {}, views=("north", "plan"))
+    with pytest.raises(ValueError, match="^the frame has the views"):
+        sheet.write_sheets(other, tmp_path / "other.svg", tmp_path / "other.png", frame)

@@ -3,13 +3,20 @@
 import numpy as np
 
 from ..common import imageio
+from ..core.vectors import cross
+
+#: The property of an attribute's values by its data type (any other: "value").
+_VALUE_PROPERTY = {"FLOAT_VECTOR": "vector", "FLOAT2": "vector", "FLOAT_COLOR": "color", "BYTE_COLOR": "color"}
 
 
 def attribute(mesh, name, dtype, width=1):
-    """The values of ``mesh``'s attribute ``name`` (e.g. "position", ".corner_vert") as an
-    array of ``dtype``, (n, width) when ``width`` > 1: ~100x faster than MeshLoop & co."""
-    values = np.empty(len(mesh.attributes[name].data) * width, dtype=dtype)
-    mesh.attributes[name].data.foreach_get("vector" if name == "position" else "value", values)
+    """The values of ``mesh``'s attribute ``name`` (e.g. "position", ".corner_vert", a UV map or
+    a colour attribute) as an array of ``dtype``, (n, width) when ``width`` > 1: ~100x faster
+    than MeshLoop, MeshUVLoop & co. (foreach_get copies Blender's own float32 and int32 whole;
+    into another dtype it converts value by value)."""
+    found = mesh.attributes[name]
+    values = np.empty(len(found.data) * width, dtype=dtype)
+    found.data.foreach_get(_VALUE_PROPERTY.get(found.data_type, "value"), values)
     return values.reshape(-1, width) if width > 1 else values
 
 
@@ -38,7 +45,7 @@ def is_inside_out(mesh):
     corners = points[attribute(mesh, ".corner_vert", np.int32)]
     following = np.arange(1, len(corners) + 1)  # the next corner around the face
     following[np.append(starts[1:], len(corners)) - 1] = starts
-    area_vectors = np.add.reduceat(np.cross(corners, corners[following]), starts) / 2.0  # Newell
+    area_vectors = np.add.reduceat(cross(corners, corners[following]), starts) / 2.0  # Newell
     return encloses_negative_volume(np.bincount(loop_edge, minlength=len(mesh.edges)), corners[starts], area_vectors)
 
 

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..blender.mesh_arrays import encloses_negative_volume
+from ..core.vectors import cross
 
 #: Grids summed by ``smooth_over_radius`` (docs/maps.md: the spread along a straight edge).
 SHIFTS = tuple(np.full(3, k / 4) for k in range(4))
@@ -153,7 +154,7 @@ def mesh_surface(
         edges = manifold[block]
         face_a, face_b = first_face[edges], last_face[edges]
         normal_a, normal_b = face_normals[face_a], face_normals[face_b]
-        angle = np.arctan2(np.linalg.norm(np.cross(normal_a, normal_b), axis=1), (normal_a * normal_b).sum(1))
+        angle = np.arctan2(np.linalg.norm(cross(normal_a, normal_b), axis=1), (normal_a * normal_b).sum(1))
         # Convex when the faces lean away from each other: their normals part as their centres do.
         convex = ((normal_a - normal_b) * (centres[face_a] - centres[face_b])).sum(1) >= 0
         integrated = np.where(convex, angle, -angle) * edge_lengths[edges] / 2  # theta * length / 2
@@ -197,7 +198,7 @@ def _face_sums(points, loop_vertex, loop_edge, loop_bounds, side, edge_count, sp
         corners = points[vertices]
         following = np.arange(1, len(corners) + 1)  # the next corner around the face
         following[starts + counts - 1] = starts
-        vectors = side * np.add.reduceat(np.cross(corners, corners[following]), starts)
+        vectors = side * np.add.reduceat(cross(corners, corners[following]), starts)
         area_vectors[faces] = vectors
         centres[faces] = np.add.reduceat(corners, starts) / counts[:, None]
         longest = np.maximum.reduceat(np.linalg.norm(corners[following] - corners, axis=1), starts)
@@ -279,7 +280,7 @@ def _fans(points, loop_vertex, loop_bounds, centres, area_vectors, faces):
     corner = np.stack([loop_vertex[loops], loop_vertex[following]], axis=1)
     apex = centres[face]
     base = points[corner]
-    areas = np.linalg.norm(np.cross(base[:, 0] - apex, base[:, 1] - apex), axis=1) / 2
+    areas = np.linalg.norm(cross(base[:, 0] - apex, base[:, 1] - apex), axis=1) / 2
     fan_area = np.add.reduceat(areas, first) if len(faces) else np.empty(0)
     areas *= (np.linalg.norm(area_vectors[faces], axis=1) / np.maximum(fan_area, np.finfo(float).tiny))[
         np.repeat(np.arange(len(faces)), counts)

@@ -23,6 +23,7 @@ from ..blender import mesh_arrays, scratch_scene
 from ..common import imageio
 from ..common.options import check, option
 from ..contracts import map_attribute
+from ..core.vectors import cross
 from . import edges, lightmap, runoff_flow
 from .rain import RAIN_ATTRIBUTE
 from .registry import MapKind
@@ -146,7 +147,7 @@ def spacing_for(obj: bpy.types.Object, world: _Mesh, target: str, resolution: in
     size = edges.object_size(obj)
     if target == "image":
         a, b, c = (world.vertices[world.triangles[:, k]] for k in range(3))
-        area = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum()
+        area = 0.5 * np.linalg.norm(cross(b - a, c - a), axis=1).sum()
         du, dv = world.uvs[:, 1] - world.uvs[:, 0], world.uvs[:, 2] - world.uvs[:, 0]
         uv_area = 0.5 * np.abs(du[:, 0] * dv[:, 1] - du[:, 1] * dv[:, 0]).sum()
         texel = math.sqrt(area / max(uv_area, 1e-12)) / resolution

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.vectors import cross
 from .lightmap_check import surface_points
 
 #: Normal directions a cell is split by (+x, -x, +y, -y, +z, -z): opposite faces stay apart.
@@ -85,14 +86,14 @@ def _triangle_samples(vertices, triangles, spacing, per_point=()):
     ``per_point`` (``f(triangles, weights)``: a quantity at points given by their triangle and
     barycentric weights) its value at every point."""
     a, b, c = (vertices[triangles[:, k]] for k in range(3))
-    cross = np.cross(b - a, c - a)
-    double_area = np.linalg.norm(cross, axis=1)
-    normals = cross / np.maximum(double_area, 1e-300)[:, None]
+    area_vectors = cross(b - a, c - a)
+    double_area = np.linalg.norm(area_vectors, axis=1)
+    normals = area_vectors / np.maximum(double_area, 1e-300)[:, None]
     longest = np.maximum(
         np.maximum(np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1)), np.linalg.norm(a - c, axis=1)
     )
     parts = np.maximum(1, np.ceil(longest / (0.5 * spacing))).astype(np.int64)
-    del cross, longest
+    del area_vectors, longest
     each = 0.5 * double_area / (parts * parts)
     solid = each > 0  # degenerate triangles (a sphere's poles) hold no surface
     # the triangles grouped by their number of parts (stable: in their order within a group)
@@ -215,7 +216,7 @@ def near_border(vertices, triangles, border_edges, spacing):
     """f(triangles, weights): 1 at points within ``spacing`` of an edge of ``border_edges``
     (the distance to the edge facing corner k is the weight of k times the triangle's height)."""
     a, b, c = (vertices[triangles[:, k]] for k in range(3))
-    double_area = np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    double_area = np.linalg.norm(cross(b - a, c - a), axis=1)
     lengths = np.linalg.norm(np.stack([c - b, a - c, b - a], 1), axis=2)  # the edge facing each corner
     heights = double_area[:, None] / np.maximum(lengths, 1e-300)
     flags = np.asarray(border_edges, bool)

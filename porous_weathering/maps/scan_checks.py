@@ -22,6 +22,7 @@ import numpy as np
 
 from ..blender import mesh_arrays
 from ..core import stones
+from ..core.vectors import cross
 
 
 class ScanWarning(UserWarning):
@@ -86,7 +87,7 @@ def _up_axis(obj):
     matrix = np.array(obj.matrix_world, dtype=np.float64)
     points = mesh_arrays.attribute(mesh, "position", np.float32, 3) @ matrix[:3, :3].T + matrix[:3, 3]
     a, b, c = (points[corners[k::3]] for k in range(3))
-    area_vectors = np.cross(b - a, c - a) * np.sign(np.linalg.det(matrix[:3, :3]))  # a mirror keeps them out
+    area_vectors = cross(b - a, c - a) * np.sign(np.linalg.det(matrix[:3, :3]))  # a mirror keeps them out
     areas = np.linalg.norm(area_vectors, axis=1)
     total = areas.sum()
     if not total > 0:

@@ -442,6 +442,20 @@ def _drawings(surveyed, options, stages, out_dir, name, created):
     if sheet.cannot_draw():
         return {}
     carbon = environments.get(options.environment).elemental_carbon
+    north_of = {id(item): tuple(solar.site_to_scene(item.north_angle)[:2, 1]) for item in surveyed}
+    frames = {}
+
+    def frame_of(item, counted):
+        """The views' geometry of ``item``'s sheets, made with its first sheet and kept for the
+        others: every age samples the same points (``tally``), only their patterns differ."""
+        if id(item) not in frames:
+            frames.clear()  # one object's at a time
+            triangles = points.small_triangles(item.surface, *counted.drawn_points, item.surface.splits())
+            frames[id(item)] = sheet.make_frame(
+                triangles, north_of[id(item)], tuple(sheet.ELEVATIONS), sheet.PRINT_SCALE
+            )
+        return frames[id(item)]
+
     found = {}
     for item in surveyed:
         shown = [pattern for pattern in item.patterns if pattern is not NO_VISIBLE_CHANGE]
@@ -455,21 +469,22 @@ def _drawings(surveyed, options, stages, out_dir, name, created):
             stem = os.path.join(out_dir, f"{name}.{safe_file_name(item.obj.name)}.{label}")
 
             def draw(svg, png, item=item, counted=counted, years=years, t=t, shown=shown, order=order, ahead=ahead):
-                """One sheet; its small triangles are made when it is drawn (one sheet's at a time)."""
+                """One sheet; its object's views are made when its first sheet is drawn."""
+                frame = frame_of(item, counted)
                 data = sheet.SheetData(
                     object_name=item.obj.name,
                     environment=options.environment,
                     years=years,
                     t=t,
                     date=created[:10],
-                    triangles_m=points.small_triangles(item.surface, *counted.drawn_points, item.surface.splits()),
+                    triangles_m=None,
                     pattern_index=order[counted.drawn_patterns],
                     patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
                     areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
-                    north=tuple(solar.site_to_scene(item.north_angle)[:2, 1]),
+                    north=north_of[id(item)],
                     forecast=ahead,
                 )
-                sheet.write_sheets(data, svg, png)
+                sheet.write_sheets(data, svg, png, frame)
 
             found[(stem + ".svg", stem + ".png")] = draw
     return found

@@ -12,11 +12,12 @@ import bpy
 
 import numpy as np
 
-from ..blender import scratch_scene
+from ..blender import mesh_arrays, scratch_scene
 from ..contracts import MODES_PROPERTY, STONE_NODE
 from ..core import model
 from ..core import modes as weathering_modes
 from ..core.colorimetry import srgb_to_linear
+from ..core.vectors import cross
 from ..publish.textures import porous_node
 from ..shading.material import metres_per_unit
 from ..shading.weathering import image_uv_map
@@ -95,38 +96,44 @@ def surface(obj: "bpy.types.Object") -> Surface:
         mesh = seen.mesh
         mesh.calc_loop_triangles()
         count = len(mesh.loop_triangles)
-        loops = np.empty(count * 3, dtype=np.int64)
+        # Blender's own types (int32, float32): foreach_get copies them whole, and converts
+        # element by element into any other (seconds on a scan)
+        loops = np.empty(count * 3, dtype=np.int32)
         mesh.loop_triangles.foreach_get("loops", loops)
-        verts = np.empty(count * 3, dtype=np.int64)
+        verts = np.empty(count * 3, dtype=np.int32)
         mesh.loop_triangles.foreach_get("vertices", verts)
-        slots = np.empty(count, dtype=np.int64)
+        slots = np.empty(count, dtype=np.int32)
         mesh.loop_triangles.foreach_get("material_index", slots)
-        positions = np.empty(len(mesh.vertices) * 3, dtype=np.float64)
-        mesh.vertices.foreach_get("co", positions)
-        matrix = seen.matrix_world
-        world = (positions.reshape(-1, 3) @ matrix[:3, :3].T + matrix[:3, 3]) * scale
-        corner_vert = np.empty(len(mesh.loops), dtype=np.int64)
-        mesh.loops.foreach_get("vertex_index", corner_vert)
+        positions = mesh_arrays.attribute(mesh, "position", np.float32, 3).astype(np.float64)
+        matrix = np.array(seen.matrix_world)
+        world = (positions @ matrix[:3, :3].T + matrix[:3, 3]) * scale
+        corner_vert = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
         uv_maps = {}
         for layer in mesh.uv_layers:
-            uv = np.empty(len(mesh.loops) * 2, dtype=np.float64)
-            layer.data.foreach_get("uv", uv)
-            uv_maps[layer.name] = uv.reshape(-1, 2)
+            uv_maps[layer.name] = mesh_arrays.attribute(mesh, layer.name, np.float32, 2).astype(np.float64)
         active = next((layer.name for layer in mesh.uv_layers if layer.active_render), None)
         if active is not None:
             uv_maps[""] = uv_maps[active]  # what an Image Texture without a UV Map node reads
         colours = {}
         for attribute in mesh.color_attributes:
-            values = np.empty(len(attribute.data) * 4, dtype=np.float64)
-            attribute.data.foreach_get("color", values)
-            values = values.reshape(-1, 4)[:, :3].mean(axis=1)  # the Attribute node's Fac: the average
+            values = mesh_arrays.attribute(mesh, attribute.name, np.float32, 4)
+            values = values[:, :3].astype(np.float64).mean(axis=1)  # the Attribute node's Fac: the average
             colours[attribute.name] = values[corner_vert] if attribute.domain == "POINT" else values
     triangles = world[verts.reshape(-1, 3)]
-    cross = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    doubled = np.linalg.norm(cross, axis=1)
-    normals = cross / np.maximum(doubled, 1e-300)[:, None]
+    area_vectors = cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    doubled = np.linalg.norm(area_vectors, axis=1)
+    normals = area_vectors / np.maximum(doubled, 1e-300)[:, None]
     origin = matrix[:3, 3] * scale
-    return Surface(triangles, loops.reshape(-1, 3), slots, doubled / 2.0, normals, uv_maps, colours, origin)
+    return Surface(
+        triangles,
+        loops.reshape(-1, 3).astype(np.int64),
+        slots.astype(np.int64),
+        doubled / 2.0,
+        normals,
+        uv_maps,
+        colours,
+        origin,
+    )
 
 
 # --- a material's inputs at the points ---------------------------------------------------------

@@ -56,6 +56,8 @@ STANDARD_SCALES = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000, 2000, 5000, 10000, 
 #: Elevations: where the viewer stands, in degrees clockwise from north. "plan" looks down.
 ELEVATIONS = {"north": 0.0, "east": 90.0, "south": 180.0, "west": 270.0}
 VIEWS = (*ELEVATIONS, "plan")
+#: The print scale a sheet is drawn at unless the views do not fit (1:50, as condition maps are).
+PRINT_SCALE = 50
 HATCH_ANGLES = {"/": (45.0,), "\\": (135.0,), "-": (0.0,), "|": (90.0,), "x": (45.0, 135.0), "+": (0.0, 90.0)}
 HATCH_DOTS = "."
 #: Hatch codes by name, as the patterns give them: "solid" is the colour alone.
@@ -89,16 +91,45 @@ class SheetData:
     years: float | None
     t: float
     date: str
-    triangles_m: np.ndarray  # (n, 3, 3) world coordinates in metres (x, y, z; z up)
+    triangles_m: np.ndarray | None  # (n, 3, 3) world coordinates in metres (x, y, z; z up); None with a Frame
     pattern_index: np.ndarray  # (n,) int: index into patterns, -1 none
     patterns: tuple[tuple[str, tuple[float, float, float], str], ...]  # (name, sRGB colour, hatch code)
     areas_m2: tuple[float, ...]  # per pattern
     north: tuple[float, float] = (0.0, 1.0)  # unit vector in world xy pointing north
-    scale: int = 50  # print scale 1:scale
-    views: tuple[str, ...] = ("north", "east", "south", "west")
+    scale: int = PRINT_SCALE  # print scale 1:scale
+    views: tuple[str, ...] = tuple(ELEVATIONS)
     forecast: tuple[
         tuple[str, str, float | None, float | None], ...
     ] = ()  # (face, pattern, first-shows year, threshold year)
+
+
+@dataclasses.dataclass(frozen=True)
+class Frame:
+    """The views of a sheet as its geometry alone, the same at every age: the scale they are drawn
+    at, each view's lower-left corner on paper (mm), and each view rasterised (``ViewFrame``).
+    ``count``: the triangles it was made of (a sheet's ``pattern_index`` has one per triangle)."""
+
+    scale: int
+    corners: tuple[tuple[float, float], ...]
+    views: tuple["ViewFrame", ...]
+    count: int
+
+
+@dataclasses.dataclass(frozen=True)
+class ViewFrame:
+    """One view rasterised: ``nearest[row, column]`` the triangle seen in that cell (-1 where none
+    is), row 0 at the bottom, one empty cell of margin around the object; ``steps`` as ``View``'s."""
+
+    name: str
+    nearest: np.ndarray
+    steps: tuple[np.ndarray, np.ndarray]
+
+    def labelled(self, pattern_index: np.ndarray) -> "View":
+        """The view with each cell given its triangle's pattern."""
+        found = self.nearest >= 0
+        labels = np.full(self.nearest.shape, BACKGROUND, np.int32)
+        labels[found] = np.asarray(pattern_index)[self.nearest[found]]
+        return View(self.name, labels, self.steps)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -113,16 +144,19 @@ class View:
     steps: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 0), bool), np.zeros((0, 0), bool))
 
 
-def write_sheets(data: SheetData, svg_path: str | os.PathLike, png_path: str | os.PathLike) -> None:
+def write_sheets(
+    data: SheetData, svg_path: str | os.PathLike, png_path: str | os.PathLike, frame: Frame | None = None
+) -> None:
     """Draw the condition map of ``data`` on an A3 sheet and write it as ``svg_path`` and
-    ``png_path``, both whole or neither. Bad input raises ValueError (FileNotFoundError for a
-    missing folder, ImportError without matplotlib) in one line, before any work."""
+    ``png_path``, both whole or neither. ``frame``: the views' geometry made once for several
+    sheets of the same triangles (``make_frame`` of ``data``'s triangles, north, views and scale),
+    else made here. Bad input raises ValueError (FileNotFoundError for a missing folder,
+    ImportError without matplotlib) in one line, before any work."""
     svg_path, png_path = os.fspath(svg_path), os.fspath(png_path)
-    check(data, svg_path, png_path)
-    projections = [project(data, name) for name in data.views]
-    scale, corners = fit_scale([hi - lo for *_, lo, hi in projections], data.scale)
-    cell_m = PIXEL_MM * scale / 1000.0
-    views = [rasterise(name, uv, depth, labels, lo, hi, cell_m) for name, uv, depth, labels, lo, hi in projections]
+    check(data, svg_path, png_path, frame)
+    if frame is None:
+        frame = make_frame(data.triangles_m, data.north, data.views, data.scale)
+    views = [view.labelled(data.pattern_index) for view in frame.views]
     import matplotlib
 
     with (
@@ -130,7 +164,7 @@ def write_sheets(data: SheetData, svg_path: str | os.PathLike, png_path: str | o
         temporary_file(os.path.dirname(os.path.abspath(svg_path)), ".svg") as svg_temporary,
         temporary_file(os.path.dirname(os.path.abspath(png_path)), ".png") as png_temporary,
     ):
-        figure = draw(data, views, scale, corners)
+        figure = draw(data, views, frame.scale, frame.corners)
         figure.savefig(svg_temporary, format="svg", metadata={"Date": None})
         figure.savefig(png_temporary, format="png", dpi=PNG_DPI)
         move_into_place_together([(svg_temporary, svg_path), (png_temporary, png_path)])
@@ -146,21 +180,40 @@ def cannot_draw() -> str | None:
     return None
 
 
-def check(data: SheetData, svg_path: str, png_path: str) -> None:
-    """Raise on the first thing wrong with the input, in one line."""
-    missing = cannot_draw()
-    if missing:
-        raise ImportError(missing)
-    triangles = np.asarray(data.triangles_m)
+def make_frame(triangles_m: np.ndarray, north: tuple[float, float], views: tuple[str, ...], scale: int) -> Frame:
+    """The ``Frame`` of the triangles (n, 3, 3), world metres, z up, seen in ``views`` at 1:``scale``
+    or the next standard scale at which they fit the sheet."""
+    check_triangles(triangles_m)
+    projections = [project(triangles_m, north, name) for name in views]
+    fitted, corners = fit_scale([hi - lo for *_, lo, hi in projections], scale)
+    cell_m = PIXEL_MM * fitted / 1000.0
+    rasters = tuple(rasterise(name, uv, depth, index, lo, hi, cell_m) for name, uv, depth, index, lo, hi in projections)
+    return Frame(fitted, tuple(corners), rasters, len(triangles_m))
+
+
+def check_triangles(triangles_m: np.ndarray) -> None:
+    triangles = np.asarray(triangles_m)
     if triangles.ndim != 3 or triangles.shape[1:] != (3, 3) or len(triangles) == 0:
         raise ValueError(f"triangles_m must be (n, 3, 3) with n > 0, not {triangles.shape}")
     if not np.isfinite(triangles).all():
         raise ValueError("triangles_m holds a NaN or infinite coordinate")
+
+
+def check(data: SheetData, svg_path: str, png_path: str, frame: Frame | None = None) -> None:
+    """Raise on the first thing wrong with the input, in one line."""
+    missing = cannot_draw()
+    if missing:
+        raise ImportError(missing)
+    if frame is None:
+        check_triangles(data.triangles_m)
+        count = len(data.triangles_m)
+    elif tuple(view.name for view in frame.views) != tuple(data.views):
+        raise ValueError(f"the frame has the views {[view.name for view in frame.views]}, the sheet {list(data.views)}")
+    else:
+        count = frame.count
     index = np.asarray(data.pattern_index)
-    if index.shape != (len(triangles),) or not np.issubdtype(index.dtype, np.integer):
-        raise ValueError(
-            f"pattern_index must be {len(triangles)} integers, one per triangle, not {index.dtype} {index.shape}"
-        )
+    if index.shape != (count,) or not np.issubdtype(index.dtype, np.integer):
+        raise ValueError(f"pattern_index must be {count} integers, one per triangle, not {index.dtype} {index.shape}")
     if len(index) and (index.min() < -1 or index.max() >= len(data.patterns)):
         raise ValueError(f"pattern_index must be -1 (none) or below {len(data.patterns)} (the patterns)")
     for name, colour, hatch in data.patterns:
@@ -209,11 +262,14 @@ def view_axes(north: tuple[float, float], name: str) -> tuple[np.ndarray, np.nda
     return toward, np.array([-toward[1], toward[0], 0.0]), np.array([0.0, 0.0, 1.0])
 
 
-def project(data: SheetData, name: str) -> tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def project(
+    triangles_m: np.ndarray, north: tuple[float, float], name: str
+) -> tuple[str, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The triangles that face the view's viewer: (name, view coordinates (m, 3, 2) in metres,
-    depth (m, 3) away from the viewer, pattern index (m,), lower and upper corner of the view)."""
-    triangles = np.asarray(data.triangles_m, float)
-    toward, right, up = view_axes(data.north, name)
+    depth (m, 3) away from the viewer, their index among ``triangles_m`` (m,), lower and upper
+    corner of the view)."""
+    triangles = np.asarray(triangles_m, float)
+    toward, right, up = view_axes(north, name)
     # the normal's component toward the viewer, (e1 x e2) . toward = e1 . (e2 x toward), without
     # the normals themselves (the drawings' triangles are one per sample point: millions)
     e1, e2 = triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]
@@ -232,7 +288,7 @@ def project(data: SheetData, name: str) -> tuple[str, np.ndarray, np.ndarray, np
         lo, hi = uv.reshape(-1, 2).min(axis=0), uv.reshape(-1, 2).max(axis=0)
     else:
         lo = hi = np.zeros(2)
-    return name, uv, -(seen @ toward), np.asarray(data.pattern_index)[facing], lo, hi
+    return name, uv, -(seen @ toward), np.flatnonzero(facing), lo, hi
 
 
 def fit_scale(extents_m: list[np.ndarray], asked: int) -> tuple[int, list[tuple[float, float]]]:
@@ -275,14 +331,14 @@ def arrange(sizes_mm: list[np.ndarray], area: tuple[float, float]) -> list[tuple
 
 
 def rasterise(
-    name: str, uv: np.ndarray, depth: np.ndarray, labels: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell_m: float
-) -> View:
-    """The pattern seen in each cell of a grid of side ``cell_m`` over the view (one empty cell of
-    margin around it): of the triangles covering the cell's centre, the nearest's."""
+    name: str, uv: np.ndarray, depth: np.ndarray, index: np.ndarray, lo: np.ndarray, hi: np.ndarray, cell_m: float
+) -> ViewFrame:
+    """The triangle (its ``index``) seen in each cell of a grid of side ``cell_m`` over the view
+    (one empty cell of margin around it): of the triangles covering the cell's centre, the nearest."""
     columns, rows = (np.ceil((hi - lo) / cell_m).astype(int) + 2).tolist()
     origin = lo - cell_m
     nearest = np.full(rows * columns, np.inf)
-    seen = np.full(rows * columns, BACKGROUND, np.int32)
+    seen = np.full(rows * columns, -1, np.int64)
     corners = (uv - origin) / cell_m  # in cells
     first = np.clip(np.ceil(corners.min(axis=1) - 0.5), 0, None).astype(np.int64)  # first cell centre inside
     last = np.minimum(np.floor(corners.max(axis=1) - 0.5), [columns - 1, rows - 1]).astype(np.int64)
@@ -314,8 +370,8 @@ def rasterise(
         cell, z, triangle = cell[nearest_here], z[nearest_here], triangle[nearest_here]
         nearer = z < nearest[cell]
         nearest[cell[nearer]] = z[nearer]
-        seen[cell[nearer]] = labels[triangle[nearer]]
-    return View(name, seen.reshape(rows, columns), steps(nearest.reshape(rows, columns), EDGE_STEP_CELLS * cell_m))
+        seen[cell[nearer]] = index[triangle[nearer]]
+    return ViewFrame(name, seen.reshape(rows, columns), steps(nearest.reshape(rows, columns), EDGE_STEP_CELLS * cell_m))
 
 
 def steps(depth: np.ndarray, least: float) -> tuple[np.ndarray, np.ndarray]:
