@@ -253,8 +253,8 @@ def test_brick_wall_effloresces_along_its_joints(tmp_path):
 
 def test_brick_wall_wets_where_rain_reaches(tmp_path):
     """Driven rain reaches the brick faces (E = sin 25 degrees there) and runs down them: dry
-    while the wet front is above the water W there (as the model says: the run-off's rivulets,
-    docs/model.md §8.8, gather more water than W in their cores), then darker (the wet darkening), with the
+    while the wet front is above the water W there (as the model says, with the run-off's rivulets
+    where a feature gathered the flow, docs/model.md §8.8), then darker (the wet darkening), with the
     water lobe's faint reflection of the sky on top, which the diffuse model lacks (water
     reflects 2% face on: docs/weathering.md)."""
     early = Weathered("brick_wall", model.WET, 0.3, tmp_path)
