@@ -38,9 +38,10 @@ import numpy as np
 import porous_weathering as pw
 import porous_weathering.maps as maps_package
 from porous_weathering.blender import mesh_arrays, render
-from porous_weathering.contracts import STONE_NODE
+from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model
 from porous_weathering.core import modes as weathering_modes
+from porous_weathering.core.backends import NumpyOps
 from porous_weathering.core.modes import base as mode_base
 from porous_weathering.core.modes import soiling, wet
 from porous_weathering.maps import registry as maps
@@ -308,6 +309,20 @@ def stone_parameters(render_with, material, extra=()):
     r, *others = np.moveaxis(stone_probe(render_with, material, scalars), -1, 0)
     kd = stone_probe(render_with, material, ("Base Color",))
     return dict(kd=kd, alpha=alpha, m=m, sp=sp, r=r, **{name: value for name, value in zip(extra, others)})
+
+
+def rivulets_of(material, points, normals, obj, scene):
+    """The model's ``rivulets`` (docs/model.md §8.8) of ``material`` at world ``points`` (units) with
+    unit ``normals`` on ``obj``: the place across the fall line in metres from the object's
+    origin, the normals' horizontal part and the material's rivulet spacing; None where its group
+    has no rivulets (no stone, or no run-off map)."""
+    group = material.node_tree.nodes[GROUP_NODE]
+    if nodes.RIVULET_SPACING not in group.inputs:
+        return None
+    metres = (points - np.array(obj.matrix_world.translation)) * scene.unit_settings.scale_length
+    scalar = NumpyOps(colour=False)
+    across, horizontal = mode_base.fall_line(scalar, metres[..., 0], metres[..., 1], normals[..., 0], normals[..., 1])
+    return across, horizontal, group.inputs[nodes.RIVULET_SPACING].default_value
 
 
 def stone_glossy_lobe(render_with, material):

@@ -2,7 +2,7 @@
 
 Every group the package builds is one case: the porous group in each light mode, the
 weathered group of every non-empty set of registered weathering modes in each light mode (with
-and without the receptivity of a stone's structure), the group of every preset's stone, its
+and without the receptivity of a stone's structure, and with its rivulets), the group of every preset's stone, its
 masonry group and its group of the mesh's blocks, read from the registries (``modes.names()``,
 ``nodes.LIGHT_MODES``, ``presets.PRESETS``), so a new mode or light mode is covered by
 construction. ``group_data`` turns a group into plain data (its interface, its
@@ -22,6 +22,7 @@ import pytest
 
 from helpers import weathered_mode_sets
 from porous_weathering.core import stones
+from porous_weathering.core.modes import names as modes_names
 from porous_weathering.shading import nodes
 from porous_weathering.shading.presets import PRESETS
 
@@ -161,6 +162,14 @@ def test_weathered_group_matches_its_snapshot(modes, light_mode, snapshot):
 def test_receptive_weathered_group_matches_its_snapshot(modes, light_mode, snapshot):
     """The group of a material with a stone's structure (docs/model.md §8.3)."""
     assert group_data(nodes.weathered_group(modes, light_mode, receptive=True)) == snapshot
+
+
+@pytest.mark.parametrize("modes", [(name,) for name in modes_names() if nodes.uses_runoff((name,))], ids="+".join)
+def test_rivulet_weathered_group_matches_its_snapshot(modes, snapshot):
+    """The group of a material with a stone whose run-off gathers into rivulets (docs/model.md §8.8):
+    each mode that reads the run-off map, in one light mode (the rivulets' nodes are the same in
+    every light mode and set of modes)."""
+    assert group_data(nodes.weathered_group(modes, nodes.SUN, receptive=True, rivulets=True)) == snapshot
 
 
 @pytest.mark.parametrize("key", [key for key, preset in PRESETS.items() if preset.structure is not None])

@@ -8,8 +8,12 @@ renders against it pixel by pixel (Cycles CPU, fixed seed, tiny images).
   pixels are the model's (porous and weathered) at those parameters.
 - ``variation = 0`` and ``stone = None`` render bit for bit the same, with no stone node.
 - the same plane in millimetres (unit scale 0.001) and in metres has the same fields.
+- run-off in rivulets (docs/model.md §8.8): the weighted run-off keeps R's mean across the fall
+  line (numpy, and on a render's fields), level faces have none, an inclined plane renders as the
+  model per pixel, and in millimetres as in metres.
 """
 
+import math
 import warnings
 
 import bpy
@@ -31,10 +35,13 @@ from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.core.backends import NumpyOps
 from porous_weathering.core.modes import base, soiling
+from porous_weathering.maps import runoff
 from porous_weathering.samples import studio
+from porous_weathering.shading import nodes
 from porous_weathering.shading.presets import PRESETS
 
 XP = NumpyOps(colour=True)
+SCALAR = NumpyOps(colour=False)
 STRUCTURED = [key for key, preset in PRESETS.items() if preset.structure is not None]
 #: A stone of the test's own values (porous enough to show the structure), with limestone's structure.
 STONE = dict(base_color=(0.62, 0.55, 0.45), ks=0.08, roughness=0.6, porosity=0.3, pore_depth_ratio=2.5)
@@ -213,6 +220,64 @@ def test_receptive_points_weather_first():
     assert np.all(np.diff(kd_w.sum(axis=-1)) < 0.0)  # darker where more receptive
 
 
+#: Soiling by run-off alone (no rain, no carbon): washed rivulets with dirty margins between them.
+RIVULET_STATE = dict(time=0.6, rain_map=0.0, edge_map=0.0, runoff_map=0.3, streaks=1.0, crust=0.0)
+
+
+def runoff_entering(normal, x, y, field, variation=1.0, spacing=0.04, runoff_map=0.3, rain_map=0.0):
+    """The run-off map as it enters the modes (the soiling point's state) at points of a face of
+    ``normal`` placed at (x, y) metres (docs/model.md §8.8)."""
+    across, horizontal = base.fall_line(SCALAR, x, y, normal[0], normal[1])
+    state = {**RIVULET_STATE, "runoff_map": runoff_map, "rain_map": rain_map}
+    point = model.weathered_point(
+        KD, STONE["ks"], STONE["roughness"], STONE["porosity"], STONE["pore_depth_ratio"], 0.8, 0.9, ("soiling",),
+        field=field, variation=variation, rivulets=(across, horizontal, spacing), **state,
+    )  # fmt: skip
+    return point.state["runoff_map"]
+
+
+def test_rivulets_keep_the_water_across_the_fall_line():
+    """Along a horizontal line of an inclined or vertical face the run-off in rivulets keeps the map's
+    mean over every cell of one spacing (each cell its own rivulet: docs/model.md §8.8), so over the
+    line; the cells differ in their rivulets' width and strength, and half the water runs in less
+    than a fifth of the width; an open wall whose rain gives its run-off alone, level faces and
+    variation 0 keep R bit for bit."""
+    spacing, field, cells, per_cell = 0.04, 0.4, 100, 2000
+    place = (np.arange(cells * per_cell) + 0.5) / per_cell - cells / 2  # in spacings, whole cells
+    across = (place - base.RIVULET_WANDER * field) * spacing
+    for slope in (30.0, 90.0):
+        normal = (0.0, -math.sin(math.radians(slope)), math.cos(math.radians(slope)))
+        x = -across  # u = -x on these faces
+        held = runoff_entering(normal, x, 0.3, field, runoff_map=0.2).reshape(cells, per_cell)
+        assert np.abs(held.mean(axis=1) - 0.2).max() < 1e-9
+        assert held.max() <= 1.0 and held.min() >= 0.0 and held.max() > 0.8
+        peaks = held.max(axis=1)
+        assert peaks.std() > 0.1  # rivulets of their own strength and width
+        wettest = np.cumsum(np.sort(held.ravel())[::-1]) / held.sum()
+        assert (wettest < 0.5).mean() < 0.2  # (an even film: a half)
+        heavy = runoff_entering(normal, x, 0.3, field, runoff_map=0.8).reshape(cells, per_cell)
+        assert np.abs(heavy.mean(axis=1) - 0.8).max() < 1e-9 and heavy.max() <= 1.0
+        open_wall = runoff_entering(normal, x, 0.3, field, runoff_map=0.6, rain_map=0.42)  # R below 1 - e^-2.1
+        assert np.array_equal(open_wall, np.full(x.size, 0.6))
+        wandering = np.random.default_rng(5).uniform(-0.5, 0.5, x.size)
+        assert abs(runoff_entering(normal, x, 0.3, wandering).mean() - 0.3) < 0.01
+    x = -across
+    for normal in ((0.0, 0.0, 1.0), (0.0, 0.0, -1.0), (0.0, math.sin(0.05), math.cos(0.05))):
+        assert np.array_equal(runoff_entering(normal, x, 0.3, field), np.full(x.size, 0.3))  # finite: w = 1
+    assert np.array_equal(runoff_entering((0.0, -1.0, 0.0), x, 0.3, field, variation=0.0), np.full(x.size, 0.3))
+
+
+def test_rivulets_start_where_the_flow_is_gathered():
+    """The rivulets' strength is the share of the run-off that the rain falling there cannot give
+    alone (docs/model.md §8.8): none on an open wall, whole where a feature above sent it all."""
+    rain_alone = 1.0 - math.exp(-base.RAIN_ALONE_RATIO * 0.2)
+    runoffs = np.array([0.0, rain_alone, 0.8, 1.0])
+    share = base.flow_concentration(SCALAR, 0.2, runoffs)
+    assert np.allclose(share, [0.0, 0.0, (0.8 - rain_alone) / 0.8, 1.0 - rain_alone])
+    assert np.array_equal(base.flow_concentration(SCALAR, 0.0, runoffs[1:]), np.ones(3))
+    assert base.RAIN_ALONE_RATIO == runoff.ABSORPTION_LENGTH_FRACTION / runoff.RUNOFF_LENGTH_FRACTION
+
+
 @pytest.mark.parametrize(
     ("size", "scale", "advice"),
     [
@@ -320,7 +385,7 @@ def test_variation_zero_is_today_bit_for_bit(fresh_scene, weathered):
     def make(name, **extra):
         if weathered:
             return pw.make_weathered_material(
-                name, modes=("soiling", "wet"), **STONE, time=0.6, rain_map=0.4, edge_map=0.8, **extra
+                name, modes=("soiling", "wet"), **STONE, time=0.6, rain_map=0.4, edge_map=0.8, runoff_map=0.3, **extra
             )
         return pw.make_porous_material(name, **STONE, key_light=plane.sun, **extra)
 
@@ -331,23 +396,89 @@ def test_variation_zero_is_today_bit_for_bit(fresh_scene, weathered):
     assert np.array_equal(plane.render(today), plane.render(zero))
     varied = make("Varied", stone="LIMESTONE")
     assert not np.array_equal(plane.render(today), plane.render(varied))
+    assert (nodes.RIVULET_SPACING in varied.node_tree.nodes[GROUP_NODE].inputs) == weathered  # docs/model.md §8.8
+
+
+def to_millimetres(scene, plane):
+    """The same scene modelled in millimetres: the unit scale 0.001, the plane and the camera's
+    view 1000 times larger."""
+    scene.unit_settings.scale_length = 0.001
+    plane.plane.data.transform(np.diag([1000.0, 1000.0, 1000.0, 1.0]))
+    plane.plane.data.update()
+    camera = scene.camera
+    camera.data.ortho_scale *= 1000.0
+    camera.location.z *= 1000.0
+    camera.data.clip_end = camera.location.z * 2.0
 
 
 def test_millimetres_and_metres_give_the_same_stone(fresh_scene):
     plane = MaskedPlane(fresh_scene, size=16)
     fields = ("Porosity Field", "Colour Field")
     in_metres = probe(plane, pw.make_porous_material("M", **STONE, stone="SANDSTONE"), fields)
-    fresh_scene.unit_settings.scale_length = 0.001
-    plane.plane.data.transform(np.diag([1000.0, 1000.0, 1000.0, 1.0]))
-    plane.plane.data.update()
-    camera = fresh_scene.camera
-    camera.data.ortho_scale *= 1000.0
-    camera.location.z *= 1000.0
-    camera.data.clip_end = camera.location.z * 2.0
+    to_millimetres(fresh_scene, plane)
     in_millimetres = probe(plane, pw.make_porous_material("MM", **STONE, stone="SANDSTONE"), fields)
     assert np.abs(in_metres[..., :2]).max() > 0.1
     close = np.abs(in_metres - in_millimetres) < 1e-3
     assert close.mean() > 0.99, f"{(~close).sum()} values differ"  # a point on a grain's edge may flip
+
+
+def tilted_plane(scene, size, tilt=45.0):
+    """A MaskedPlane turned about X by ``tilt`` degrees: its rows of pixels are horizontal lines,
+    its fall line runs up the image."""
+    plane = MaskedPlane(scene, size=size)
+    plane.plane.rotation_euler.x = math.radians(tilt)
+    return plane
+
+
+def rivulet_material(name, plane, spacing=None):
+    material = pw.make_weathered_material(
+        name, modes=("soiling",), **STONE, stone="LIMESTONE", key_light=plane.sun, environment=None, **RIVULET_STATE
+    )
+    if spacing is not None:
+        material.node_tree.nodes[GROUP_NODE].inputs[nodes.RIVULET_SPACING].default_value = spacing
+    return material
+
+
+def test_rivulets_render_as_the_model_per_pixel(fresh_scene):
+    """An inclined plane under run-off renders as the model with the rivulets of its fields read
+    back (place, normal, z_p); without them the model is far off (docs/model.md §8.8)."""
+    plane, spacing = tilted_plane(fresh_scene, size=48), 0.4  # 5 rivulets across the 2 m plane
+    material = rivulet_material("Rivulets", plane, spacing)
+    got = read_back(plane, material)
+    got["z_p"] = stone_shifted(plane.render, material, "Porosity Field")
+    normal = plane.render(studio.normal_probe())[..., :3] * 2.0 - 1.0
+    place = studio.emission_probe("Place", lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) + 2.0)
+    x, y = np.moveaxis(plane.render(place)[..., :2] - 2.0, -1, 0)
+    across, horizontal = base.fall_line(SCALAR, x, y, normal[..., 0], normal[..., 1])
+    image = plane.render(material)
+    diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
+    glossy = glossy_lobe(plane, material)
+    towards = np.array(plane.sun.matrix_world.to_3x3().col[2])
+    n_dot_l, n_dot_v = normal @ towards, normal @ np.array(studio.VIEW_DIRECTION)
+
+    def expected(**rivulets):
+        kd_w, ks_w, _ = model.weathered_coefficients(
+            got["kd"], STONE["ks"], got["m"], got["alpha"], got["sp"], n_dot_l, n_dot_v, ("soiling",),
+            receptivity=got["r"], field=got["z_p"], variation=1.0, **RIVULET_STATE, **rivulets,
+        )  # fmt: skip
+        return kd_w * diffuse + ks_w[..., None] * glossy
+
+    covered = image[..., 3] > 0.999
+    assert_matches(image, expected(rivulets=(across, horizontal, spacing)), covered)
+    assert np.abs(image[..., :3] - expected())[covered].max() > 0.05  # the rivulets show
+
+
+def test_rivulets_in_millimetres_and_metres(fresh_scene):
+    """The inclined plane under run-off, at the stone's own rivulet spacing, renders the same picture
+    in millimetres (unit scale 0.001) as in metres."""
+    plane = tilted_plane(fresh_scene, size=24)
+    in_metres = plane.render(rivulet_material("M", plane))
+    to_millimetres(fresh_scene, plane)
+    in_millimetres = plane.render(rivulet_material("MM", plane))
+    covered = in_metres[..., 3] > 0.999
+    assert covered.mean() > 0.5 and in_metres[..., :3][covered].std() > 0.02
+    close = np.abs(in_metres - in_millimetres)[covered].max(axis=-1) < 1e-3
+    assert close.mean() > 0.99, f"{(~close).sum()} pixels differ"
 
 
 def test_stone_names_are_checked():

@@ -242,6 +242,7 @@ def weathered_coefficients(
     field: ArrayLike | None = None,
     variation: ArrayLike | None = None,
     fields: Mapping[str, tuple[ArrayLike, ...]] | None = None,
+    rivulets: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
     **state: ArrayLike,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k_d, k_s, k_water): the weights of the diffuse lobe, the glossy lobe (roughness m)
@@ -260,6 +261,9 @@ def weathered_coefficients(
     ``fields`` holds what a shader reads from the point's place and the modes' records name
     (``Mode.fields``): the biological mode's ``lichen_seeds``, (distance to the nearest seed in
     cells, that seed's value), read back from a render (docs/model.md §9.3); without it, no lichen.
+    ``rivulets`` = (u, h, spacing): the point's place across the fall line and the rivulet spacing in
+    metres, and the horizontal part h of its normal (``modes.base.fall_line``); with ``variation`` it
+    gathers the run-off map into rivulets (docs/model.md §8.8).  None: the run-off map as it is.
     """
     point = weathered_point(
         kd,
@@ -274,6 +278,7 @@ def weathered_coefficients(
         field=field,
         variation=variation,
         fields=fields,
+        rivulets=rivulets,
         **state,
     )
     water_w = point.water_w
@@ -294,6 +299,7 @@ def weathered_point(
     field: ArrayLike | None = None,
     variation: ArrayLike | None = None,
     fields: Mapping[str, tuple[ArrayLike, ...]] | None = None,
+    rivulets: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
     **state: ArrayLike,
 ) -> _modes.Point:
     """The weathered point of ``weathered_coefficients`` (same arguments, checked alike): its
@@ -320,4 +326,5 @@ def weathered_point(
         None if field is None else sanitize("field", field, -1.0, 1.0),
         None if variation is None else sanitize("variation", variation, 0.0, 1.0),
         {name: tuple(np.asarray(x, dtype=np.float64) for x in value) for name, value in (fields or {}).items()},
+        None if rivulets is None else tuple(np.asarray(x, dtype=np.float64) for x in rivulets),
     )

@@ -49,6 +49,11 @@ PLAUSIBLE_SIZE = (0.01, 200.0)
 #: The unit scales offered to bring an implausible size back, metres per scene unit.
 UNIT_SCALES = {"millimetres": 0.001, "centimetres": 0.01, "metres": 1.0, "kilometres": 1000.0}
 
+#: The rivulets' spacing across the fall line, metres (docs/model.md §8.8): water running down a
+#: wall gathers into rivulets a few capillary lengths wide (2.7 mm for water) that meander over a
+#: few centimetres; a stone whose streaks run closer or further apart sets its own.
+RIVULET_SPACING = 0.04
+
 
 @dataclass(frozen=True)
 class Texture:
@@ -92,6 +97,8 @@ class Stone:
     #: is the block's own draw b (each block from its own bed), in [0, 1]; 0: every block alike.
     block_porosity: float = 0.0
     block_colour: float = 0.0
+    #: The spacing of the rivulets the run-off gathers into on this stone, metres (docs/model.md §8.8).
+    rivulet_spacing: float = RIVULET_SPACING
 
     def __post_init__(self):
         for name in ("porosity", "colour"):
@@ -100,6 +107,8 @@ class Stone:
                 raise ValueError(f"a stone's {name} weights must add up to at most 1 (|z| <= 1), not {total}")
         if not all(0.0 <= share <= 1.0 for share in (self.block_porosity, self.block_colour)):
             raise ValueError("a stone's block shares must lie in [0, 1], so that |z| <= 1")
+        if not self.rivulet_spacing > 0.0:
+            raise ValueError("a stone's rivulet spacing must be a positive length in metres")
         if not all(0.0 <= a < 1.0 for a in (self.porosity, self.roughness, self.pore_depth, *map(abs, self.colour))):
             raise ValueError("a stone's relative amplitudes must lie in [0, 1), so no parameter changes sign")
 

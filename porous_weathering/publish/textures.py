@@ -80,8 +80,14 @@ def bake_material(slot, name: str) -> "bpy.types.Material":
     tree.animation_data_clear()  # the key light's drivers and any keyframed age
     old = tree.nodes[GROUP_NODE]
     group = tree.nodes.new("ShaderNodeGroup")
-    # a stone's structure feeds its receptivity to a receptive group (docs/model.md §8.3)
-    group.node_tree = nodes.weathered_group(slot.modes, nodes.AMBIENT, receptive=nodes.RECEPTIVITY in old.inputs)
+    # a stone's structure feeds its receptivity to a receptive group (docs/model.md §8.3), its
+    # rivulets to one whose run-off gathers into them (§8.8)
+    group.node_tree = nodes.weathered_group(
+        slot.modes,
+        nodes.AMBIENT,
+        receptive=nodes.RECEPTIVITY in old.inputs,
+        rivulets=nodes.RIVULET_SPACING in old.inputs,
+    )
     for socket in old.inputs:
         target = group.inputs.get(socket.name)
         if target is None:  # the key light's direction or position

@@ -25,8 +25,9 @@ from ..core.shader_math import Graph, dot, maximum, normalize
 #: weathered groups of docs/model.md §8 came new in build 7, which left every other group as it
 #: was; build 8 gave them the stone's uptake and deposit mix, §8.6–8.7; build 9 the uptake of
 #: the sheltered share, §8.7, every weathered group k_a below 1, §4.0, and the grains' cells
-#: drawn in 2D across the face, §8.1.)
-BUILD_VERSION = 9
+#: drawn in 2D across the face, §8.1; build 10 the run-off in rivulets of a stone's weathered
+#: groups that read a run-off map, §8.8.)
+BUILD_VERSION = 10
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -231,8 +232,9 @@ def weathering_inputs(modes):
     return inputs
 
 
-def weathered_group_name(modes, light_mode, receptive=False):
+def weathered_group_name(modes, light_mode, receptive=False, rivulets=False):
     receptive = " Receptive" if receptive else ""
+    receptive += " Rivulets" if rivulets else ""
     return f"PW Weathered {'+'.join(mode.title() for mode in modes)}{receptive} ({light_mode.title()})"
 
 
@@ -273,18 +275,31 @@ RECEPTIVITY_INPUT = {
         "The stone's variation v: how far its fills and covers follow its field, and the deposit its colour",
     ),
 }
+#: The input of a receptive group whose run-off gathers into rivulets (docs/model.md §8.8).
+RIVULET_SPACING = "Rivulet Spacing"
+RIVULET_INPUT = {
+    RIVULET_SPACING: (
+        "NodeSocketFloat",
+        stones.RIVULET_SPACING,
+        1e-6,
+        1e6,
+        "The stone's spacing of the run-off's rivulets across the fall line, metres",
+    ),
+}
 #: The stone node's outputs that feed a receptive weathered group, and the porous group.
 STONE_FEEDS = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", RECEPTIVITY, FIELD, VARIATION)
 
 
-def weathered_group(modes, light_mode, receptive=False):
+def weathered_group(modes, light_mode, receptive=False, rivulets=False):
     """The group for ``modes`` (only their nodes) in ``light_mode``; no modes: the porous group.
     ``receptive``: with the Receptivity input of a stone's structure (docs/model.md §8.3), which
-    only materials with a stone have."""
+    only materials with a stone have; ``rivulets`` (receptive groups whose modes read the run-off
+    map): with the run-off gathered into the stone's rivulets (docs/model.md §8.8)."""
     modes = weathering_modes.checked(modes)
     if not modes:
         return porous_group(light_mode)
-    name = weathered_group_name(modes, light_mode, receptive)
+    rivulets = rivulets and receptive and uses_runoff(modes)
+    name = weathered_group_name(modes, light_mode, receptive, rivulets)
     outputs = {**OUTPUTS, **(WATER_OUTPUT if weathering_modes.has_water_lobe(modes) else {})}
     return _build(
         name,
@@ -294,7 +309,8 @@ def weathered_group(modes, light_mode, receptive=False):
             **_light_input(light_mode),
             **weathering_inputs(modes),
             **(RECEPTIVITY_INPUT if receptive else {}),
-            **(METRES_PER_UNIT_INPUT if weathering_modes.fields_of(modes) else {}),
+            **(RIVULET_INPUT if rivulets else {}),
+            **(METRES_PER_UNIT_INPUT if weathering_modes.fields_of(modes) or rivulets else {}),
         },
         outputs,
         varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY, FIELD},
@@ -321,6 +337,7 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         inputs.get(FIELD),
         inputs.get(VARIATION),
         {name: FIELDS[name](graph, inputs) for name in weathering_modes.fields_of(modes)},
+        fall_line(graph, inputs) if RIVULET_SPACING in inputs else None,
     )
     bsdf = diffuse_plus_glossy(graph, kd_w, ks_w, roughness)
     results = {"BSDF": bsdf, "Diffuse Weight": kd_w, "Specular Weight": ks_w}
@@ -331,6 +348,22 @@ def weathered_bsdf(graph, inputs, light_mode, modes):
         results["BSDF"] = graph.node("ShaderNodeAddShader", [bsdf, water.outputs[0]]).outputs[0]
         results["Water Weight"] = water_w
     return results
+
+
+def uses_runoff(modes):
+    """Whether ``modes`` read the run-off map (docs/model.md §7.2)."""
+    return weathering_modes.base.RUNOFF_MAP in weathering_modes.inputs_of(modes)
+
+
+def fall_line(graph, inputs):
+    """(u, h, spacing) of docs/model.md §8.8 at the shading point: its place across the fall line in
+    metres (``point_in_metres``), the horizontal part of its normal and the rivulet spacing."""
+    geometry = graph.node("ShaderNodeNewGeometry", depth=0)
+    normal = graph.node("ShaderNodeSeparateXYZ", {"Vector": geometry.outputs["Normal"]})
+    place = graph.node("ShaderNodeSeparateXYZ", {"Vector": point_in_metres(graph, inputs)})
+    x, y = (graph.wrap(place.outputs[axis]) for axis in "XY")
+    normal_x, normal_y = (graph.wrap(normal.outputs[axis]) for axis in "XY")
+    return (*weathering_modes.base.fall_line(NODE_OPS, x, y, normal_x, normal_y), inputs[RIVULET_SPACING])
 
 
 def lichen_seeds(graph, inputs):

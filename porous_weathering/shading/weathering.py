@@ -84,13 +84,18 @@ def make_weathered_material(
         )
     new = compat.new_material(name)
     try:
-        group = nodes.weathered_group(modes, light_mode, receptive=structure is not None)
+        # the run-off gathers into the stone's rivulets where it has a map (docs/model.md §8.8)
+        runoff = "runoff_map" in state and ("runoff_map" in linked or state["runoff_map"] > 0)
+        rivulets = structure is not None and runoff
+        group = nodes.weathered_group(modes, light_mode, receptive=structure is not None, rivulets=rivulets)
         group_node = material._replace_with_group(new, group)
         graph = Graph(new.node_tree)
         for input_socket, value in values.items():
             group_node.inputs[input_socket].default_value = value
-        if "Metres Per Unit" in group_node.inputs:  # a mode reads the point's place (docs/model.md §9.3)
+        if "Metres Per Unit" in group_node.inputs:  # the point's place is read (docs/model.md §8.8, §9.3)
             group_node.inputs["Metres Per Unit"].default_value = material.metres_per_unit()
+        if nodes.RIVULET_SPACING in group_node.inputs:
+            group_node.inputs[nodes.RIVULET_SPACING].default_value = structure[0].rivulet_spacing
         for input_name, value in state.items():
             set_input(group_node, input_name, value)
         for mask, source in linked.items():

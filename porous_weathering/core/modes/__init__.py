@@ -147,6 +147,7 @@ def weathered_weights(
     field: Any = None,
     variation: Any = None,
     fields: Mapping[str, Any] | None = None,
+    rivulets: tuple[Any, Any, Any] | None = None,
 ) -> tuple[Any, Any, Any]:
     """(k_d, k_s, k_water or None): the weights of the diffuse lobe, the glossy lobe (roughness
     m) and the near-mirror water lobe of a point weathered by ``modes`` (already checked);
@@ -156,9 +157,12 @@ def weathered_weights(
     stone's porosity field z_p) and ``variation`` (its v) give the stone's uptake (docs/model.md §8.7):
     every fill and cover is taken at the point's place in the stone; and ``variation`` the deposit's
     mix with the stone's own colour (docs/model.md §8.6).  None: the model without them.  ``fields``
-    holds the per-point values the modes' records name in ``Mode.fields`` (docs/model.md §9.3)."""
+    holds the per-point values the modes' records name in ``Mode.fields`` (docs/model.md §9.3).
+    ``rivulets`` (the point's place across the fall line, the face's horizontal part h and the
+    rivulet spacing: docs/model.md §8.8) gathers the run-off map into the stone's rivulets, by its
+    ``variation``, where a feature above gathered the flow; None: the run-off as the map gives it."""
     point = weathered_point(
-        xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state, receptivity, field, variation, fields
+        xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state, receptivity, field, variation, fields, rivulets
     )
     return point.kd_w, point.ks_w, point.water_w
 
@@ -178,6 +182,7 @@ def weathered_point(
     field: Any = None,
     variation: Any = None,
     fields: Mapping[str, Any] | None = None,
+    rivulets: tuple[Any, Any, Any] | None = None,
 ) -> Point:
     """The weathered ``Point`` of ``weathered_weights``: its lobes' weights and the notes its
     layers leave (what the condition survey reads, docs/model.md §10)."""
@@ -200,6 +205,11 @@ def weathered_point(
         point.variation = xp.clip(variation, 0.0, 1.0)
         if field is not None:
             point.spread = base.uptake_spread(xp, field, point.variation)
+        if rivulets is not None and "runoff_map" in state:
+            runoff = state["runoff_map"]
+            strength = point.variation * base.flow_concentration(xp, state["rain_map"], runoff)
+            excess = base.rivulet_excess(xp, *rivulets, 0.0 if field is None else field, strength)
+            state["runoff_map"] = base.in_rivulets(xp, runoff, *excess)
     point.receptivity, point.fields = receptivity, dict(fields or {})
     layers = sorted((layer for name in modes for layer in _REGISTRY[name].layers), key=lambda layer: layer.stage)
     for layer in layers:

@@ -8,6 +8,7 @@ first (carbon, salt, water), then layers lying over the surface (the grey deposi
 black crust over everything).
 """
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -180,6 +181,95 @@ def water_reaching(xp, rain_map, runoff_map, runoff):
 def water_of(xp, state):
     """W (water_reaching) from a point's state: what the modes read where they read the rain."""
     return water_reaching(xp, state["rain_map"], state["runoff_map"], state["runoff"])
+
+
+# --- run-off in rivulets (docs/model.md §8.8) --------------------------------------------------
+
+#: k: a rivulet's profile across its cell is (1 - tau^2)^k, tau in [-1, 1] across its width (0 and
+#: flat at its edges, so the weight is smooth from one cell to the next); half its peak is within
+#: |tau| < 0.29.
+RIVULET_SHARPNESS = 8
+#: The profile's mean over its width, (1/2) integral (1 - tau^2)^k dtau = 4^k (k!)^2 / (2k + 1)!:
+#: the weight divides by it (and the width), so that it has mean 1 over every cell.
+RIVULET_MEAN = 4**RIVULET_SHARPNESS * math.factorial(RIVULET_SHARPNESS) ** 2 / math.factorial(2 * RIVULET_SHARPNESS + 1)
+#: How far a rivulet moves sideways, in spacings, per unit of the stone's porosity field z_p.
+RIVULET_WANDER = 0.25
+#: The horizontal part h = |n x z| of the normal (the sine of the face's slope) below which the fall
+#: line is undefined and the water not in rivulets (w = 1), and above which the rivulets are whole:
+#: the sines of 5 and 15 degrees.
+RIVULET_SLOPES = (math.sin(math.radians(5.0)), math.sin(math.radians(15.0)))
+#: The least and the most half-width a cell's rivulet draws, in spacings (its width at half its
+#: peak is 0.58 of the half-width: 2.3 to 9 mm at the stones' 4 cm).
+RIVULET_HALF_WIDTHS = (0.1, 0.4)
+#: l / L of the run-off map's default lengths (docs/model.md §7.1): rain E falling on an open
+#: slope alone gives at most Q = E l, so R = 1 - exp(-(l / L) E); run-off beyond that came from
+#: elsewhere, gathered by a feature above.
+RAIN_ALONE_RATIO = 5.0
+#: The modulus of the cells' hash, the permutation (34 x + 1) x mod 289 of Gustavson's simplex
+#: noise: whole numbers below 2^24 throughout, exact in a shader's single precision.
+HASH_MODULUS = 289.0
+
+
+def fall_line(xp, x, y, normal_x, normal_y):
+    """(u, h) at a point (docs/model.md §8.8): u its place across the fall line, along the horizontal
+    tangent n x z / |n x z| (in the unit of ``x`` and ``y``, the place's world X and Y), and h =
+    |n x z|, the horizontal part of the normal (0 on a level face, 1 on a vertical one)."""
+    horizontal = xp.power(normal_x * normal_x + normal_y * normal_y, 0.5)
+    return (x * normal_y - y * normal_x) / xp.maximum(horizontal, porous.EPSILON), horizontal
+
+
+def _modulo(xp, whole):
+    """A whole number modulo HASH_MODULUS, in [0, HASH_MODULUS) (the half keeps floor off a
+    rounding at the multiples)."""
+    return whole - HASH_MODULUS * xp.floor((whole + 0.5) / HASH_MODULUS)
+
+
+def _permute(xp, whole):
+    return _modulo(xp, (34.0 * whole + 1.0) * whole)
+
+
+def cell_draws(xp, cell):
+    """Three draws in [0, 1) of a whole-numbered cell (docs/model.md §8.8): its rivulet's place,
+    width and strength; the same cell, the same draws, in both backends."""
+    own = _permute(xp, _modulo(xp, cell))
+    return tuple(_permute(xp, own + float(j)) / HASH_MODULUS for j in range(3))
+
+
+def flow_concentration(xp, rain_map, runoff_map):
+    """The share of the run-off R at a point that came from elsewhere (docs/model.md §8.8): 0 where
+    the rain E falling there could give it alone (R <= 1 - exp(-RAIN_ALONE_RATIO E)), towards 1
+    where a feature above gathered it."""
+    rain_alone = 1.0 - xp.power(math.e, -RAIN_ALONE_RATIO * rain_map)
+    return xp.clip((runoff_map - rain_alone) / xp.maximum(runoff_map, porous.EPSILON), 0.0, 1.0)
+
+
+def rivulet_excess(xp, across, horizontal, spacing, field, strength):
+    """(w - 1, w_peak - 1): the rivulets' excess of run-off at a point over the map's, and that at
+    its cell's rivulet's peak (docs/model.md §8.8).  Across the fall line (``across``, ``spacing`` in
+    one unit), moved sideways by the stone's porosity ``field``, each cell of one spacing holds one
+    rivulet of its own place, width and share of the water (``cell_draws``; the share the square
+    root of a uniform draw: most rivulets strong, some faint), a peak of mean 1 over the cell;
+    ``strength`` (the variation times the flow's concentration) and the face's slope
+    (``horizontal`` between RIVULET_SLOPES) mix it towards 1.  Of mean 0 over every cell where
+    ``strength`` and ``field`` hold across it; w in [0, 17]; 0 exactly at strength 0."""
+    x = across / xp.maximum(spacing, porous.EPSILON) + RIVULET_WANDER * field
+    cell = xp.floor(x)
+    place, width, share = cell_draws(xp, cell)
+    half = RIVULET_HALF_WIDTHS[0] + (RIVULET_HALF_WIDTHS[1] - RIVULET_HALF_WIDTHS[0]) * width
+    offset = (x - cell - half) / half - (1.0 / half - 2.0) * place  # tau: the centre in [half, 1 - half]
+    peak = xp.power(xp.maximum(1.0 - offset * offset, 0.0), float(RIVULET_SHARPNESS))
+    height = 1.0 / (2.0 * RIVULET_MEAN * half)  # the profile's peak, for mean 1 over the cell
+    gathered = strength * xp.smoothstep(RIVULET_SLOPES[0], RIVULET_SLOPES[1], horizontal) * xp.power(share, 0.5)
+    return gathered * (peak * height - 1.0), gathered * (height - 1.0)
+
+
+def in_rivulets(xp, runoff_map, excess, peak_excess):
+    """The run-off map R gathered into rivulets (docs/model.md §8.8): R + (w - 1) min(R, (1 - R) /
+    (w_peak - 1)), w R where R is at most 1 / w_peak (all the cell's water in its rivulet), in
+    [0, 1] with the peak at 1 where the flow is heavier; linear in w at each R over a cell, so of
+    R's mean over every cell.  R itself, bit for bit, at w = 1."""
+    room = xp.minimum(runoff_map, (1.0 - runoff_map) / xp.maximum(peak_excess, porous.EPSILON))
+    return xp.multiply_add(excess, room, runoff_map)
 
 
 def fill_curve(xp, progress):
