@@ -109,8 +109,9 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.001, 0.3, 0.15),  # ooids, ~1 mm
-                Texture(WAVE, 0.12, 0.35, 0.45, detail=0.0, distortion=1.0, direction="Z"),  # bedding, dm
-                Texture(NOISE, 0.08, 0.35, 0.4, detail=1.0),  # patches, cm-dm
+                # bedding, dm: seen more than it weathers (a freestone, docs/model.md §8.1)
+                Texture(WAVE, 0.12, 0.1, 0.45, detail=0.0, distortion=1.0, direction="Z"),
+                Texture(NOISE, 0.08, 0.6, 0.4, detail=1.0),  # patches, cm-dm
             ),
             porosity=0.3,
             roughness=0.15,
