@@ -43,6 +43,21 @@ DEFAULT_SAMPLES = 64
 SKY_WIDTH = 1024
 
 
+def north_angle_option(unset: str):
+    """The ``--north-angle`` option, declared once for the commands that take it (the sun bake,
+    the survey); ``unset``: what it means when not given."""
+    return option(
+        None,
+        label="North Angle",
+        flag="--north-angle",
+        finite=True,
+        auto=0.0,
+        unit="degrees",
+        metavar="DEG",
+        tooltip=f"Angle from +Y to north, clockwise seen from above (0: +Y is north); {unset}",
+    )
+
+
 @dataclass(frozen=True)
 class SunSettings:
     """The site: its latitude (degrees, south negative) and where its north lies (degrees
@@ -60,16 +75,8 @@ class SunSettings:
         tooltip="Latitude of the site, south negative; unset (0 in the bake dialog): the scene's Sun Position "
         f"latitude, else {DEFAULT_LATITUDE:g}",
     )
-    north_angle: float | None = option(
-        None,
-        label="North Angle",
-        flag="--north-angle",
-        finite=True,
-        auto=0.0,
-        unit="degrees",
-        metavar="DEG",
-        tooltip="Angle from +Y to north, clockwise seen from above (0: +Y is north); unset (0 in the bake dialog): "
-        "the scene's Sun Position north offset, else 0",
+    north_angle: float | None = north_angle_option(
+        "unset (0 in the bake dialog): the scene's Sun Position north offset, else 0"
     )
     samples: int = option(
         DEFAULT_SAMPLES,

@@ -111,17 +111,9 @@ class SurveyOptions:
         metavar="NAME",
         tooltip="Name of the survey's files, NAME.survey.csv and NAME.survey.json (default: the .blend's name)",
     )
-    north_angle: float | None = option(
-        None,
-        label="North Angle",
-        flag="--north-angle",
-        finite=True,
-        auto=0.0,
-        unit="degrees",
-        metavar="DEG",
-        tooltip="Angle from +Y to north, clockwise seen from above (0: +Y is north), for the forecast's faces and the "
-        "drawings' views; unset (0 in the dialog): the north each object's sun map was baked with, else the scene's "
-        "Sun Position north offset, else 0",
+    north_angle: float | None = sun.north_angle_option(
+        "for the forecast's faces and the drawings' views; unset (0 in the dialog): the north each object's sun map "
+        "was baked with, else the scene's Sun Position north offset, else 0"
     )
     force: bool = option(
         False,
