@@ -19,6 +19,7 @@ class NumpyOps:
     maximum = staticmethod(np.maximum)
     minimum = staticmethod(np.minimum)
     power = staticmethod(np.power)
+    sqrt = staticmethod(np.sqrt)
     arccos = staticmethod(np.arccos)
     floor = staticmethod(np.floor)
 
@@ -53,6 +54,7 @@ class NodeOps:
     maximum = staticmethod(shader_math.maximum)
     minimum = staticmethod(shader_math.minimum)
     power = staticmethod(shader_math.power)
+    sqrt = staticmethod(shader_math.sqrt)
     arccos = staticmethod(shader_math.arccos)
     floor = staticmethod(shader_math.floor)
     smoothstep = staticmethod(shader_math.smoothstep)

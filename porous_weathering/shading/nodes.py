@@ -25,8 +25,9 @@ from ..core.shader_math import Graph, dot, maximum, normalize
 #: weathered groups of docs/model.md §8 came new in build 7, which left every other group as it
 #: was; build 8 gave them the stone's uptake and deposit mix, §8.6–8.7; build 9 the uptake of
 #: the sheltered share, §8.7, every weathered group k_a below 1, §4.0, and the grains' cells
-#: drawn in 2D across the face, §8.1.)
-BUILD_VERSION = 9
+#: drawn in 2D across the face, §8.1; build 10 the stone's maths in fewer nodes, §8.1–8.3, and
+#: every scalar clip in one Clamp node.)
+BUILD_VERSION = 10
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -564,18 +565,14 @@ def texture_value(graph, metres, texture):
 def place_across_the_face(graph, metres):
     """The point's place (u, v, 0) on the world's plane most nearly along its face, the plane
     across the face normal's largest axis: (x, y) on a face facing mostly along Z, (y, z) along
-    X, (z, x) along Y (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a
+    X, (x, z) along Y (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a
     3D Voronoi's neighbour cells, the same cell size, stretched at most sqrt(3) on a tilted face."""
     normal = graph.wrap(graph.node("ShaderNodeNewGeometry", depth=0).outputs["True Normal"])
     axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": graph.math("ABSOLUTE", normal)})
     nx, ny, nz = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
-    along_z = 1.0 - graph.math("GREATER_THAN", maximum(nx, ny), nz)  # one of the three weights is 1
-    along_x = (1.0 - along_z) * graph.math("GREATER_THAN", nx, ny)
-    along_y = 1.0 - along_z - along_x
-
-    def vector(x, y, z):
-        return graph.wrap(graph.node("ShaderNodeCombineXYZ", {"X": x, "Y": y, "Z": z}).outputs[0])
-
-    u = dot(vector(along_z, along_x, along_y), metres)
-    v = dot(vector(along_y, along_z, along_x), metres)
-    return vector(u, v, 0.0)
+    across_z = graph.math("GREATER_THAN", maximum(nx, ny), nz)  # 0 on a face along Z
+    along_x = graph.math("GREATER_THAN", nx, ny) * across_z
+    place = graph.node("ShaderNodeSeparateXYZ", {"Vector": metres})
+    x, y, z = (graph.wrap(place.outputs[axis]) for axis in "XYZ")
+    u, v = NODE_OPS.mix(along_x, x, y), NODE_OPS.mix(across_z, y, z)
+    return graph.wrap(graph.node("ShaderNodeCombineXYZ", {"X": u, "Y": v, "Z": 0.0}).outputs[0])
