@@ -31,6 +31,11 @@ class NumpyOps:
         return a * b + c
 
     @staticmethod
+    def to_nearer_end(x):
+        """min(x, 1 - x): the distance of x in [0, 1] to the nearer of 0 and 1."""
+        return np.minimum(x, 1.0 - x)
+
+    @staticmethod
     def mix(factor, a, b):
         """a (1 - factor) + b factor (the Mix node): exactly a at 0 and b at 1."""
         return a * (1.0 - factor) + b * factor
@@ -60,6 +65,7 @@ class NodeOps:
     smoothstep = staticmethod(shader_math.smoothstep)
     multiply_add = staticmethod(shader_math.multiply_add)
     mix = staticmethod(shader_math.mix)
+    to_nearer_end = staticmethod(shader_math.to_nearer_end)
 
     @staticmethod
     def channel(x):

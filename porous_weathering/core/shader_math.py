@@ -231,7 +231,8 @@ class Graph:
         key = ("CLAMP", *(_operand_key(value) for value in (x, low, high)))
         if key not in self._made:
             node = self.node("ShaderNodeClamp", {"Value": x, "Min": low, "Max": high}, clamp_type="MINMAX")
-            self._made[key] = Expr(self, node.outputs["Result"], SCALAR, bounds=(low, high))
+            bounds = (low, high) if not any(isinstance(x, Expr) for x in (low, high)) else None
+            self._made[key] = Expr(self, node.outputs["Result"], SCALAR, bounds=bounds)
         return self._made[key]
 
     def power_rgb(self, base, exponent):
@@ -334,6 +335,9 @@ class Expr:
 
 
 def maximum(a, b):
+    """max(a, b); no node when a is known to lie at or above the constant b (``Expr.bounds``)."""
+    if isinstance(a, Expr) and a.bounds is not None and not isinstance(b, Expr) and a.bounds[0] >= b:
+        return a
     return _graph_of(a, b).math("MAXIMUM", a, b) if _graph_of(a, b) else max(a, b)
 
 
@@ -411,6 +415,12 @@ def power(base, exponent):
 def sqrt(x):
     """The square root of a scalar: one Math node (Cycles takes 0 below 0)."""
     return x.graph.math("SQRT", x) if isinstance(x, Expr) else math.sqrt(x)
+
+
+def to_nearer_end(x):
+    """min(x, 1 - x) of x in [0, 1], its distance to the nearer end: one Ping-Pong node (x
+    reflected at every multiple of 1/2), where MIN and 1 - x take two."""
+    return x.graph.math("PINGPONG", x, 0.5) if isinstance(x, Expr) else min(x, 1.0 - x)
 
 
 def dot(a, b):

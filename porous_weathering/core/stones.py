@@ -132,6 +132,11 @@ def fields(xp, stone, values):
     return z_p, z_c
 
 
+#: The ranges a point's alpha, s_p and m are kept in (docs/model.md §1), so that what reads the
+#: stone's values may take them as they are (the receptive weathered group: docs/model.md §8.3).
+POROSITY_RANGE, PORE_DEPTH_RANGE, ROUGHNESS_RANGE = (0.0, 1.0), (0.0, math.inf), (0.0, 1.5)
+
+
 def around(xp, mean, z, amplitude, variation):
     """mean (1 + amplitude x variation x z): a parameter moved by a field (mean: ``mean``), as one
     multiply-add of z by the constant mean x amplitude x variation."""
@@ -146,9 +151,9 @@ def point_parameters(xp, stone, kd, alpha, sp, m, z_p, z_c, variation):
     moves along the stone's colour direction by a Mix of k_d and k_d (1 + colour) by z_c: k_d
     itself at z_c = 0."""
     variation = xp.clip(variation, 0.0, 1.0)
-    alpha = xp.clip(around(xp, alpha, z_p, stone.porosity, variation), 0.0, 1.0)
-    sp = xp.maximum(around(xp, sp, z_p, stone.pore_depth, variation), 0.0)
-    m = xp.clip(around(xp, m, z_p, stone.roughness, variation), 0.0, 1.5)
+    alpha = xp.clip(around(xp, alpha, z_p, stone.porosity, variation), *POROSITY_RANGE)
+    sp = xp.maximum(around(xp, sp, z_p, stone.pore_depth, variation), PORE_DEPTH_RANGE[0])
+    m = xp.clip(around(xp, m, z_p, stone.roughness, variation), *ROUGHNESS_RANGE)
     kd = xp.mix(xp.channel(z_c * variation), kd, kd * tuple(1.0 + c for c in stone.colour))
     return kd, alpha, sp, m
 
@@ -250,9 +255,16 @@ def mortar_receptivity(xp, mortar_alpha, mortar_m, alpha, m):
 
 
 def jointed(xp, joint, stone_values, mortar_values):
-    """Each of ``stone_values`` (k_d, alpha, s_p, m, r) mixed with the mortar's by the joint's share."""
+    """Each of ``stone_values`` (k_d, alpha, s_p, m, r) mixed with the mortar's by the joint's share,
+    the mortar's alpha, s_p and m kept in their ranges as the stone's are (so are their mixes)."""
     kd, *scalars = stone_values
-    mortar_kd, *mortar_scalars = mortar_values
+    mortar_kd, alpha, sp, m, r = mortar_values
+    mortar_scalars = (
+        xp.clip(alpha, *POROSITY_RANGE),
+        xp.maximum(sp, PORE_DEPTH_RANGE[0]),
+        xp.clip(m, *ROUGHNESS_RANGE),
+        r,
+    )
     return (
         xp.mix(xp.channel(joint), kd, mortar_kd),
         *(xp.mix(joint, a, b) for a, b in zip(scalars, mortar_scalars)),

@@ -124,10 +124,11 @@ def _reuse(name, inputs, outputs):
     return None
 
 
-def _build(name, body, inputs, outputs=OUTPUTS, varying=()):
+def _build(name, body, inputs, outputs=OUTPUTS, varying=(), bounded=None):
     """The shader node group ``name`` with ``inputs`` and ``outputs`` whose maths ``body`` writes,
     the one in the file if it is that group (``_reuse``), else a new one; the inputs named in
-    ``varying`` change from point to point (masks)."""
+    ``varying`` change from point to point (masks); those in ``bounded`` (name -> (low, high))
+    are taken to lie in that range, and no clamp to it is built."""
     reused = _reuse(name, inputs, outputs)
     if reused is not None:
         return reused
@@ -148,6 +149,8 @@ def _build(name, body, inputs, outputs=OUTPUTS, varying=()):
         for socket in group_in.outputs
         if socket.name
     }
+    for socket_name, bounds in (bounded or {}).items():
+        values[socket_name].bounds = bounds
     results = body(graph, values)
     group_out = graph.node("NodeGroupOutput", results)
     group_out.is_active_output = True
@@ -276,6 +279,14 @@ RECEPTIVITY_INPUT = {
 }
 #: The stone node's outputs that feed a receptive weathered group, and the porous group.
 STONE_FEEDS = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", RECEPTIVITY, FIELD, VARIATION)
+#: The ranges the stone group keeps its outputs in (``stones.point_parameters``, a square root):
+#: a receptive weathered group, fed by it, takes them as they are (docs/model.md §8.3).
+STONE_RANGES = {
+    "Porosity": stones.POROSITY_RANGE,
+    "Pore Depth Ratio": stones.PORE_DEPTH_RANGE,
+    "Roughness": stones.ROUGHNESS_RANGE,
+    RECEPTIVITY: (0.0, math.inf),
+}
 
 
 def weathered_group(modes, light_mode, receptive=False):
@@ -299,6 +310,7 @@ def weathered_group(modes, light_mode, receptive=False):
         },
         outputs,
         varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY, FIELD},
+        bounded=STONE_RANGES if receptive else None,
     )
 
 
