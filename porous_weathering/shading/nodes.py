@@ -575,16 +575,16 @@ def texture_value(graph, metres, texture):
 
 
 def place_across_the_face(graph, metres):
-    """The point's place (u, v, 0) on the world's plane most nearly along its face, the plane
-    across the face normal's largest axis: (x, y) on a face facing mostly along Z, (y, z) along
-    X, (x, z) along Y (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a
-    3D Voronoi's neighbour cells, the same cell size, stretched at most sqrt(3) on a tilted face."""
+    """The point's place on the world's plane most nearly along its face, the plane across the
+    face normal's largest axis, as the (x, y) of a vector: (x, y) itself on a face facing mostly
+    along Z, (z, y) along X, (x, z) along Y, each a mirror image of the place swapping two axes
+    (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a 3D Voronoi's
+    neighbour cells, the same cell size, stretched at most sqrt(3) on a tilted face."""
     normal = graph.wrap(graph.node("ShaderNodeNewGeometry", depth=0).outputs["True Normal"])
     axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": graph.math("ABSOLUTE", normal)})
     nx, ny, nz = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
     across_z = graph.math("GREATER_THAN", maximum(nx, ny), nz)  # 0 on a face along Z
-    along_x = graph.math("GREATER_THAN", nx, ny) * across_z
-    place = graph.node("ShaderNodeSeparateXYZ", {"Vector": metres})
-    x, y, z = (graph.wrap(place.outputs[axis]) for axis in "XYZ")
-    u, v = NODE_OPS.mix(along_x, x, y), NODE_OPS.mix(across_z, y, z)
-    return graph.wrap(graph.node("ShaderNodeCombineXYZ", {"X": u, "Y": v, "Z": 0.0}).outputs[0])
+    along_x = graph.math("GREATER_THAN", nx, ny)
+    x_swapped_with_z = graph.math("REFLECT", metres, (1.0, 0.0, -1.0))
+    y_swapped_with_z = graph.math("REFLECT", metres, (0.0, 1.0, -1.0))
+    return NODE_OPS.mix(across_z, metres, NODE_OPS.mix(along_x, y_swapped_with_z, x_swapped_with_z))
