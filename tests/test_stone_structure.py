@@ -120,7 +120,8 @@ def test_parameters_are_clamped():
 def test_fields_are_zero_mean_and_bounded():
     stone = PRESETS["SANDSTONE"].structure
     rng = np.random.default_rng(0)
-    values = [rng.uniform(-0.5, 1.5, 1000) for _ in stone.textures]
+    # a texture's value lies in [0, 1]; a clipped layer's is taken beyond, where its clip acts
+    values = [rng.uniform(*((0.0, 1.0) if stones.unclipped(t.kind) else (-0.5, 1.5)), 1000) for t in stone.textures]
     mirrored = [1.0 - v for v in values]  # a texture's values mirrored about 1/2
     z_p, z_c = stones.fields(XP, stone, values)
     z_p2, z_c2 = stones.fields(XP, stone, mirrored)

@@ -19,6 +19,7 @@ class NumpyOps:
     maximum = staticmethod(np.maximum)
     minimum = staticmethod(np.minimum)
     power = staticmethod(np.power)
+    sqrt = staticmethod(np.sqrt)
     arccos = staticmethod(np.arccos)
     floor = staticmethod(np.floor)
 
@@ -28,6 +29,11 @@ class NumpyOps:
     @staticmethod
     def multiply_add(a, b, c):
         return a * b + c
+
+    @staticmethod
+    def to_nearer_end(x):
+        """min(x, 1 - x): the distance of x in [0, 1] to the nearer of 0 and 1."""
+        return np.minimum(x, 1.0 - x)
 
     @staticmethod
     def mix(factor, a, b):
@@ -53,11 +59,13 @@ class NodeOps:
     maximum = staticmethod(shader_math.maximum)
     minimum = staticmethod(shader_math.minimum)
     power = staticmethod(shader_math.power)
+    sqrt = staticmethod(shader_math.sqrt)
     arccos = staticmethod(shader_math.arccos)
     floor = staticmethod(shader_math.floor)
     smoothstep = staticmethod(shader_math.smoothstep)
     multiply_add = staticmethod(shader_math.multiply_add)
     mix = staticmethod(shader_math.mix)
+    to_nearer_end = staticmethod(shader_math.to_nearer_end)
 
     @staticmethod
     def channel(x):

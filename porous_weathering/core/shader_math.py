@@ -226,6 +226,15 @@ class Graph:
         node = self.node("ShaderNodeMath", [x, 0.0], operation="MAXIMUM", use_clamp=True)
         return Expr(self, node.outputs["Value"], SCALAR, bounds=(0.0, 1.0))
 
+    def clamp(self, x, low, high):
+        """A scalar x clamped to [low, high] by one Clamp node, where MIN and MAX take two."""
+        key = ("CLAMP", *(_operand_key(value) for value in (x, low, high)))
+        if key not in self._made:
+            node = self.node("ShaderNodeClamp", {"Value": x, "Min": low, "Max": high}, clamp_type="MINMAX")
+            bounds = (low, high) if not any(isinstance(x, Expr) for x in (low, high)) else None
+            self._made[key] = Expr(self, node.outputs["Result"], SCALAR, bounds=bounds)
+        return self._made[key]
+
     def power_rgb(self, base, exponent):
         """base^exponent per colour channel (Gamma node; 0^x stays 0, as for 0 < x)."""
         node = self.node("ShaderNodeGamma", {"Color": base, "Gamma": exponent})
@@ -240,6 +249,7 @@ _FOLD = {
     "MAXIMUM": max,
     "MINIMUM": min,
     "POWER": lambda a, b: a**b,
+    "SQRT": lambda a: math.sqrt(max(a, 0.0)),
     "ARCCOSINE": lambda a: math.acos(min(max(a, -1.0), 1.0)),
     "FLOOR": math.floor,
 }
@@ -325,6 +335,9 @@ class Expr:
 
 
 def maximum(a, b):
+    """max(a, b); no node when a is known to lie at or above the constant b (``Expr.bounds``)."""
+    if isinstance(a, Expr) and a.bounds is not None and not isinstance(b, Expr) and a.bounds[0] >= b:
+        return a
     return _graph_of(a, b).math("MAXIMUM", a, b) if _graph_of(a, b) else max(a, b)
 
 
@@ -333,14 +346,16 @@ def minimum(a, b):
 
 
 def clip(x, low, high):
-    """x clamped to [low, high]: one node for a scalar into [0, 1], else two (MIN/MAX, which
-    also replace NaN by the bound in Cycles, as the Math node's clamp does)."""
+    """x clamped to [low, high]: one node for a scalar (a Math node's own clamp into [0, 1], else a
+    Clamp node), two for a colour (MIN/MAX); each replaces NaN by a bound in Cycles."""
     if not isinstance(x, Expr):
         return min(max(x, low), high)
     if x.bounds is not None and low <= x.bounds[0] and x.bounds[1] <= high:
         return x
     if x.kind == SCALAR and (low, high) == (0.0, 1.0):
         return x.graph.clamp01(x)
+    if x.kind == SCALAR:
+        return x.graph.clamp(x, low, high)
     clipped = minimum(maximum(x, low), high)
     return Expr(x.graph, clipped.socket, clipped.kind, bounds=(low, high))
 
@@ -395,6 +410,17 @@ def power(base, exponent):
     if isinstance(base, Expr) and base.kind == VECTOR:
         return graph.power_rgb(base, exponent)
     return graph.math("POWER", base, exponent)
+
+
+def sqrt(x):
+    """The square root of a scalar: one Math node (Cycles takes 0 below 0)."""
+    return x.graph.math("SQRT", x) if isinstance(x, Expr) else math.sqrt(x)
+
+
+def to_nearer_end(x):
+    """min(x, 1 - x) of x in [0, 1], its distance to the nearer end: one Ping-Pong node (x
+    reflected at every multiple of 1/2), where MIN and 1 - x take two."""
+    return x.graph.math("PINGPONG", x, 0.5) if isinstance(x, Expr) else min(x, 1.0 - x)
 
 
 def dot(a, b):

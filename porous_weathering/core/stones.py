@@ -39,10 +39,6 @@ GAIN = {NOISE: 2.5, WAVE: 2.0, CELLS: 2.0}
 #: bands' direction is 2 pi / 20 / scale.  So a period P metres needs the scale 2 pi / (20 P).
 WAVE_PHASE_PER_UNIT = 20.0
 
-#: The receptivity's exponents: r = (alpha / alpha_mean)^a (m / m_mean)^b (docs/model.md §8.3).
-RECEPTIVITY_POROSITY_EXPONENT = 0.5
-RECEPTIVITY_ROUGHNESS_EXPONENT = 0.5
-
 #: The object sizes (largest bounding-box side, metres) a stone object plausibly has: a pebble to
 #: a cathedral.  Outside, the scene's unit is probably wrong (docs/model.md §8.4).
 PLAUSIBLE_SIZE = (0.01, 200.0)
@@ -115,25 +111,45 @@ class Stone:
 
 def texture_value(xp, value, kind):
     """z of one layer: its texture's value v (mean 1/2) spread into [-1, 1], symmetric about 0."""
-    return xp.clip(GAIN[kind] * (value - 0.5), -1.0, 1.0)
+    z = xp.multiply_add(value, GAIN[kind], -0.5 * GAIN[kind])
+    return z if unclipped(kind) else xp.clip(z, -1.0, 1.0)
+
+
+def unclipped(kind):
+    """Whether a layer of ``kind`` needs no clip: a texture's value lies in [0, 1], so at a gain
+    of at most 2 its z already lies in [-1, 1] (cells and bands; the noise's 2.5 needs the clip)."""
+    return GAIN[kind] <= 2.0
 
 
 def fields(xp, stone, values):
     """(z_p, z_c): the porosity and colour fields, sums of the layers' z (``values``: each
-    layer's texture value, in the order of ``stone.textures``) by their weights; in [-1, 1]."""
-    z_p, z_c = 0.0, 0.0
+    layer's texture value, in the order of ``stone.textures``) by their weights; in [-1, 1].
+    An unclipped layer's z is gain (v - 1/2), affine in v: each field takes it as (weight x
+    gain) v, the constants -weight x gain / 2 of all such layers summed once at the start, so
+    that a layer costs one multiply-add per field (docs/model.md §8.1)."""
+    z_p = sum(-0.5 * GAIN[t.kind] * t.porosity for t in stone.textures if unclipped(t.kind))
+    z_c = sum(-0.5 * GAIN[t.kind] * t.colour for t in stone.textures if unclipped(t.kind))
     for texture, value in zip(stone.textures, values):
-        z = texture_value(xp, value, texture.kind)
+        if unclipped(texture.kind):
+            z, scale = value, GAIN[texture.kind]
+        else:
+            z, scale = texture_value(xp, value, texture.kind), 1.0
         if texture.porosity:
-            z_p = xp.multiply_add(z, texture.porosity, z_p)
+            z_p = xp.multiply_add(z, texture.porosity * scale, z_p)
         if texture.colour:
-            z_c = xp.multiply_add(z, texture.colour, z_c)
+            z_c = xp.multiply_add(z, texture.colour * scale, z_c)
     return z_p, z_c
 
 
-def relative(xp, z, amplitude, variation):
-    """1 + amplitude x variation x z: the factor by which a field moves a parameter (mean 1)."""
-    return xp.multiply_add(z, amplitude * variation, 1.0)
+#: The ranges a point's alpha, s_p and m are kept in (docs/model.md §1), so that what reads the
+#: stone's values may take them as they are (the receptive weathered group: docs/model.md §8.3).
+POROSITY_RANGE, PORE_DEPTH_RANGE, ROUGHNESS_RANGE = (0.0, 1.0), (0.0, math.inf), (0.0, 1.5)
+
+
+def around(xp, mean, z, amplitude, variation):
+    """mean (1 + amplitude x variation x z): a parameter moved by a field (mean: ``mean``), as one
+    multiply-add of z by the constant mean x amplitude x variation."""
+    return xp.multiply_add(z, mean * (amplitude * variation), mean)
 
 
 def point_parameters(xp, stone, kd, alpha, sp, m, z_p, z_c, variation):
@@ -144,27 +160,27 @@ def point_parameters(xp, stone, kd, alpha, sp, m, z_p, z_c, variation):
     moves along the stone's colour direction by a Mix of k_d and k_d (1 + colour) by z_c: k_d
     itself at z_c = 0."""
     variation = xp.clip(variation, 0.0, 1.0)
-    alpha = xp.clip(alpha * relative(xp, z_p, stone.porosity, variation), 0.0, 1.0)
-    sp = xp.maximum(sp * relative(xp, z_p, stone.pore_depth, variation), 0.0)
-    m = xp.clip(m * relative(xp, z_p, stone.roughness, variation), 0.0, 1.5)
+    alpha = xp.clip(around(xp, alpha, z_p, stone.porosity, variation), *POROSITY_RANGE)
+    sp = xp.maximum(around(xp, sp, z_p, stone.pore_depth, variation), PORE_DEPTH_RANGE[0])
+    m = xp.clip(around(xp, m, z_p, stone.roughness, variation), *ROUGHNESS_RANGE)
     kd = xp.mix(xp.channel(z_c * variation), kd, kd * tuple(1.0 + c for c in stone.colour))
     return kd, alpha, sp, m
 
 
 def receptivity(xp, stone, z_p, variation):
-    """r = (alpha / alpha_mean)^a (m / m_mean)^b (docs/model.md §8.3): how much faster than the
-    stone's mean a point's pores fill; 1 where the stone is at its mean."""
+    """r = ((alpha / alpha_mean)(m / m_mean))^(1/2) (docs/model.md §8.3): how much faster than the
+    stone's mean a point's pores fill; 1 where the stone is at its mean.  The ratios are 1 + a z
+    and 1 + b z (a, b the porosity's and roughness's amplitudes times v), and their product
+    1 + z (a + b + a b z) takes two multiply-adds."""
     variation = xp.clip(variation, 0.0, 1.0)
-    return receptivity_of(
-        xp, relative(xp, z_p, stone.porosity, variation), relative(xp, z_p, stone.roughness, variation)
-    )
+    a, b = stone.porosity * variation, stone.roughness * variation
+    return receptivity_of(xp, xp.multiply_add(z_p, xp.multiply_add(z_p, a * b, a + b), 1.0))
 
 
-def receptivity_of(xp, porosity_ratio, roughness_ratio):
-    """r from alpha / alpha_mean and m / m_mean (docs/model.md §8.3)."""
-    porous_part = xp.power(porosity_ratio, RECEPTIVITY_POROSITY_EXPONENT)
-    rough_part = xp.power(roughness_ratio, RECEPTIVITY_ROUGHNESS_EXPONENT)
-    return porous_part * rough_part
+def receptivity_of(xp, ratios):
+    """r from the product of alpha / alpha_mean and m / m_mean (docs/model.md §8.3): their
+    geometric mean."""
+    return xp.sqrt(ratios)
 
 
 # --- masonry (docs/model.md §8.5) -----------------------------------------------------------
@@ -244,13 +260,20 @@ LEAST_MEAN = 1e-3
 def mortar_receptivity(xp, mortar_alpha, mortar_m, alpha, m):
     """The mortar's r relative to the stone's means alpha and m (docs/model.md §8.3, §8.5): a
     mortar more porous and rougher than the stone takes up soot, water and salt faster."""
-    return receptivity_of(xp, mortar_alpha / xp.maximum(alpha, LEAST_MEAN), mortar_m / xp.maximum(m, LEAST_MEAN))
+    return receptivity_of(xp, mortar_alpha / xp.maximum(alpha, LEAST_MEAN) * (mortar_m / xp.maximum(m, LEAST_MEAN)))
 
 
 def jointed(xp, joint, stone_values, mortar_values):
-    """Each of ``stone_values`` (k_d, alpha, s_p, m, r) mixed with the mortar's by the joint's share."""
+    """Each of ``stone_values`` (k_d, alpha, s_p, m, r) mixed with the mortar's by the joint's share,
+    the mortar's alpha, s_p and m kept in their ranges as the stone's are (so are their mixes)."""
     kd, *scalars = stone_values
-    mortar_kd, *mortar_scalars = mortar_values
+    mortar_kd, alpha, sp, m, r = mortar_values
+    mortar_scalars = (
+        xp.clip(alpha, *POROSITY_RANGE),
+        xp.maximum(sp, PORE_DEPTH_RANGE[0]),
+        xp.clip(m, *ROUGHNESS_RANGE),
+        r,
+    )
     return (
         xp.mix(xp.channel(joint), kd, mortar_kd),
         *(xp.mix(joint, a, b) for a, b in zip(scalars, mortar_scalars)),

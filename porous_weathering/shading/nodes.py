@@ -26,7 +26,8 @@ from ..core.shader_math import Graph, dot, maximum, normalize
 #: was; build 8 gave them the stone's uptake and deposit mix, §8.6–8.7; build 9 the uptake of
 #: the sheltered share, §8.7, every weathered group k_a below 1, §4.0, and the grains' cells
 #: drawn in 2D across the face, §8.1; build 10 the run-off in rivulets of a stone's weathered
-#: groups that read a run-off map, §8.8.)
+#: groups that read a run-off map, §8.8, the stone's maths in fewer nodes, §8.1–8.3, and every
+#: scalar clip in one Clamp node.)
 BUILD_VERSION = 10
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
@@ -124,10 +125,11 @@ def _reuse(name, inputs, outputs):
     return None
 
 
-def _build(name, body, inputs, outputs=OUTPUTS, varying=()):
+def _build(name, body, inputs, outputs=OUTPUTS, varying=(), bounded=None):
     """The shader node group ``name`` with ``inputs`` and ``outputs`` whose maths ``body`` writes,
     the one in the file if it is that group (``_reuse``), else a new one; the inputs named in
-    ``varying`` change from point to point (masks)."""
+    ``varying`` change from point to point (masks); those in ``bounded`` (name -> (low, high))
+    are taken to lie in that range, and no clamp to it is built."""
     reused = _reuse(name, inputs, outputs)
     if reused is not None:
         return reused
@@ -148,6 +150,8 @@ def _build(name, body, inputs, outputs=OUTPUTS, varying=()):
         for socket in group_in.outputs
         if socket.name
     }
+    for socket_name, bounds in (bounded or {}).items():
+        values[socket_name].bounds = bounds
     results = body(graph, values)
     group_out = graph.node("NodeGroupOutput", results)
     group_out.is_active_output = True
@@ -288,6 +292,14 @@ RIVULET_INPUT = {
 }
 #: The stone node's outputs that feed a receptive weathered group, and the porous group.
 STONE_FEEDS = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", RECEPTIVITY, FIELD, VARIATION)
+#: The ranges the stone group keeps its outputs in (``stones.point_parameters``, a square root):
+#: a receptive weathered group, fed by it, takes them as they are (docs/model.md §8.3).
+STONE_RANGES = {
+    "Porosity": stones.POROSITY_RANGE,
+    "Pore Depth Ratio": stones.PORE_DEPTH_RANGE,
+    "Roughness": stones.ROUGHNESS_RANGE,
+    RECEPTIVITY: (0.0, math.inf),
+}
 
 
 def weathered_group(modes, light_mode, receptive=False, rivulets=False):
@@ -314,6 +326,7 @@ def weathered_group(modes, light_mode, receptive=False, rivulets=False):
         },
         outputs,
         varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY, FIELD},
+        bounded=STONE_RANGES if receptive else None,
     )
 
 
@@ -595,20 +608,16 @@ def texture_value(graph, metres, texture):
 
 
 def place_across_the_face(graph, metres):
-    """The point's place (u, v, 0) on the world's plane most nearly along its face, the plane
-    across the face normal's largest axis: (x, y) on a face facing mostly along Z, (y, z) along
-    X, (z, x) along Y (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a
-    3D Voronoi's neighbour cells, the same cell size, stretched at most sqrt(3) on a tilted face."""
+    """The point's place on the world's plane most nearly along its face, the plane across the
+    face normal's largest axis, as the (x, y) of a vector: (x, y) itself on a face facing mostly
+    along Z, (z, y) along X, (x, z) along Y, each a mirror image of the place swapping two axes
+    (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a 3D Voronoi's
+    neighbour cells, the same cell size, stretched at most sqrt(3) on a tilted face."""
     normal = graph.wrap(graph.node("ShaderNodeNewGeometry", depth=0).outputs["True Normal"])
     axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": graph.math("ABSOLUTE", normal)})
     nx, ny, nz = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
-    along_z = 1.0 - graph.math("GREATER_THAN", maximum(nx, ny), nz)  # one of the three weights is 1
-    along_x = (1.0 - along_z) * graph.math("GREATER_THAN", nx, ny)
-    along_y = 1.0 - along_z - along_x
-
-    def vector(x, y, z):
-        return graph.wrap(graph.node("ShaderNodeCombineXYZ", {"X": x, "Y": y, "Z": z}).outputs[0])
-
-    u = dot(vector(along_z, along_x, along_y), metres)
-    v = dot(vector(along_y, along_z, along_x), metres)
-    return vector(u, v, 0.0)
+    across_z = graph.math("GREATER_THAN", maximum(nx, ny), nz)  # 0 on a face along Z
+    along_x = graph.math("GREATER_THAN", nx, ny)
+    x_swapped_with_z = graph.math("REFLECT", metres, (1.0, 0.0, -1.0))
+    y_swapped_with_z = graph.math("REFLECT", metres, (0.0, 1.0, -1.0))
+    return NODE_OPS.mix(across_z, metres, NODE_OPS.mix(along_x, y_swapped_with_z, x_swapped_with_z))

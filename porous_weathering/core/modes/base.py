@@ -293,7 +293,7 @@ UPTAKE_GAIN = 4.0
 def uptake_spread(xp, field, variation):
     """s = v clamp(G z_p, -1, 1) (docs/model.md §8.7): the stone's uptake field at variation v, odd
     in z_p, so of mean 0 over a field symmetric about 0."""
-    return variation * xp.clip(field * UPTAKE_GAIN, -1.0, 1.0)
+    return xp.clip(field * (UPTAKE_GAIN * variation), -variation, variation)  # v >= 0: one clamp
 
 
 def local_share(xp, share, spread):
@@ -304,7 +304,7 @@ def local_share(xp, share, spread):
     (``spread`` None) and at s = 0."""
     if spread is None:
         return share
-    return xp.multiply_add(spread, xp.minimum(share, 1.0 - share), share)
+    return xp.multiply_add(spread, xp.to_nearer_end(share), share)
 
 
 def pore_fill(xp, mask, time, level, width):
