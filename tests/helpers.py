@@ -17,6 +17,9 @@
   and the white GGX lobe of its per-point roughness (docs/model.md §8).
 - ``run_cli``: ``python -m porous_weathering COMMAND ...`` in a subprocess, as users run it.
 - ``corner_values``: a baked colour attribute's value at every corner of a mesh.
+- ``counted_probes``: the number of probes each of the map bakes' probe bakes makes.
+- ``cycles_corner_bake``: Cycles' own bake of a direct-light sky at every face corner, the
+  reference the map bakes' probes are checked against.
 - ``registered_toys``: the toy mode and map of tests/toys/ added as a mode and a map are (the
   ``toys`` fixture).
 - ``bust_mesh``, ``add_bust``: the scan-like bust of sample_blends/scan_generator.py, in
@@ -37,7 +40,7 @@ import numpy as np
 
 import porous_weathering as pw
 import porous_weathering.maps as maps_package
-from porous_weathering.blender import mesh_arrays, render
+from porous_weathering.blender import mesh_arrays, render, scratch_scene
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model
 from porous_weathering.core import modes as weathering_modes
@@ -45,6 +48,7 @@ from porous_weathering.core.backends import NumpyOps
 from porous_weathering.core.modes import base as mode_base
 from porous_weathering.core.modes import soiling, wet
 from porous_weathering.maps import registry as maps
+from porous_weathering.maps import sky_bake
 from porous_weathering.samples import studio
 from porous_weathering.shading import nodes, weathering
 from scripts import load_script
@@ -400,6 +404,35 @@ def corner_values(obj, name):
     if attribute.domain == "POINT":
         values = values[mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)]
     return values
+
+
+def counted_probes(monkeypatch):
+    """A list that gets the number of points of every ``sky_bake._bake_probes`` call from now on."""
+    probes = []
+    original = sky_bake._bake_probes
+
+    def counted(copy, points, *rest):
+        probes.append(len(points))
+        return original(copy, points, *rest)
+
+    monkeypatch.setattr(sky_bake, "_bake_probes", counted)
+    return probes
+
+
+def cycles_corner_bake(obj, sky, occluders=()):
+    """``sky`` (a ``sky_bake.Sky``) baked by Cycles itself at every face corner of ``obj``
+    (target VERTEX_COLORS, each corner at its vertex on its face), in the maps' bake scene:
+    float32 (len(mesh.loops),)."""
+    with sky_bake._bake_scene(obj, occluders, sky) as copy:
+        attribute = copy.data.color_attributes.new("PW Corner Reference", "FLOAT_COLOR", "CORNER")
+        copy.data.color_attributes.active_color = attribute
+        with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
+            bpy.ops.object.bake(
+                type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS", margin=0, use_clear=True
+            )
+        colours = np.empty(len(attribute.data) * 4, dtype=np.float32)
+        attribute.data.foreach_get("color", colours)
+    return colours[0::4].copy()
 
 
 # --- a toy mode and a toy map: one module each is enough (the ``toys`` fixture) ---------------

@@ -8,8 +8,10 @@ import bmesh
 import numpy as np
 import pytest
 
+from helpers import cycles_corner_bake
+from porous_weathering.blender import mesh_arrays
 from porous_weathering.common import imageio
-from porous_weathering.maps import bake, lightmap, rain
+from porous_weathering.maps import bake, lightmap, rain, sky_bake
 from porous_weathering.samples import studio
 
 SIZE = 32
@@ -126,6 +128,45 @@ def test_wind_moves_exposure_to_the_windward_face(fresh_scene):
     assert windy[(1, 0, 0)] == pytest.approx(math.cos(math.radians(45)), abs=0.03)
     assert windy[(-1, 0, 0)] < 0.01
     assert windy[(0, 0, 1)] == pytest.approx(math.cos(math.radians(45)), abs=0.03)
+
+
+def test_a_flat_shaded_mesh_is_baked_once_per_vertex_and_face_plane_as_cycles_bakes_its_corners(
+    fresh_scene, monkeypatch
+):
+    """A box cut into quads, flat-shaded, half under a slab, in a slanting rain: the corners that
+    share a vertex and a face plane share E, baked once per such pair (about a third of the
+    corners), and E is Cycles' own per-corner bake's within its noise, shelter included."""
+    mesh = bpy.data.meshes.new("Box")
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=1.0)
+    bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=3, use_grid_fill=True)
+    bm.to_mesh(mesh)
+    bm.free()
+    box = studio.link(fresh_scene, bpy.data.objects.new("Box", mesh))
+    slab = grid(fresh_scene, "Slab", 0.8, 2, 1, location=(0.5, 0, 0.8))
+    rain_settings = settings(cone=35.0, wind_tilt=30.0, wind_azimuth=90.0, samples=128)
+    probes = []
+    original = sky_bake._bake_probes
+    monkeypatch.setattr(
+        sky_bake,
+        "_bake_probes",
+        lambda copy, points, *rest: probes.append(len(points)) or original(copy, points, *rest),
+    )
+    values = rain.bake_rain_corners(box, rain_settings, occluders=[slab])
+    face_of = np.repeat(np.arange(len(mesh.polygons)), [p.loop_total for p in mesh.polygons])
+    normals = np.array([p.normal for p in mesh.polygons])[face_of]
+    pairs = np.column_stack([mesh_arrays.attribute(mesh, ".corner_vert", np.int32), np.round(normals).astype(int)])
+    _, pair = np.unique(pairs, axis=0, return_inverse=True)
+    pair = pair.ravel()
+    assert len(probes) == 1 and probes[0] <= pair.max() + 1 < 0.4 * len(values)
+    for index in range(pair.max() + 1):
+        assert np.ptp(values[pair == index]) == 0.0
+    per_corner = cycles_corner_bake(box, rain.sky(rain_settings), occluders=[slab])
+    sheltered = (normals[:, 2] > 0.5) & (corner_positions(box)[:, 0] > 0.15)
+    assert values[sheltered].mean() < 0.5 * values[normals[:, 2] > 0.5].max()  # the slab shelters
+    assert abs(values.mean() - per_corner.mean()) < 5e-3
+    assert abs(values[sheltered].mean() - per_corner[sheltered].mean()) < 0.02
+    assert np.sqrt(np.mean((values - per_corner) ** 2)) < 0.02  # 128 samples' noise, twice
 
 
 def test_bake_leaves_the_scene_as_it_was(fresh_scene):

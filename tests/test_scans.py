@@ -14,6 +14,7 @@ import bpy
 import numpy as np
 import pytest
 
+from helpers import counted_probes, cycles_corner_bake
 from porous_weathering.blender import mesh_arrays, scratch_scene
 from porous_weathering.maps import bake, edges, lightmap, rain, scan_checks, sky_bake
 
@@ -120,17 +121,16 @@ def test_the_operator_reports_the_warnings(bust, registered, tmp_path, capfd):
 # --- the rain of a smooth scan, per vertex ---------------------------------------------------------
 
 
-def test_a_smooth_scan_is_baked_per_vertex_as_its_corners_would_be(bust, monkeypatch):
+def test_a_smooth_scan_is_baked_per_vertex_as_its_corners_would_be(bust):
     """Corners at a vertex share its position and normal: baked once per vertex (six times fewer
-    samples), E is the per-corner bake's, within its noise."""
+    samples), E is Cycles' own per-corner bake's, within its noise."""
     obj = bust()
     assert sky_bake.smooth_at_vertices(obj)
     settings = rain.RainSettings(samples=16)
     per_vertex = rain.bake_rain_corners(obj, settings)
     corner_vertex = np.array([loop.vertex_index for loop in obj.data.loops])
     assert np.array_equal(per_vertex, per_vertex[np.unique(corner_vertex, return_index=True)[1]][corner_vertex])
-    monkeypatch.setattr(sky_bake, "smooth_at_vertices", lambda obj: False)
-    per_corner = rain.bake_rain_corners(obj, settings)
+    per_corner = cycles_corner_bake(obj, rain.sky(settings))
     assert abs(per_vertex.mean() - per_corner.mean()) < 2e-3  # no bias
     assert np.corrcoef(per_vertex, per_corner)[0, 1] > 0.99
     assert np.sqrt(np.mean((per_vertex - per_corner) ** 2)) < 0.02  # 16 samples' noise
@@ -150,13 +150,7 @@ def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_co
     and E = 0, exactly what Cycles gives it baked per corner; the others agree within noise."""
     obj = bust()
     settings = rain.RainSettings(samples=16, cone=10.0, wind_tilt=30.0)
-    probes = []
-    original = sky_bake._bake_probes
-    monkeypatch.setattr(
-        sky_bake,
-        "_bake_probes",
-        lambda copy, points, *rest: probes.append(len(points)) or original(copy, points, *rest),
-    )
+    probes = counted_probes(monkeypatch)
     through_vertices = rain.bake_rain_corners(obj, settings)
     normals = np.empty(len(obj.data.vertices) * 3, dtype=np.float32)
     obj.data.vertex_normals.foreach_get("vector", normals)
@@ -164,8 +158,7 @@ def test_vertices_turned_from_the_whole_rain_cone_get_no_probe_and_the_zero_a_co
         mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)
     ]
     assert 0.2 < turned_away.mean() < 0.6 and probes[0] < 0.8 * len(obj.data.vertices)
-    monkeypatch.setattr(sky_bake, "smooth_at_vertices", lambda obj: False)
-    per_corner = rain.bake_rain_corners(obj, settings)
+    per_corner = cycles_corner_bake(obj, rain.sky(settings))
     assert np.all(per_corner[turned_away] == 0.0) and np.all(through_vertices[turned_away] == 0.0)
     assert abs(through_vertices.mean() - per_corner.mean()) < 5e-3
 

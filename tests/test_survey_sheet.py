@@ -346,7 +346,8 @@ def test_without_matplotlib_a_sheet_fails_in_one_line(tmp_path, monkeypatch):
 
 def test_one_frame_draws_every_age_as_the_sheet_made_alone_would(tmp_path):
     """The survey makes an object's views once and draws each age's patterns on them: the same
-    SVG as a sheet that makes its own views; a frame of other views is refused in one line."""
+    SVG as a sheet that makes its own views; a frame of other views, another north or another
+    scale is refused in one line, before any file."""
     triangles, names = split_north_face(*box((4.0, 3.0, 2.5)))
     frame = sheet.make_frame(triangles, (0.0, 1.0), tuple(sheet.ELEVATIONS), sheet.PRINT_SCALE)
     for age, pattern_of in enumerate(({"north-west": 0, "east": 1}, {"north-east": 2, "top": 4, "south": 3})):
@@ -362,3 +363,9 @@ def test_one_frame_draws_every_age_as_the_sheet_made_alone_would(tmp_path):
     other = data_for(triangles, names, {}, views=("north", "plan"))
     with pytest.raises(ValueError, match="^the frame has the views"):
         sheet.write_sheets(other, tmp_path / "other.svg", tmp_path / "other.png", frame)
+    turned = dataclasses.replace(alone, north=(1.0, 0.0))
+    with pytest.raises(ValueError, match=r"^the frame was made for north \(0.0, 1.0\) at 1:50, the sheet asks north"):
+        sheet.write_sheets(turned, tmp_path / "turned.svg", tmp_path / "turned.png", frame)
+    with pytest.raises(ValueError, match="^the frame was made for .* the sheet asks .* at 1:100$"):
+        sheet.write_sheets(dataclasses.replace(alone, scale=100), tmp_path / "s.svg", tmp_path / "s.png", frame)
+    assert not {"other.svg", "turned.svg", "s.svg", "turned.png"} & set(os.listdir(tmp_path))

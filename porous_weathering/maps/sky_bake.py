@@ -25,7 +25,7 @@ from . import edges, lightmap
 
 #: The most samples Cycles takes (its own upper bound, 2^24).
 MAX_SAMPLES = 1 << 24
-#: A vertex probe's size and height above the surface, in mean edge lengths (``_bake_vertices``).
+#: A probe's size and height above the surface, in mean edge lengths (``_bake_points``).
 PROBE_SIZE = 0.01
 #: An image of a mesh smooth at its vertices is baked at the vertices and drawn across the
 #: triangles when it has at most this many texels (resolution²) per vertex: about 20 the bake
@@ -97,7 +97,7 @@ def _bake_image(copy, uv_map, size, margin, label):
         texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
         texture.image = image
         copy.active_material.node_tree.nodes.active = texture
-        _bake(copy, target="IMAGE_TEXTURES", margin=margin)
+        _bake(copy, margin=margin)
         pixels = np.empty(size * size * 4, dtype=np.float32)
         image.pixels.foreach_get(pixels)
         return pixels.reshape(size, size, 4)[::-1, :, 0].copy()  # Blender stores the bottom row first
@@ -105,20 +105,19 @@ def _bake_image(copy, uv_map, size, margin, label):
 
 def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.Object] = ()) -> np.ndarray:
     """The map of ``sky`` at every face corner of ``obj``'s mesh, as a float32 array
-    (len(mesh.loops),).
+    (len(mesh.loops),), read on the mesh the render makes of it (its modifiers must keep its
+    corners, as attribute maps need).
 
-    A mesh smooth at every vertex (smooth-shaded, no sharp edges, no custom normals, no
-    modifiers) is baked once per vertex (``_bake_vertices``): the corners at a vertex share its
-    position and normal, so they share the map, and a vertex has about six corners."""
-    with _bake_scene(obj, occluders, sky) as copy:
-        if smooth_at_vertices(obj):
-            return _bake_vertices(obj, copy, sky)[mesh_arrays.attribute(obj.data, ".corner_vert", np.int32)]
-        attribute = copy.data.color_attributes.new(f"PW {sky.label} Bake", "FLOAT_COLOR", "CORNER")
-        copy.data.color_attributes.active_color = attribute
-        _bake(copy, target="VERTEX_COLORS", margin=0)
-        colours = np.empty(len(attribute.data) * 4, dtype=np.float32)
-        attribute.data.foreach_get("color", colours)
-    return colours[0::4].copy()
+    Corners that share a vertex and a normal share the map (the same point, lit alike), so the
+    mesh is baked once per such pair (``_bake_points``): once per vertex where it is smooth,
+    about six corners, and once per vertex and face plane where it is flat, four corners of a
+    wall cut into quads."""
+    with scratch_scene.rendered(obj) as seen, _bake_scene(obj, occluders, sky) as copy:
+        if len(seen.mesh.loops) != len(obj.data.loops):
+            raise ValueError(f"object '{obj.name}': its modifiers change its face corners; bake it to an image")
+        placed = _Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
+        points, normals, corner_point = placed.corner_points(smooth=smooth_at_vertices(obj))
+        return _bake_points(placed, copy, sky, points, normals)[corner_point]
 
 
 def smooth_at_vertices(obj: bpy.types.Object) -> bool:
@@ -133,36 +132,75 @@ def smooth_at_vertices(obj: bpy.types.Object) -> bool:
     return bool(smooth.all()) and not sharp
 
 
-def _bake_vertices(target, copy, sky):
-    """The map at every vertex of ``target`` (V,), baked in ``copy``'s scene: one texel per vertex
-    of an image, each on a probe, a tiny triangle across the vertex's normal (a hundredth of an
-    edge across, a hundredth of an edge above the surface, so that the mesh does not shade it
-    where its faces meet), whose UVs hold that texel's centre alone.
+@dataclass(frozen=True)
+class _Placed:
+    """A mesh placed in the bake's scene by ``matrix`` (4 x 4): its copy's there."""
 
-    A vertex whose normal the sky cannot reach (``Sky.reaches``: a bust's underside under the
+    mesh: bpy.types.Mesh
+    matrix: np.ndarray
+
+    def positions(self) -> np.ndarray:
+        """The vertices (V, 3)."""
+        return mesh_arrays.attribute(self.mesh, "position", np.float32, 3) @ self.matrix[:3, :3].T + self.matrix[:3, 3]
+
+    def normals(self, normals: np.ndarray) -> np.ndarray:
+        """Unit ``normals`` (N, 3) of the mesh, as the bake's scene and its shading see them."""
+        normals = normals.reshape(-1, 3) @ np.linalg.inv(self.matrix[:3, :3])  # by the inverse transpose
+        if mesh_arrays.is_inside_out(self.mesh):  # baked from outside, as renders shade it (see _bake)
+            normals = -normals
+        return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
+
+    def mean_edge(self) -> float:
+        ends = self.positions()[mesh_arrays.attribute(self.mesh, ".edge_verts", np.int32, 2)]
+        return float(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1).mean())
+
+    def vertex_points(self) -> tuple[np.ndarray, np.ndarray]:
+        """The vertices (V, 3) and their unit normals (V, 3)."""
+        normals = np.empty(len(self.mesh.vertices) * 3, dtype=np.float32)
+        self.mesh.vertex_normals.foreach_get("vector", normals)
+        return self.positions(), self.normals(normals)
+
+    def corner_points(self, smooth: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The distinct (vertex, normal) pairs of the corners, as points (P, 3) and unit normals
+        (P, 3), and each corner's pair (C,); ``smooth``: every corner has its vertex's normal."""
+        corner_vertex = mesh_arrays.attribute(self.mesh, ".corner_vert", np.int32)
+        if smooth:
+            return *self.vertex_points(), corner_vertex
+        normals = np.empty(len(corner_vertex) * 3, dtype=np.float32)
+        self.mesh.corner_normals.foreach_get("vector", normals)
+        normals = normals.reshape(-1, 3)
+        # a face plane's corners hold its normal to float32 rounding: 2^-16 tells planes apart
+        keys = np.column_stack([corner_vertex, np.round(normals * 65536.0).astype(np.int64)])
+        _, first, corner_point = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+        return self.positions()[corner_vertex[first]], self.normals(normals[first]), corner_point.ravel()
+
+
+def _bake_vertices(target, copy, sky):
+    """The map at every vertex of ``target`` (V,), baked in ``copy``'s scene (``_bake_points``)."""
+    placed = _Placed(target.data, np.array(copy.matrix_world, dtype=np.float64))
+    return _bake_points(placed, copy, sky, *placed.vertex_points())
+
+
+def _bake_points(placed, copy, sky, points, normals):
+    """The map at ``points`` (P, 3) of the ``placed`` surface, facing unit ``normals`` (P, 3),
+    baked in ``copy``'s scene: one texel per point of an image, each on a probe, a tiny triangle
+    across the normal (a hundredth of a mean edge across, a hundredth of an edge above the
+    surface, so that the mesh does not shade it where its faces meet), whose UVs hold that
+    texel's centre alone.
+
+    A point whose normal the sky cannot reach (``Sky.reaches``: a bust's underside under the
     rain) gets no probe: the map is exactly 0 there, as the bake would give it (the diffuse
     surface takes no light from behind)."""
-    mesh = target.data
-    matrix = unit_placing(target) @ np.array(target.matrix_world, dtype=np.float64)  # into the bake's scene
-    points = mesh_arrays.attribute(mesh, "position", np.float32, 3) @ matrix[:3, :3].T + matrix[:3, 3]
-    normals = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
-    mesh.vertex_normals.foreach_get("vector", normals)
-    normals = normals.reshape(-1, 3) @ np.linalg.inv(matrix[:3, :3])  # normals go by the inverse transpose
-    if mesh_arrays.is_inside_out(mesh):  # baked from outside, as renders shade it (see _bake)
-        normals = -normals
-    ends = points[mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2)]
-    step = PROBE_SIZE * np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1).mean()
-    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
     lit = sky.reaches(normals)
     exposure = np.zeros(len(points), dtype=np.float32)
     if lit.any():
-        exposure[lit] = _bake_probes(copy, points[lit], normals[lit], step)
+        exposure[lit] = _bake_probes(copy, points[lit], normals[lit], PROBE_SIZE * placed.mean_edge())
     return exposure
 
 
 def _bake_probes(copy, points, normals, step):
     """The map baked at ``points`` (P, 3) on probes across their unit ``normals``, ``step`` in size
-    (``_bake_vertices``), in ``copy``'s scene."""
+    (``_bake_points``), in ``copy``'s scene."""
     count = len(points)
     u, v = np.moveaxis(lightmap.tangent_bases(normals), 1, 0)
     centre = points + step * normals
@@ -197,7 +235,7 @@ def _bake_probes(copy, points, normals, step):
         return pixels[0::4][:count].copy()  # texel (column i % side, row i // side from the bottom)
 
 
-def _bake(copy, target, margin):
+def _bake(copy, margin):
     # Renders shade an inside-out mesh from outside (a back face turns its normal to the
     # viewer); the bake weighs the light by the stored normal, so it bakes the copy turned right
     # way out, then turns it back, which restores the order of its face corners.
@@ -208,7 +246,7 @@ def _bake(copy, target, margin):
         bpy.ops.object.bake(
             type="DIFFUSE",
             pass_filter={"DIRECT"},
-            target=target,
+            target="IMAGE_TEXTURES",
             margin=margin,
             margin_type="EXTEND",
             use_clear=True,

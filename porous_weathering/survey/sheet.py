@@ -107,12 +107,15 @@ class SheetData:
 class Frame:
     """The views of a sheet as its geometry alone, the same at every age: the scale they are drawn
     at, each view's lower-left corner on paper (mm), and each view rasterised (``ViewFrame``).
-    ``count``: the triangles it was made of (a sheet's ``pattern_index`` has one per triangle)."""
+    ``count``: the triangles it was made of (a sheet's ``pattern_index`` has one per triangle);
+    ``north`` and ``asked``: the north and the scale it was made for (a sheet's own)."""
 
     scale: int
     corners: tuple[tuple[float, float], ...]
     views: tuple["ViewFrame", ...]
     count: int
+    north: tuple[float, float]
+    asked: int
 
 
 @dataclasses.dataclass(frozen=True)
@@ -188,7 +191,7 @@ def make_frame(triangles_m: np.ndarray, north: tuple[float, float], views: tuple
     fitted, corners = fit_scale([hi - lo for *_, lo, hi in projections], scale)
     cell_m = PIXEL_MM * fitted / 1000.0
     rasters = tuple(rasterise(name, uv, depth, index, lo, hi, cell_m) for name, uv, depth, index, lo, hi in projections)
-    return Frame(fitted, tuple(corners), rasters, len(triangles_m))
+    return Frame(fitted, tuple(corners), rasters, len(triangles_m), tuple(map(float, north)), scale)
 
 
 def check_triangles(triangles_m: np.ndarray) -> None:
@@ -209,6 +212,11 @@ def check(data: SheetData, svg_path: str, png_path: str, frame: Frame | None = N
         count = len(data.triangles_m)
     elif tuple(view.name for view in frame.views) != tuple(data.views):
         raise ValueError(f"the frame has the views {[view.name for view in frame.views]}, the sheet {list(data.views)}")
+    elif (frame.north, frame.asked) != (tuple(map(float, data.north)), data.scale):
+        raise ValueError(
+            f"the frame was made for north {frame.north} at 1:{frame.asked}, the sheet asks north "
+            f"{tuple(data.north)} at 1:{data.scale}"
+        )
     else:
         count = frame.count
     index = np.asarray(data.pattern_index)
