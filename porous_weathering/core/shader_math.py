@@ -438,7 +438,7 @@ def front(mask, advance, lag, width):
     the advance changes from point to point (a stone's local age), the same t = (mask - e) / width
     is taken as (mask + advance) against the constant edges 1 + lag and 1 + lag + width: one
     multiply-add of the advance (a varying age times a constant level) per point, where the two
-    edges would cost three nodes."""
+    edges would cost three nodes (docs/model.md §8.9)."""
     graph = _graph_of(mask, advance, lag, width)
     if graph is None or not graph.varies(advance):
         edge = 1.0 - advance + lag

@@ -293,7 +293,8 @@ RIVULET_INPUT = {
 }
 #: The stone node's outputs that feed a receptive weathered group, and the porous group.
 STONE_FEEDS = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", RECEPTIVITY, FIELD, VARIATION)
-#: The stone's values at the point, which a receptive weathered group reads from the stone group.
+#: The stone's values at the point, which a receptive weathered group reads from the stone group and
+#: takes as varying, so that the §4 maths reading them takes its per-point forms (docs/model.md §8.9).
 STONE_POINT_VALUES = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness")
 #: The ranges the stone group keeps its outputs in (``stones.point_parameters``, a square root):
 #: a receptive weathered group, fed by it, takes them as they are (docs/model.md §8.3).

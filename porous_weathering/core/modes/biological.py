@@ -150,8 +150,8 @@ def dampness(xp, state):
 def decay(xp, years, receptivity, time_constant):
     """1 - exp(-r years / time_constant): how far a growth of that time constant has come at the
     point's local years r x ``years`` (docs/model.md §8.3), written exp(-years / time_constant)^r: where
-    the years are the material's and r the stone's, a shader folds the inner power, and the two
-    growths share no multiply but cost one power each per point."""
+    the years are the material's and r the stone's, a shader folds the inner power, and each growth
+    costs one power per point (docs/model.md §8.9)."""
     return 1.0 - xp.power(xp.power(math.e, years * (-1.0 / time_constant)), receptivity)
 
 
