@@ -8,7 +8,7 @@ import bpy
 import pytest
 
 from porous_weathering.core import modes
-from porous_weathering.core.shader_math import Graph, dot, multiply_add
+from porous_weathering.core.shader_math import Graph, dot, front, minimum, mix, multiply_add, power
 from porous_weathering.shading import nodes
 
 
@@ -60,6 +60,26 @@ def test_constant_terms_join_a_multiply_adds_addend():
     # a constant times a multiply-add, plus a constant, is one multiply-add of the same x
     scaled = multiply_add(c, multiply_add(x, -1.0, 3.7), d)
     assert scaled.affine[0] is x and not graph.varies(scaled.affine[1]) and not graph.varies(scaled.affine[2])
+
+
+def test_per_point_forms_take_one_node_each():
+    """The forms the stone's per-point values take (docs/model.md §8.9): each a node per point."""
+    graph, x, c, d, k = scratch_graph()
+    operation = lambda expr: expr.socket.node.operation  # noqa: E731
+    assert (x * c / 2.0).product[0] is x  # (x c) / 2 is x (c / 2)
+    assert operation(1.0 - (c - x)) == "ADD"  # x + (1 - c)
+    kept = 1.0 - minimum(c - x, 0.5)  # max(x + (1 - c), 0.5)
+    assert operation(kept) == "MAXIMUM" and kept.socket.node.inputs[0].links[0].from_socket.node.operation == "ADD"
+    assert operation(c * (1.0 - x)) == "MULTIPLY_ADD"  # c - c x
+    normal = graph.wrap(graph.node("ShaderNodeNewGeometry").outputs["Normal"])
+    assert operation(1.0 - 0.5 * normal) == "MULTIPLY_ADD"  # a colour's 1 - s v
+    swapped = mix(1.0 - x, 0.2, 0.7)  # the Mix by x of 0.7 and 0.2
+    assert swapped.socket.node.inputs[0].links[0].from_socket == x.socket
+    assert power(x, 1.0) is x
+    edge = front(x * d, x * c, 0.0, d).socket.node  # the mask moved by the advance, the edges constant
+    assert edge.inputs["Value"].links[0].from_socket.node.operation == "MULTIPLY_ADD"
+    edges = [link.from_socket for name in ("From Min", "From Max") for link in edge.inputs[name].links]
+    assert edge.inputs["From Min"].default_value == 1.0 and not any(graph.varies(socket) for socket in edges)
 
 
 def test_a_mask_input_varies_from_point_to_point():

@@ -32,7 +32,7 @@ from helpers import (
     stone_shifted,
 )
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
-from porous_weathering.core import model, stones
+from porous_weathering.core import model, porous, stones
 from porous_weathering.core.backends import NumpyOps
 from porous_weathering.core.modes import base, soiling
 from porous_weathering.maps import runoff
@@ -115,6 +115,17 @@ def test_parameters_are_clamped():
     stone = PRESETS["LIMESTONE"].structure
     kd, alpha, sp, m = stones.point_parameters(XP, stone, KD, 0.95, 2.0, 1.45, np.array([1.0]), np.array([1.0]), 5.0)
     assert alpha[0] == 1.0 and m[0] == 1.5  # variation clamped to 1, alpha to 1, m to 1.5
+
+
+def test_the_least_roughness_keeps_k_above_its_floor():
+    """m >= LEAST_ROUGHNESS gives k = 2 m^2 / pi >= K_FLOOR, in single precision too, so the receptive
+    group needs no floor of k per point (docs/model.md §8.2); the stone's m clamps to it."""
+    least = np.float32(stones.LEAST_ROUGHNESS)
+    assert least * least * np.float32(2.0 / np.pi) >= porous.K_FLOOR
+    assert 2.0 * stones.LEAST_ROUGHNESS**2 / np.pi >= porous.K_FLOOR
+    stone, z = PRESETS["LIMESTONE"].structure, np.ones(1)
+    _, _, _, m = stones.point_parameters(XP, stone, KD, 0.2, 2.0, 0.0, z, z, 1.0)
+    assert m[0] == stones.LEAST_ROUGHNESS
 
 
 def test_fields_are_zero_mean_and_bounded():

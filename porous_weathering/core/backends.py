@@ -46,6 +46,13 @@ class NumpyOps:
         t = np.clip((x - edge0) / (edge1 - edge0), 0.0, 1.0)
         return t * t * (3.0 - 2.0 * t)
 
+    @classmethod
+    def front(cls, mask, advance, lag, width):
+        """A front over ``mask`` (docs/model.md §4): 0 below the edge 1 - advance + lag, 1 above the
+        edge plus ``width``, smooth between."""
+        edge = 1.0 - advance + lag
+        return cls.smoothstep(edge, edge + width, mask)
+
     def channel(self, x):
         """A per-point scalar made to broadcast against a colour."""
         return np.asarray(x)[..., None] if self.colour else x
@@ -63,6 +70,7 @@ class NodeOps:
     arccos = staticmethod(shader_math.arccos)
     floor = staticmethod(shader_math.floor)
     smoothstep = staticmethod(shader_math.smoothstep)
+    front = staticmethod(shader_math.front)
     multiply_add = staticmethod(shader_math.multiply_add)
     mix = staticmethod(shader_math.mix)
     to_nearer_end = staticmethod(shader_math.to_nearer_end)

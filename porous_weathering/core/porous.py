@@ -24,9 +24,10 @@ AMBIENT_THETA_I = math.pi / 4
 
 
 def valid_albedo(xp, kd, ks):
-    """(k_d, k_s) clamped to [0, 1], k_d also to 1 - k_s so that k_a >= 0 (docs/model.md §1)."""
+    """(k_d, k_s) clamped to [0, 1], k_d also to 1 - k_s so that k_a >= 0 (docs/model.md §1): k_d
+    to [0, 1 - k_s], which lies in [0, 1]."""
     ks = xp.clip(ks, 0.0, 1.0)
-    kd = xp.minimum(xp.clip(kd, 0.0, 1.0), 1.0 - xp.channel(ks))
+    kd = xp.minimum(xp.maximum(kd, 0.0), 1.0 - xp.channel(ks))
     return kd, ks
 
 

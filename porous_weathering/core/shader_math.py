@@ -95,6 +95,8 @@ class Graph:
             return self._scale(*operands)
         if operation == "MULTIPLY" and not vector:
             return self._product(*operands)
+        if operation == "DIVIDE" and _is_number(operands[1]) and getattr(operands[0], "product", None) is not None:
+            return self._product(operands[0], 1.0 / operands[1])  # (x c) / d is x (c / d): one node per point
         key = (operation, *(_operand_key(x) for x in operands))
         if key not in self._made:
             kind = SCALAR if operation in _VECTOR_TO_SCALAR or not vector else VECTOR
@@ -104,6 +106,8 @@ class Graph:
             made = Expr(self, node.outputs[output], kind)
             if operation == "SUBTRACT" and operands[0] == 1.0:
                 made.complement = operands[1]
+            if operation in ("SUBTRACT", "MINIMUM"):
+                made.operands = operands
             if operation == "MULTIPLY_ADD" and not vector and self.varies(made) and not self.varies(operands[2]):
                 made.affine = operands
             self._made[key] = made
@@ -129,6 +133,10 @@ class Graph:
         x, y = operands
         if _is_zero(y):
             return x
+        if operation == "SUBTRACT" and not isinstance(x, Expr) and self.varies(y):
+            subtracted = self._subtracted_from_constant(x, y)
+            if subtracted is not None:
+                return subtracted
         if operation == "ADD" and _is_zero(x):
             return y
         if operation == "ADD" and getattr(y, "affine", None) is not None and self._constant(x):
@@ -137,6 +145,27 @@ class Graph:
             return None
         a, b, c = x.affine
         return self.math("MULTIPLY_ADD", a, b, self.math(operation, c, y))
+
+    def _subtracted_from_constant(self, c, y):
+        """c - y for a constant number c and a varying y in fewer per-point nodes, or None: c - s v
+        (s a number) is one multiply-add, c - (e - v) is v + (c - e), and c - min(u, d) is
+        max(c - u, c - d) (e, d constants), so that such a chain costs one node per point."""
+        if y.scaled is not None and _is_number(y.scaled[1]):
+            return self.math("MULTIPLY_ADD", y.scaled[0], -y.scaled[1], c)
+        operation = self._operation_of(y)
+        if operation is None:
+            return None
+        a, b = y.operands
+        if operation == "SUBTRACT" and not self.varies(a) and self.varies(b):
+            return self.math("ADD", b, self.math("SUBTRACT", c, a))
+        if operation == "MINIMUM" and self.varies(a) and not isinstance(b, Expr):
+            return maximum(self.math("SUBTRACT", c, a), c - b)
+        return None
+
+    def _operation_of(self, y):
+        """The operation of ``y`` if it is a Subtract or Minimum node (its ``operands`` kept), else None."""
+        operands = getattr(y, "operands", None)
+        return None if operands is None else y.socket.node.operation
 
     def _constant(self, x):
         return not _is_vector(x) and not self.varies(x)
@@ -149,7 +178,12 @@ class Graph:
         """a b with its varying factors multiplied together and its constant ones together,
         the constants last: (x c) f is (x f) c, and (x c) d is x (c d), which Cycles folds
         where the material sets c and d; the same factors give the same nodes in any order
-        of layers, so that a factor of exactly 1 leaves a result bit for bit unchanged."""
+        of layers, so that a factor of exactly 1 leaves a result bit for bit unchanged.  A constant
+        c times a varying 1 - y is c - c y, one multiply-add per point."""
+        for factor, other in ((a, b), (b, a)):
+            complement = getattr(other, "complement", None)
+            if complement is not None and self.varies(other) and self._constant(factor) and not _is_one(factor):
+                return self.math("MULTIPLY_ADD", complement, -factor, factor)
         (x1, c1), (x2, c2) = self._parts(a), self._parts(b)
         return self._times(self._times(x1, x2), self._times(c1, c2))
 
@@ -164,7 +198,7 @@ class Graph:
         key = ("MULTIPLY", *sorted((_operand_key(a), _operand_key(b)), key=str))  # a b is b a
         if key not in self._made:
             node = self.node("ShaderNodeMath", [a, b], operation="MULTIPLY")
-            made = Expr(self, node.outputs["Value"], SCALAR)
+            made = Expr(self, node.outputs["Value"], SCALAR, bounds=_product_bounds(a, b))
             made.product = self._split(a, b)
             self._made[key] = made
         return self._made[key]
@@ -200,6 +234,8 @@ class Graph:
     def mix(self, factor, a, b):
         """a (1 - factor) + b factor in one Mix node: scalars, colours, or colours mixed per
         channel by a colour factor.  The factor is not clamped (the maths keeps it in [0, 1])."""
+        if getattr(factor, "complement", None) is not None and self.varies(factor):
+            return self.mix(factor.complement, b, a)  # a by 1 - y, b by y: no node for 1 - y per point
         kinds = {x.kind for x in (factor, a, b) if isinstance(x, Expr)}
         vector = VECTOR in kinds or any(isinstance(x, (tuple, list)) for x in (a, b))
         per_channel = isinstance(factor, Expr) and factor.kind == VECTOR
@@ -280,6 +316,18 @@ def _is_vector(x):
     return x.kind == VECTOR if isinstance(x, Expr) else isinstance(x, (tuple, list))
 
 
+def _product_bounds(a, b):
+    """The bounds of a b where both factors are known not to be negative, else None."""
+    bounds = [x.bounds if isinstance(x, Expr) else (x, x) if isinstance(x, (int, float)) else None for x in (a, b)]
+    if any(bound is None or bound[0] < 0.0 for bound in bounds):
+        return None
+    return bounds[0][0] * bounds[1][0], bounds[0][1] * bounds[1][1]
+
+
+def _is_number(x):
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and x != 0
+
+
 def _is_scalar(x):
     return x.kind == SCALAR if isinstance(x, Expr) else isinstance(x, (int, float))
 
@@ -305,6 +353,8 @@ class Expr:
         #: (a, b, c) when this is the scalar a b + c with a constant c, so that a constant added
         #: to it joins c (Graph._sum)
         self.affine = None
+        #: the operands of a Subtract or Minimum node, for Graph._subtracted_from_constant
+        self.operands = None
 
     def __add__(self, other):
         return self.graph.math("ADD", self, other)
@@ -383,6 +433,21 @@ def smoothstep(edge0, edge1, x):
     return Expr(graph, node.outputs["Result"], SCALAR, bounds=(0.0, 1.0))
 
 
+def front(mask, advance, lag, width):
+    """smoothstep(e, e + width, mask) for the edge e = 1 - advance + lag (``NumpyOps.front``). Where
+    the advance changes from point to point (a stone's local age), the same t = (mask - e) / width
+    is taken as (mask + advance) against the constant edges 1 + lag and 1 + lag + width: one
+    multiply-add of the advance (a varying age times a constant level) per point, where the two
+    edges would cost three nodes (docs/model.md §8.9)."""
+    graph = _graph_of(mask, advance, lag, width)
+    if graph is None or not graph.varies(advance):
+        edge = 1.0 - advance + lag
+        return smoothstep(edge, edge + width, mask)
+    age, level = advance.product or (advance, 1.0)
+    edge = 1.0 + lag
+    return smoothstep(edge, edge + width, multiply_add(age, level, mask))
+
+
 def mix(factor, a, b):
     """a (1 - factor) + b factor: exactly a at factor 0 and b at factor 1."""
     graph = _graph_of(factor, a, b)
@@ -407,6 +472,8 @@ def power(base, exponent):
     graph = _graph_of(base, exponent)
     if graph is None:
         return base**exponent
+    if _is_one(exponent):  # x^1 is x, bit for bit
+        return base
     if isinstance(base, Expr) and base.kind == VECTOR:
         return graph.power_rgb(base, exponent)
     return graph.math("POWER", base, exponent)

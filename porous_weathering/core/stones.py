@@ -143,7 +143,10 @@ def fields(xp, stone, values):
 
 #: The ranges a point's alpha, s_p and m are kept in (docs/model.md §1), so that what reads the
 #: stone's values may take them as they are (the receptive weathered group: docs/model.md §8.3).
-POROSITY_RANGE, PORE_DEPTH_RANGE, ROUGHNESS_RANGE = (0.0, 1.0), (0.0, math.inf), (0.0, 1.5)
+#: m's least value, above 0 by what no render shows: its k = 2 m^2 / pi lies above porous.K_FLOOR (by
+#: 7%, in single precision too), so what reads it needs no floor of k per point (docs/model.md §8.2).
+LEAST_ROUGHNESS = 1.3e-15
+POROSITY_RANGE, PORE_DEPTH_RANGE, ROUGHNESS_RANGE = (0.0, 1.0), (0.0, math.inf), (LEAST_ROUGHNESS, 1.5)
 
 
 def around(xp, mean, z, amplitude, variation):
@@ -160,8 +163,12 @@ def point_parameters(xp, stone, kd, alpha, sp, m, z_p, z_c, variation):
     moves along the stone's colour direction by a Mix of k_d and k_d (1 + colour) by z_c: k_d
     itself at z_c = 0."""
     variation = xp.clip(variation, 0.0, 1.0)
-    alpha = xp.clip(around(xp, alpha, z_p, stone.porosity, variation), *POROSITY_RANGE)
-    sp = xp.maximum(around(xp, sp, z_p, stone.pore_depth, variation), PORE_DEPTH_RANGE[0])
+    kd = xp.maximum(kd, 0.0)  # so k_d stays >= 0 at every point (1 + colour z_c v > 0)
+    # alpha's and s_p's means kept >= 0 keep every point's (1 + amplitude z v > 0): alpha needs
+    # only its top clipped per point, s_p nothing
+    alpha = around(xp, xp.maximum(alpha, POROSITY_RANGE[0]), z_p, stone.porosity, variation)
+    alpha = xp.minimum(alpha, POROSITY_RANGE[1])
+    sp = around(xp, xp.maximum(sp, PORE_DEPTH_RANGE[0]), z_p, stone.pore_depth, variation)
     m = xp.clip(around(xp, m, z_p, stone.roughness, variation), *ROUGHNESS_RANGE)
     kd = xp.mix(xp.channel(z_c * variation), kd, kd * tuple(1.0 + c for c in stone.colour))
     return kd, alpha, sp, m
@@ -265,9 +272,10 @@ def mortar_receptivity(xp, mortar_alpha, mortar_m, alpha, m):
 
 def jointed(xp, joint, stone_values, mortar_values):
     """Each of ``stone_values`` (k_d, alpha, s_p, m, r) mixed with the mortar's by the joint's share,
-    the mortar's alpha, s_p and m kept in their ranges as the stone's are (so are their mixes)."""
+    the mortar's k_d, alpha, s_p and m kept in their ranges as the stone's are (so are their mixes)."""
     kd, *scalars = stone_values
     mortar_kd, alpha, sp, m, r = mortar_values
+    mortar_kd = xp.maximum(mortar_kd, 0.0)
     mortar_scalars = (
         xp.clip(alpha, *POROSITY_RANGE),
         xp.maximum(sp, PORE_DEPTH_RANGE[0]),

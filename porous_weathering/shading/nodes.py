@@ -27,8 +27,9 @@ from ..core.shader_math import Graph, dot, maximum, normalize
 #: the sheltered share, §8.7, every weathered group k_a below 1, §4.0, and the grains' cells
 #: drawn in 2D across the face, §8.1; build 10 the run-off in rivulets of a stone's weathered
 #: groups that read a run-off map, §8.8, the stone's maths in fewer nodes, §8.1–8.3, and every
-#: scalar clip in one Clamp node.)
-BUILD_VERSION = 10
+#: scalar clip in one Clamp node; build 11 the stone's per-point values in fewer nodes per point,
+#: §8.2, §8.9: the receptive groups take them as varying, k_d is clamped in one fewer node everywhere.)
+BUILD_VERSION = 11
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -292,9 +293,13 @@ RIVULET_INPUT = {
 }
 #: The stone node's outputs that feed a receptive weathered group, and the porous group.
 STONE_FEEDS = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness", RECEPTIVITY, FIELD, VARIATION)
+#: The stone's values at the point, which a receptive weathered group reads from the stone group and
+#: takes as varying, so that the §4 maths reading them takes its per-point forms (docs/model.md §8.9).
+STONE_POINT_VALUES = ("Base Color", "Porosity", "Pore Depth Ratio", "Roughness")
 #: The ranges the stone group keeps its outputs in (``stones.point_parameters``, a square root):
 #: a receptive weathered group, fed by it, takes them as they are (docs/model.md §8.3).
 STONE_RANGES = {
+    "Base Color": (0.0, math.inf),
     "Porosity": stones.POROSITY_RANGE,
     "Pore Depth Ratio": stones.PORE_DEPTH_RANGE,
     "Roughness": stones.ROUGHNESS_RANGE,
@@ -325,7 +330,8 @@ def weathered_group(modes, light_mode, receptive=False, rivulets=False):
             **(METRES_PER_UNIT_INPUT if weathering_modes.fields_of(modes) or rivulets else {}),
         },
         outputs,
-        varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask} | {RECEPTIVITY, FIELD},
+        varying={item.socket for item in weathering_modes.inputs_of(modes) if item.mask}
+        | ({RECEPTIVITY, FIELD, *STONE_POINT_VALUES} if receptive else set()),
         bounded=STONE_RANGES if receptive else None,
     )
 
@@ -443,9 +449,15 @@ def point_in_metres(graph, inputs):
     """Where the shading point lies from its object's origin, in metres, along the world's axes
     (docs/model.md §8.2): physical whatever the object's scale, and the beds and courses level
     (along Z) whatever way the object was modelled or turned."""
+    return point_from_origin(graph) * inputs["Metres Per Unit"]
+
+
+def point_from_origin(graph):
+    """Where the shading point lies from its object's origin along the world's axes, in the
+    scene's unit (``point_in_metres`` times the unit's metres)."""
     position = graph.node("ShaderNodeNewGeometry", depth=0).outputs["Position"]
     origin = graph.node("ShaderNodeObjectInfo", depth=0).outputs["Location"]
-    return (graph.wrap(position) - graph.wrap(origin)) * inputs["Metres Per Unit"]
+    return graph.wrap(position) - graph.wrap(origin)
 
 
 def stone_group_name(key):
@@ -465,9 +477,11 @@ def stone_group(key, stone):
 def stone_body(graph, inputs, stone, block_draw_at=None):
     """The stone's per-point values (STONE_OUTPUTS); with ``block_draw_at(graph, metres)``, each
     block's own draw b (docs/model.md §8.5) mixed into its fields, and the "Block Field" output."""
-    metres = point_in_metres(graph, inputs)
-    values = [texture_value(graph, metres, texture) for texture in stone.textures]
-    draw = block_draw_at(graph, metres) if block_draw_at else None
+    # the textures take the place in the scene's unit and their scales per unit: the unit's metres
+    # fold into each scale, where scaling the place would cost a node per point
+    place, metres_per_unit = point_from_origin(graph), inputs["Metres Per Unit"]
+    values = [texture_value(graph, place, texture, metres_per_unit) for texture in stone.textures]
+    draw = block_draw_at(graph, place * metres_per_unit) if block_draw_at else None
     z_p, z_c = stones.fields(NODE_OPS, stone, values)
     if draw is not None:
         z_p, z_c = stones.block_fields(NODE_OPS, stone, z_p, z_c, draw)
@@ -581,9 +595,10 @@ def block_draw(graph, course, block):
     return graph.wrap(noise.outputs["Value"]) * 2.0 - 1.0
 
 
-def texture_value(graph, metres, texture):
-    """The value (mean 1/2, in [0, 1]) of one layer's Blender texture at ``metres``."""
-    common = {"Vector": metres, "Scale": texture.scale}
+def texture_value(graph, place, texture, metres_per_unit):
+    """The value (mean 1/2, in [0, 1]) of one layer's Blender texture at ``place``, in a unit of
+    ``metres_per_unit`` metres."""
+    common = {"Vector": place, "Scale": texture.scale * metres_per_unit}
     if texture.kind == stones.NOISE:
         node = graph.node(
             "ShaderNodeTexNoise",
@@ -601,13 +616,13 @@ def texture_value(graph, metres, texture):
             wave_profile="SIN",
         )
         return graph.wrap(node.outputs[1])  # "Fac" (4.5) / "Factor" (5.x)
-    cells = {**common, "Vector": place_across_the_face(graph, metres)}
+    cells = {**common, "Vector": place_across_the_face(graph, place)}
     node = graph.node("ShaderNodeTexVoronoi", cells, voronoi_dimensions="2D", feature="F1", distance="EUCLIDEAN")
     red = graph.node("ShaderNodeSeparateColor", {"Color": node.outputs["Color"]})  # each cell's own random value
     return graph.wrap(red.outputs["Red"])
 
 
-def place_across_the_face(graph, metres):
+def place_across_the_face(graph, place):
     """The point's place on the world's plane most nearly along its face, the plane across the
     face normal's largest axis, as the (x, y) of a vector: (x, y) itself on a face facing mostly
     along Z, (z, y) along X, (x, z) along Y, each a mirror image of the place swapping two axes
@@ -618,6 +633,6 @@ def place_across_the_face(graph, metres):
     nx, ny, nz = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
     across_z = graph.math("GREATER_THAN", maximum(nx, ny), nz)  # 0 on a face along Z
     along_x = graph.math("GREATER_THAN", nx, ny)
-    x_swapped_with_z = graph.math("REFLECT", metres, (1.0, 0.0, -1.0))
-    y_swapped_with_z = graph.math("REFLECT", metres, (0.0, 1.0, -1.0))
-    return NODE_OPS.mix(across_z, metres, NODE_OPS.mix(along_x, y_swapped_with_z, x_swapped_with_z))
+    # one mirror, its plane chosen: x swapped with z along X, y swapped with z along Y
+    mirror = NODE_OPS.mix(along_x, (0.0, 1.0, -1.0), (1.0, 0.0, -1.0))
+    return NODE_OPS.mix(across_z, place, graph.math("REFLECT", place, mirror))

@@ -311,8 +311,7 @@ def pore_fill(xp, mask, time, level, width):
     """Fill fraction of the pores: a front sweeps the mask down from 1 as time grows
     (threshold 1 - level * time); behind it a point fills over ``width`` of mask, along the
     three-phase curve of Fig. 3 (fill_curve)."""
-    threshold = 1.0 - level * time
-    return xp.smoothstep(threshold, threshold + width, mask)
+    return xp.front(mask, level * time, 0.0, width)
 
 
 def past_saturation(xp, mask, time, level, width):
@@ -320,8 +319,7 @@ def past_saturation(xp, mask, time, level, width):
     one ``width`` behind it (where the pores are full), whose own width 1 - ``width`` is all the
     mask it can cross by t = 1 at level 1, so that it reaches 1 exactly at mask 1, t = 1, level 1
     (docs/weathering.md).  Three-phase like the fill, so it starts smoothly where pores fill up."""
-    start = 1.0 - level * time + width
-    return xp.smoothstep(start, start + xp.maximum(1.0 - width, porous.EPSILON), mask)
+    return xp.front(mask, level * time, width, xp.maximum(1.0 - width, porous.EPSILON))
 
 
 def blend(xp, clean, weathered, fill):

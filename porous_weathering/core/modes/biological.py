@@ -147,21 +147,24 @@ def dampness(xp, state):
     return dried * (1.0 - WASH * state["rain_map"])
 
 
-def decay(xp, years, time_constant):
-    """1 - exp(-years / time_constant): how far a growth of that time constant has come."""
-    return 1.0 - xp.power(math.e, years * (-1.0 / time_constant))
+def decay(xp, years, receptivity, time_constant):
+    """1 - exp(-r years / time_constant): how far a growth of that time constant has come at the
+    point's local years r x ``years`` (docs/model.md §8.3), written exp(-years / time_constant)^r: where
+    the years are the material's and r the stone's, a shader folds the inner power, and each growth
+    costs one power per point (docs/model.md §8.9)."""
+    return 1.0 - xp.power(xp.power(math.e, years * (-1.0 / time_constant)), receptivity)
 
 
 def algal_biomass(xp, state, receptivity):
     """B in [0, 1] (docs/model.md §9.3): the level times the dampness, approached with ALGAE_YEARS at
     the point's local years (receptive stone is colonised faster: docs/model.md §8.3)."""
-    years = state["biological_years"] * receptivity
-    return state["biological_level"] * dampness(xp, state) * decay(xp, years, ALGAE_YEARS)
+    growth = decay(xp, state["biological_years"], receptivity, ALGAE_YEARS)
+    return dampness(xp, state) * (state["biological_level"] * growth)
 
 
 def film_colour(xp, state, receptivity):
     """The film's colour: the young algae darkening to the biofilm with BIOFILM_YEARS."""
-    darkened = decay(xp, state["biological_years"] * receptivity, BIOFILM_YEARS)
+    darkened = decay(xp, state["biological_years"], receptivity, BIOFILM_YEARS)
     return blend(xp, state["algae_color"], state["biofilm_color"], xp.channel(darkened))
 
 

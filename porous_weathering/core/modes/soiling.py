@@ -103,8 +103,10 @@ def polluted_diffuse(xp, kd, pollution_color, pore, ap):
 
 def deposit_coverage(sheltered, m, time, level):
     """Grey-area deposit (this project's model): grows with time, more on rougher stone.
-    The sheltered fraction last, so that a shader multiplies it by one factor per point."""
-    return m / (m + DEPOSIT_HALF_ROUGHNESS) * (level * time) * sheltered
+    The sheltered fraction with the time (level t x sheltered, which the streaks share), so that
+    a shader multiplies it by one factor per point, and the stone's local age and roughness by
+    the fewest."""
+    return m / (m + DEPOSIT_HALF_ROUGHNESS) * (level * time * sheltered)
 
 
 def streak_tail(xp, runoff_map, runoff, rain_threshold):
@@ -116,8 +118,8 @@ def streak_tail(xp, runoff_map, runoff, rain_threshold):
 
 def streak_coverage(xp, tail, sheltered, time, level, streaks):
     """d = streaks x tail x (level t) x sheltered: the dirt run-off leaves, growing with time as
-    the deposit does (the sheltered fraction last, one factor per point in a shader)."""
-    return streaks * tail * (level * time) * sheltered
+    the deposit does (level t x sheltered as the deposit takes it, one factor per point in a shader)."""
+    return streaks * tail * (level * time * sheltered)
 
 
 def fill_with_carbon(xp, point):
