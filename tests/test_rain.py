@@ -8,10 +8,10 @@ import bmesh
 import numpy as np
 import pytest
 
-from helpers import cycles_corner_bake
+from helpers import counted_probes, cycles_corner_bake
 from porous_weathering.blender import mesh_arrays
 from porous_weathering.common import imageio
-from porous_weathering.maps import bake, lightmap, rain, sky_bake
+from porous_weathering.maps import bake, lightmap, rain
 from porous_weathering.samples import studio
 
 SIZE = 32
@@ -145,13 +145,7 @@ def test_a_flat_shaded_mesh_is_baked_once_per_vertex_and_face_plane_as_cycles_ba
     box = studio.link(fresh_scene, bpy.data.objects.new("Box", mesh))
     slab = grid(fresh_scene, "Slab", 0.8, 2, 1, location=(0.5, 0, 0.8))
     rain_settings = settings(cone=35.0, wind_tilt=30.0, wind_azimuth=90.0, samples=128)
-    probes = []
-    original = sky_bake._bake_probes
-    monkeypatch.setattr(
-        sky_bake,
-        "_bake_probes",
-        lambda copy, points, *rest: probes.append(len(points)) or original(copy, points, *rest),
-    )
+    probes = counted_probes(monkeypatch)
     values = rain.bake_rain_corners(box, rain_settings, occluders=[slab])
     face_of = np.repeat(np.arange(len(mesh.polygons)), [p.loop_total for p in mesh.polygons])
     normals = np.array([p.normal for p in mesh.polygons])[face_of]

@@ -189,6 +189,16 @@ def rendered(obj: bpy.types.Object, modifiers: int | None = None) -> Iterator[Re
             evaluated.to_mesh_clear()
 
 
+def check_corners_kept(obj: bpy.types.Object, seen: Rendered) -> None:
+    """Raise ValueError, in one line, unless ``seen`` (``obj`` as rendered) has the vertices and
+    face corners of ``obj``'s mesh, which attribute maps are values of."""
+    if len(seen.mesh.vertices) != len(obj.data.vertices) or len(seen.mesh.loops) != len(obj.data.loops):
+        raise ValueError(
+            f"object '{obj.name}': its modifiers ({', '.join(m.name for m in obj.modifiers)}) change its vertices, "
+            "so attribute maps cannot follow its mesh; bake to images (--target image) or apply the modifiers"
+        )
+
+
 def only_selected(obj):
     """Make ``obj`` the selected, active object of its (temporary) scene; returns the context
     override under which ``bpy.ops.object.bake`` works on it alone."""

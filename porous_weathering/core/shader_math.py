@@ -95,7 +95,11 @@ class Graph:
             return self._scale(*operands)
         if operation == "MULTIPLY" and not vector:
             return self._product(*operands)
-        if operation == "DIVIDE" and _is_number(operands[1]) and getattr(operands[0], "product", None) is not None:
+        if (
+            operation == "DIVIDE"
+            and _is_nonzero_number(operands[1])
+            and getattr(operands[0], "product", None) is not None
+        ):
             return self._product(operands[0], 1.0 / operands[1])  # (x c) / d is x (c / d): one node per point
         key = (operation, *(_operand_key(x) for x in operands))
         if key not in self._made:
@@ -150,7 +154,7 @@ class Graph:
         """c - y for a constant number c and a varying y in fewer per-point nodes, or None: c - s v
         (s a number) is one multiply-add, c - (e - v) is v + (c - e), and c - min(u, d) is
         max(c - u, c - d) (e, d constants), so that such a chain costs one node per point."""
-        if y.scaled is not None and _is_number(y.scaled[1]):
+        if y.scaled is not None and _is_nonzero_number(y.scaled[1]):
             return self.math("MULTIPLY_ADD", y.scaled[0], -y.scaled[1], c)
         operation = self._operation_of(y)
         if operation is None:
@@ -324,7 +328,7 @@ def _product_bounds(a, b):
     return bounds[0][0] * bounds[1][0], bounds[0][1] * bounds[1][1]
 
 
-def _is_number(x):
+def _is_nonzero_number(x):
     return isinstance(x, (int, float)) and not isinstance(x, bool) and x != 0
 
 

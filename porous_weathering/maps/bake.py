@@ -374,12 +374,7 @@ def _check_corners_kept(obj):
     if not obj.modifiers:
         return
     with scratch_scene.rendered(obj) as seen:
-        kept = len(seen.mesh.vertices) == len(obj.data.vertices) and len(seen.mesh.loops) == len(obj.data.loops)
-    if not kept:
-        raise ValueError(
-            f"object '{obj.name}': its modifiers ({', '.join(m.name for m in obj.modifiers)}) change its vertices, "
-            "so attribute maps cannot follow its mesh; bake to images (--target image) or apply the modifiers"
-        )
+        scratch_scene.check_corners_kept(obj, seen)
 
 
 def check_writable_folder(folder: str) -> None:

@@ -14,6 +14,7 @@ meshes and selection are never touched and nothing is left behind, even on failu
 from collections.abc import Callable, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
+from functools import cached_property
 
 import bpy
 
@@ -113,8 +114,7 @@ def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.
     about six corners, and once per vertex and face plane where it is flat, four corners of a
     wall cut into quads."""
     with scratch_scene.rendered(obj) as seen, _bake_scene(obj, occluders, sky) as copy:
-        if len(seen.mesh.loops) != len(obj.data.loops):
-            raise ValueError(f"object '{obj.name}': its modifiers change its face corners; bake it to an image")
+        scratch_scene.check_corners_kept(obj, seen)
         placed = _Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
         points, normals, corner_point = placed.corner_points(smooth=smooth_at_vertices(obj))
         return _bake_points(placed, copy, sky, points, normals)[corner_point]
@@ -139,8 +139,9 @@ class _Placed:
     mesh: bpy.types.Mesh
     matrix: np.ndarray
 
+    @cached_property
     def positions(self) -> np.ndarray:
-        """The vertices (V, 3)."""
+        """The vertices (V, 3), read once: the points and the probes' size both need them."""
         return mesh_arrays.attribute(self.mesh, "position", np.float32, 3) @ self.matrix[:3, :3].T + self.matrix[:3, 3]
 
     def normals(self, normals: np.ndarray) -> np.ndarray:
@@ -151,14 +152,14 @@ class _Placed:
         return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
 
     def mean_edge(self) -> float:
-        ends = self.positions()[mesh_arrays.attribute(self.mesh, ".edge_verts", np.int32, 2)]
+        ends = self.positions[mesh_arrays.attribute(self.mesh, ".edge_verts", np.int32, 2)]
         return float(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1).mean())
 
     def vertex_points(self) -> tuple[np.ndarray, np.ndarray]:
         """The vertices (V, 3) and their unit normals (V, 3)."""
         normals = np.empty(len(self.mesh.vertices) * 3, dtype=np.float32)
         self.mesh.vertex_normals.foreach_get("vector", normals)
-        return self.positions(), self.normals(normals)
+        return self.positions, self.normals(normals)
 
     def corner_points(self, smooth: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The distinct (vertex, normal) pairs of the corners, as points (P, 3) and unit normals
@@ -172,7 +173,7 @@ class _Placed:
         # a face plane's corners hold its normal to float32 rounding: 2^-16 tells planes apart
         keys = np.column_stack([corner_vertex, np.round(normals * 65536.0).astype(np.int64)])
         _, first, corner_point = np.unique(keys, axis=0, return_index=True, return_inverse=True)
-        return self.positions()[corner_vertex[first]], self.normals(normals[first]), corner_point.ravel()
+        return self.positions[corner_vertex[first]], self.normals(normals[first]), corner_point.ravel()
 
 
 def _bake_vertices(target, copy, sky):
