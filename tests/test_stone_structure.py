@@ -6,6 +6,7 @@ renders against it pixel by pixel (Cycles CPU, fixed seed, tiny images).
 - render: the per-point k_d, alpha, s_p, m (and r, z_p, z_c) are read back from probe renders of
   the material's own stone node; they are the numpy maths of the read fields, and the rendered
   pixels are the model's (porous and weathered) at those parameters.
+- the grains' plane (§8.1): its mirror lays every face's cells nearly flat (numpy).
 - ``variation = 0`` and ``stone = None`` render bit for bit the same, with no stone node.
 - the same plane in millimetres (unit scale 0.001) and in metres has the same fields.
 - run-off in rivulets (docs/model.md §8.8): the weighted run-off keeps R's mean across the fall
@@ -132,12 +133,48 @@ def test_fields_are_zero_mean_and_bounded():
     stone = PRESETS["SANDSTONE"].structure
     rng = np.random.default_rng(0)
     # a texture's value lies in [0, 1]; a clipped layer's is taken beyond, where its clip acts
-    values = [rng.uniform(*((0.0, 1.0) if stones.unclipped(t.kind) else (-0.5, 1.5)), 1000) for t in stone.textures]
+    values = [rng.uniform(*((0.0, 1.0) if stones.GAIN[t.kind] <= 2.0 else (-0.5, 1.5)), 1000) for t in stone.textures]
     mirrored = [1.0 - v for v in values]  # a texture's values mirrored about 1/2
     z_p, z_c = stones.fields(XP, stone, values)
     z_p2, z_c2 = stones.fields(XP, stone, mirrored)
     assert np.abs(z_p).max() <= 1.0 and np.abs(z_c).max() <= 1.0
     assert np.allclose(z_p + z_p2, 0.0) and np.allclose(z_c + z_c2, 0.0)
+
+
+def test_a_layer_clipped_before_its_gain_is_clipped_after():
+    """texture_value takes the noise's value clipped to where its z lies in [-1, 1], then the gain:
+    clip(gain (v - 1/2), -1, 1) (docs/model.md §8.1), for every kind."""
+    values = np.linspace(-0.5, 1.5, 2001)
+    for kind, gain in stones.GAIN.items():
+        expected = np.clip(gain * (values - 0.5), -1.0, 1.0) if gain > 2.0 else gain * (values - 0.5)
+        np.testing.assert_allclose(stones.texture_value(XP, values, kind), expected, atol=1e-15)
+
+
+def blender_reflect(a, b):
+    """Blender's Vector Math Reflect: a mirrored in the plane of normal b (normalised)."""
+    unit = b / np.linalg.norm(b, axis=-1, keepdims=True)
+    return a - 2.0 * np.sum(a * unit, axis=-1, keepdims=True) * unit
+
+
+def test_grains_mirror_lays_every_face_nearly_flat():
+    """docs/model.md §8.1: the grains' mirror is never zero, takes the axes' faces onto the (x, y)
+    plane exactly ((x, y), (±z, y), (x, ±z)), and stretches no face's cells more than 1.57 times
+    (1 / |z| of the mirrored normal), a vertical wall no more than 2 / √3 = 1.155 times."""
+    xp = NumpyOps(colour=False)
+    normals = np.random.default_rng(7).normal(size=(400_000, 3))
+    angles = np.radians(np.arange(360.0))
+    walls = np.stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)], axis=-1)
+    normals = np.concatenate([normals / np.linalg.norm(normals, axis=-1, keepdims=True), walls])
+    mirror = stones.grains_mirror(xp, normals)
+    assert np.linalg.norm(mirror, axis=-1).min() >= 1.0
+    stretch = 1.0 / np.abs(blender_reflect(normals, mirror)[:, 2])
+    assert stretch.max() <= 1.57
+    assert stretch[-len(walls) :].max() <= 2.0 / math.sqrt(3.0) + 1e-9
+    place = np.array([0.3, -0.7, 1.9])
+    for normal, plane in (((0, 0, 1), (0.3, -0.7)), ((1, 0, 0), (-1.9, -0.7)), ((0, -1, 0), (0.3, -1.9))):
+        for side in (1.0, -1.0):
+            mirrored = blender_reflect(place, stones.grains_mirror(xp, side * np.array(normal, float)))
+            np.testing.assert_allclose(np.abs(mirrored[:2]), np.abs(plane), atol=1e-12)
 
 
 def test_a_stone_whose_weights_exceed_one_is_refused():

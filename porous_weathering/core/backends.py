@@ -31,6 +31,11 @@ class NumpyOps:
         return a * b + c
 
     @staticmethod
+    def face_upward(x):
+        """Vectors x (..., 3) or -x, whichever has z > 0 (-x where z = 0: Blender's Faceforward)."""
+        return np.where(x[..., 2:3] > 0.0, x, -x)
+
+    @staticmethod
     def to_nearer_end(x):
         """min(x, 1 - x): the distance of x in [0, 1] to the nearer of 0 and 1."""
         return np.minimum(x, 1.0 - x)
@@ -69,6 +74,7 @@ class NodeOps:
     sqrt = staticmethod(shader_math.sqrt)
     arccos = staticmethod(shader_math.arccos)
     floor = staticmethod(shader_math.floor)
+    face_upward = staticmethod(shader_math.face_upward)
     smoothstep = staticmethod(shader_math.smoothstep)
     front = staticmethod(shader_math.front)
     multiply_add = staticmethod(shader_math.multiply_add)

@@ -463,8 +463,14 @@ def mix(factor, a, b):
 
 
 def floor(x):
-    """The largest whole number not above x (a scalar): one Math node."""
+    """The largest whole number not above x (a scalar, or each component of a vector): one Math or
+    Vector Math node."""
     return x.graph.math("FLOOR", x) if isinstance(x, Expr) else float(math.floor(x))
+
+
+def face_upward(x):
+    """The vector x or -x, whichever has z > 0 (-x where z = 0): one Vector Math Faceforward."""
+    return x.graph.math("FACEFORWARD", x, (0.0, 0.0, -1.0), x)
 
 
 def arccos(x):

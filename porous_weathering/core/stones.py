@@ -28,7 +28,7 @@ from ..contracts import BLOCK_ATTRIBUTE
 NOISE, WAVE, CELLS = "NOISE", "WAVE", "CELLS"
 
 #: Per kind, the factor that spreads a texture's value v (mean 1/2) into z = clip(gain (v - 1/2),
-#: -1, 1).  A Voronoi cell's random value and a sine band are uniform-like over [0, 1] (gain 2);
+#: -1, 1) (``texture_value``).  A Voronoi cell's random value and a sine band are uniform-like over [0, 1] (gain 2);
 #: Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is larger (2.5 for
 #: the presets' two octaves, whose spread is 1.14-1.21 times that of the three or four they had
 #: at gain 3: docs/model.md §8.1).  Each distribution is symmetric about 1/2, and the clip is
@@ -110,35 +110,45 @@ class Stone:
 
 
 def texture_value(xp, value, kind):
-    """z of one layer: its texture's value v (mean 1/2) spread into [-1, 1], symmetric about 0."""
-    z = xp.multiply_add(value, GAIN[kind], -0.5 * GAIN[kind])
-    return z if unclipped(kind) else xp.clip(z, -1.0, 1.0)
+    """z of one layer: its texture's value v (mean 1/2) spread into [-1, 1], symmetric about 0:
+    gain (v' - 1/2), v' the value clipped where the gain would take z beyond (``clipped_value``)."""
+    return xp.multiply_add(clipped_value(xp, value, kind), GAIN[kind], -0.5 * GAIN[kind])
 
 
-def unclipped(kind):
-    """Whether a layer of ``kind`` needs no clip: a texture's value lies in [0, 1], so at a gain
-    of at most 2 its z already lies in [-1, 1] (cells and bands; the noise's 2.5 needs the clip)."""
-    return GAIN[kind] <= 2.0
+def clipped_value(xp, value, kind):
+    """A layer's texture value clipped to [1/2 - 1/gain, 1/2 + 1/gain], where its z lies in
+    [-1, 1]: clip(gain (v - 1/2), -1, 1) is gain (clip(v, ...) - 1/2), the gain increasing.  A
+    texture's value lies in [0, 1], so at a gain of at most 2 (cells, bands) it is the value itself,
+    no clip built; the noise's 2.5 needs the clip."""
+    if GAIN[kind] <= 2.0:
+        return value
+    reach = 1.0 / GAIN[kind]
+    return xp.clip(value, 0.5 - reach, 0.5 + reach)
 
 
 def fields(xp, stone, values):
     """(z_p, z_c): the porosity and colour fields, sums of the layers' z (``values``: each
     layer's texture value, in the order of ``stone.textures``) by their weights; in [-1, 1].
-    An unclipped layer's z is gain (v - 1/2), affine in v: each field takes it as (weight x
-    gain) v, the constants -weight x gain / 2 of all such layers summed once at the start, so
-    that a layer costs one multiply-add per field (docs/model.md §8.1)."""
-    z_p = sum(-0.5 * GAIN[t.kind] * t.porosity for t in stone.textures if unclipped(t.kind))
-    z_c = sum(-0.5 * GAIN[t.kind] * t.colour for t in stone.textures if unclipped(t.kind))
+    Each layer's z is gain (v' - 1/2), affine in its clipped value v' (``texture_value``): each
+    field takes it as (weight x gain) v', the constants -weight x gain / 2 of all the layers summed
+    once at the start, so that a layer costs one multiply-add per field (docs/model.md §8.1)."""
+    z_p = sum(-0.5 * GAIN[t.kind] * t.porosity for t in stone.textures)
+    z_c = sum(-0.5 * GAIN[t.kind] * t.colour for t in stone.textures)
     for texture, value in zip(stone.textures, values):
-        if unclipped(texture.kind):
-            z, scale = value, GAIN[texture.kind]
-        else:
-            z, scale = texture_value(xp, value, texture.kind), 1.0
+        clipped, gain = clipped_value(xp, value, texture.kind), GAIN[texture.kind]
         if texture.porosity:
-            z_p = xp.multiply_add(z, texture.porosity * scale, z_p)
+            z_p = xp.multiply_add(clipped, texture.porosity * gain, z_p)
         if texture.colour:
-            z_c = xp.multiply_add(z, texture.colour * scale, z_c)
+            z_c = xp.multiply_add(clipped, texture.colour * gain, z_c)
     return z_p, z_c
+
+
+def grains_mirror(xp, normal):
+    """The mirror whose Reflect takes a point's place onto the world's plane most nearly along its
+    face, as that place's (x, y) (docs/model.md §8.1): the face's true normal turned upwards, each
+    component rounded to -1, 0 or 1, plus Z.  (+-1, 0, 1) swaps x and z, (0, 0, 2) leaves (x, y);
+    its z is 1 or 2, so it is never the zero vector."""
+    return xp.floor(xp.face_upward(normal) + (0.5, 0.5, 1.5))
 
 
 #: The ranges a point's alpha, s_p and m are kept in (docs/model.md §1), so that what reads the

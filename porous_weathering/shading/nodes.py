@@ -17,7 +17,7 @@ from ..core import modes as weathering_modes
 from ..core import porous, stones
 from ..core.backends import NODE_OPS
 from ..core.modes import biological
-from ..core.shader_math import Graph, dot, maximum, normalize
+from ..core.shader_math import Graph, dot, normalize
 
 #: The node builder's build: bumped when it builds the same sockets with other maths, so old
 #: files rebuild. A new mode, input or map needs no bump: a group is reused only if its sockets
@@ -28,8 +28,10 @@ from ..core.shader_math import Graph, dot, maximum, normalize
 #: drawn in 2D across the face, §8.1; build 10 the run-off in rivulets of a stone's weathered
 #: groups that read a run-off map, §8.8, the stone's maths in fewer nodes, §8.1–8.3, and every
 #: scalar clip in one Clamp node; build 11 the stone's per-point values in fewer nodes per point,
-#: §8.2, §8.9: the receptive groups take them as varying, k_d is clamped in one fewer node everywhere.)
-BUILD_VERSION = 11
+#: §8.2, §8.9: the receptive groups take them as varying, k_d is clamped in one fewer node everywhere;
+#: build 12 the grains' plane, §8.1, in four nodes, its mirror from the rounded normal, and the
+#: noise's clamp taken before its gain.)
+BUILD_VERSION = 12
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -623,16 +625,10 @@ def texture_value(graph, place, texture, metres_per_unit):
 
 
 def place_across_the_face(graph, place):
-    """The point's place on the world's plane most nearly along its face, the plane across the
-    face normal's largest axis, as the (x, y) of a vector: (x, y) itself on a face facing mostly
-    along Z, (z, y) along X, (x, z) along Y, each a mirror image of the place swapping two axes
-    (docs/model.md §8.1). The grains' cells are drawn in 2D there: a third of a 3D Voronoi's
-    neighbour cells, the same cell size, stretched at most sqrt(3) on a tilted face."""
+    """The point's place mirrored onto the world's plane most nearly along its face, as the (x, y)
+    of a vector (docs/model.md §8.1): (x, y) itself on a face facing along Z, (±z, y) along X,
+    (x, ±z) along Y, a face between the axes by its own mirror (``stones.grains_mirror``). The
+    grains' cells are drawn in 2D there: a third of a 3D Voronoi's neighbour cells, the same cell
+    size, stretched at most 1.57 times on a tilted face."""
     normal = graph.wrap(graph.node("ShaderNodeNewGeometry", depth=0).outputs["True Normal"])
-    axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": graph.math("ABSOLUTE", normal)})
-    nx, ny, nz = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
-    across_z = graph.math("GREATER_THAN", maximum(nx, ny), nz)  # 0 on a face along Z
-    along_x = graph.math("GREATER_THAN", nx, ny)
-    # one mirror, its plane chosen: x swapped with z along X, y swapped with z along Y
-    mirror = NODE_OPS.mix(along_x, (0.0, 1.0, -1.0), (1.0, 0.0, -1.0))
-    return NODE_OPS.mix(across_z, place, graph.math("REFLECT", place, mirror))
+    return graph.math("REFLECT", place, stones.grains_mirror(NODE_OPS, normal))
