@@ -147,7 +147,7 @@ def test_a_flat_shaded_mesh_is_baked_once_per_vertex_and_face_plane_as_cycles_ba
     rain_settings = settings(cone=35.0, wind_tilt=30.0, wind_azimuth=90.0, samples=128)
     probes = counted_probes(monkeypatch)
     values = rain.bake_rain_corners(box, rain_settings, occluders=[slab])
-    face_of = np.repeat(np.arange(len(mesh.polygons)), [p.loop_total for p in mesh.polygons])
+    face_of = mesh_arrays.corner_faces(mesh)
     normals = np.array([p.normal for p in mesh.polygons])[face_of]
     pairs = np.column_stack([mesh_arrays.attribute(mesh, ".corner_vert", np.int32), np.round(normals).astype(int)])
     _, pair = np.unique(pairs, axis=0, return_inverse=True)
@@ -185,7 +185,7 @@ def test_corners_at_the_foot_of_a_step_are_baked_as_cycles_bakes_them(fresh_scen
     values = rain.bake_rain_corners(step, rain_settings)
     per_corner = cycles_corner_bake(step, rain.sky(rain_settings))
     position = corner_positions(step)
-    face_of = np.repeat(np.arange(len(mesh.polygons)), [p.loop_total for p in mesh.polygons])
+    face_of = mesh_arrays.corner_faces(mesh)
     floor = (np.array([p.normal.z for p in mesh.polygons])[face_of] > 0.5) & (np.abs(position[:, 2]) < 1e-6)
     outside = np.max(np.abs(position[:, :2]), axis=1)
     foot = floor & np.isclose(outside, 0.25)  # the floor's corners on the block's foot

@@ -27,6 +27,12 @@ def loop_starts(mesh):
     return starts
 
 
+def corner_faces(mesh):
+    """Each face corner's face, as int32 (corners,)."""
+    starts = loop_starts(mesh)
+    return np.repeat(np.arange(len(starts), dtype=np.int32), np.diff(np.append(starts, len(mesh.loops))))
+
+
 def encloses_negative_volume(edge_uses, face_points, area_vectors):
     """True when the faces close a volume (every edge between exactly two of them, by its
     count ``edge_uses``) whose signed volume, (1/3) Σ face point · area vector, is negative:
@@ -74,7 +80,7 @@ def face_islands(mesh):
     starts = loop_starts(mesh)
     if not len(starts):
         return np.zeros(0, dtype=np.int32)
-    corner_face = np.repeat(np.arange(len(starts)), np.diff(np.append(starts, len(mesh.loops))))
+    corner_face = corner_faces(mesh)
     corner_vertex = attribute(mesh, ".corner_vert", np.int32)
     label = np.arange(len(mesh.vertices))
     while True:

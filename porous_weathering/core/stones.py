@@ -28,11 +28,11 @@ from ..contracts import BLOCK_ATTRIBUTE
 NOISE, WAVE, CELLS = "NOISE", "WAVE", "CELLS"
 
 #: Per kind, the factor that spreads a texture's value v (mean 1/2) into z = clip(gain (v - 1/2),
-#: -1, 1) (``texture_value``).  A Voronoi cell's random value and a sine band are uniform-like over [0, 1] (gain 2);
-#: Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is larger (2.5 for
-#: the presets' two octaves, whose spread is 1.14-1.21 times that of the three or four they had
-#: at gain 3: docs/model.md §8.1).  Each distribution is symmetric about 1/2, and the clip is
-#: symmetric, so z has mean 0.
+#: -1, 1) (``texture_value``).  A Voronoi cell's random value and a sine band are uniform-like over
+#: [0, 1] (gain 2); Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is
+#: larger (2.5 for the presets' two octaves, whose spread is 1.14-1.21 times that of the three or
+#: four they had at gain 3: docs/model.md §8.1).  Each distribution is symmetric about 1/2, and the
+#: clip is symmetric, so z has mean 0.
 GAIN = {NOISE: 2.5, WAVE: 2.0, CELLS: 2.0}
 
 #: Blender's Wave texture (bands) has the phase 20 x (scale x coordinate): its period along the
@@ -120,10 +120,16 @@ def clipped_value(xp, value, kind):
     [-1, 1]: clip(gain (v - 1/2), -1, 1) is gain (clip(v, ...) - 1/2), the gain increasing.  A
     texture's value lies in [0, 1], so at a gain of at most 2 (cells, bands) it is the value itself,
     no clip built; the noise's 2.5 needs the clip."""
-    if GAIN[kind] <= 2.0:
+    if unclipped(kind):
         return value
     reach = 1.0 / GAIN[kind]
     return xp.clip(value, 0.5 - reach, 0.5 + reach)
+
+
+def unclipped(kind):
+    """Whether a layer of ``kind`` needs no clip: a texture's value lies in [0, 1], so at a gain
+    of at most 2 its z already lies in [-1, 1] (cells and bands; the noise's 2.5 needs the clip)."""
+    return GAIN[kind] <= 2.0
 
 
 def fields(xp, stone, values):

@@ -180,24 +180,19 @@ class _Placed:
         keys = np.column_stack([corner_vertex, np.round(normals * 65536.0).astype(np.int64)])
         _, first, corner_point = np.unique(keys, axis=0, return_index=True, return_inverse=True)
         corner_point = corner_point.ravel()
-        return self._inset(corner_vertex, corner_point, len(first)), self.normals(normals[first]), corner_point
+        inward = self._towards_faces(corner_vertex, corner_point, len(first))
+        return self.positions[corner_vertex[first]] + CORNER_INSET * inward, self.normals(normals[first]), corner_point
 
-    def _inset(self, corner_vertex, corner_point, count):
-        """(count, 3): each pair's point, its vertex moved CORNER_INSET of the way towards the mean
-        of its corners' face centres."""
-        corner_face = np.repeat(
-            np.arange(len(self.mesh.polygons)), np.diff(mesh_arrays.loop_starts(self.mesh), append=len(corner_vertex))
-        )
+    def _towards_faces(self, corner_vertex, corner_point, count):
+        """(count, 3): from each pair's vertex to the mean of its corners' face centres."""
+        corner_face = mesh_arrays.corner_faces(self.mesh)
         corner_position = self.positions[corner_vertex]
         centres = np.zeros((len(self.mesh.polygons), 3))
         np.add.at(centres, corner_face, corner_position)
         centres /= np.bincount(corner_face, minlength=len(centres))[:, None]
-        inward = np.zeros((count, 3))
-        np.add.at(inward, corner_point, centres[corner_face] - corner_position)
-        inward /= np.bincount(corner_point, minlength=count)[:, None]
-        points = np.zeros((count, 3))
-        points[corner_point] = corner_position
-        return points + CORNER_INSET * inward
+        towards = np.zeros((count, 3))
+        np.add.at(towards, corner_point, centres[corner_face] - corner_position)
+        return towards / np.bincount(corner_point, minlength=count)[:, None]
 
 
 def _bake_vertices(target, copy, sky):
