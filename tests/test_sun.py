@@ -103,6 +103,19 @@ def test_the_north_angle_turns_the_site_clockwise_seen_from_above():
     )
 
 
+def test_the_sky_image_holds_each_suns_share_over_its_pixels_solid_angle():
+    """Integrated over the sphere with the pixels' solid angles, the radiance gives back π Σ w;
+    and the pixel of a sun lies where Cycles' equirectangular lookup finds it."""
+    directions, weights = solar.year(50.0)
+    radiance = sun.sky_radiance(directions, weights, 256)
+    rows = np.cos(np.pi * (1 - np.arange(129) / 128))
+    solid_angle = (2 * np.pi / 256) * np.diff(rows)
+    assert float((radiance * solid_angle[:, None]).sum()) == pytest.approx(np.pi)
+    single = sun.sky_radiance(np.array([[0.0, -1.0, 0.0]]), np.ones(1), 256)  # due south on the horizon
+    row, column = np.argwhere(single > 0)[0]
+    assert column == int(256 * (0.5 + 0.25)) and row == 64  # u = 1/2 − atan2(−1, 0)/2π = 3/4; v = 1/2
+
+
 # --- the bake -------------------------------------------------------------------------------------------
 
 

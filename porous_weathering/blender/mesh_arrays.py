@@ -33,16 +33,6 @@ def corner_faces(mesh):
     return np.repeat(np.arange(len(starts), dtype=np.int32), np.diff(np.append(starts, len(mesh.loops))))
 
 
-def placed_triangles(mesh, matrix):
-    """(points (V, 3) float64, triangles (T, 3) int32): ``mesh``'s vertices placed by ``matrix``
-    (4 x 4) and its faces cut into triangles, as the render cuts them."""
-    mesh.calc_loop_triangles()
-    triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-    mesh.loop_triangles.foreach_get("vertices", triangles)
-    points = attribute(mesh, "position", np.float32, 3).astype(np.float64) @ matrix[:3, :3].T + matrix[:3, 3]
-    return points, triangles.reshape(-1, 3)
-
-
 def encloses_negative_volume(edge_uses, face_points, area_vectors):
     """True when the faces close a volume (every edge between exactly two of them, by its
     count ``edge_uses``) whose signed volume, (1/3) Σ face point · area vector, is negative:

@@ -68,13 +68,6 @@ def year(latitude: float, steps_per_day: int = STEPS_PER_DAY) -> tuple[np.ndarra
     """(directions (N, 3), weights (N,)): the sun's positions over the year at ``latitude``
     (degrees, south negative) in the site frame, those above the horizon only, and their share
     of the year's beam irradiation at normal incidence (beam × time step, summing to 1)."""
-    directions, weights, _ = year_by_day(latitude, steps_per_day)
-    return directions, weights
-
-
-def year_by_day(latitude: float, steps_per_day: int = STEPS_PER_DAY) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``year``'s (directions, weights) and the day (0..DAYS − 1) of each position, day by day and
-    in the order of the day's instants."""
     latitude = real_number("latitude", latitude)
     if not -90.0 <= latitude <= 90.0:
         raise ValueError(f"latitude must be in [-90, 90] degrees, not {latitude}")
@@ -83,30 +76,7 @@ def year_by_day(latitude: float, steps_per_day: int = STEPS_PER_DAY) -> tuple[np
     directions = sun_vector(latitude, declination(day)[:, None], hour_angle[None, :]).reshape(-1, 3)
     weights = beam(directions[:, 2])
     up = weights > 0.0
-    days = np.repeat(np.arange(DAYS), steps_per_day)
-    return directions[up], weights[up] / weights[up].sum(), days[up]
-
-
-#: The step of Roberts' R2 sequence, (1/g, 1/g²) with g the plastic number (g³ = g + 1): the
-#: additive recurrence in two dimensions whose points spread most evenly.
-R2_STEP = np.array([0.7548776662466927, 0.5698402909980532])
-
-
-def lattice_draws(weights: np.ndarray, days: np.ndarray, shifts: np.ndarray, count: int) -> np.ndarray:
-    """(P, count) indices into ``year_by_day``'s positions, ``count`` for each of the P rows of
-    ``shifts`` (P, 2) in [0, 1)²: the points shift + k · R2_STEP (mod 1), k < count, the first
-    coordinate picking the day by its share of the year's weight, the second the instant within
-    the day by its own. With uniform random shifts each draw is a position taken with probability
-    its weight, so the mean of f over the draws is an unbiased estimate of Σ w f; the lattice
-    spreads each row's draws over the days and the hours, where independent draws would bunch
-    (docs/model.md §9.1)."""
-    day_weight = np.bincount(days, weights=weights, minlength=DAYS)
-    day_end = np.cumsum(day_weight)
-    cumulative = np.cumsum(weights)
-    points = (shifts[:, None, :] + np.arange(count)[None, :, None] * R2_STEP) % 1.0
-    day = np.minimum(np.searchsorted(day_end, points[..., 0] * day_end[-1], side="right"), DAYS - 1)
-    within = day_end[day] - day_weight[day] + points[..., 1] * day_weight[day]
-    return np.minimum(np.searchsorted(cumulative, within, side="right"), len(weights) - 1)
+    return directions[up], weights[up] / weights[up].sum()
 
 
 def site_to_scene(north_angle: float) -> np.ndarray:

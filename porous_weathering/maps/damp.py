@@ -115,7 +115,14 @@ class _Body:
 
 
 def _body(obj, seen):
-    points, triangles = mesh_arrays.placed_triangles(seen.mesh, seen.matrix_world)
+    mesh = seen.mesh
+    matrix = seen.matrix_world
+    mesh.calc_loop_triangles()
+    triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    triangles = triangles.reshape(-1, 3)
+    points = mesh_arrays.attribute(mesh, "position", np.float32, 3).astype(np.float64) @ matrix[:3, :3].T
+    points += matrix[:3, 3]
     if not len(triangles):
         raise ValueError(f"object '{obj.name}' has no faces to draw damp up")
     tree = BVHTree.FromPolygons(points.tolist(), triangles.tolist(), all_triangles=True)

@@ -1,7 +1,6 @@
 """Direct-light bakes: what a sky sends straight to every point of an object, shadowed by the
-object itself and its occluders, baked with Cycles. The rain map (``rain``, docs/model.md §5) is
-such a bake under its own sky (``Sky``); the sun map (``sun``, §9.1) casts its own rays from the
-same points (``Placed``).
+object itself and its occluders, baked with Cycles. The rain map (``rain``, docs/model.md §5) and
+the sun map (``sun``, §9.1) are such bakes under their own skies (``Sky``).
 
 Cycles' DIFFUSE bake with only the direct pass returns irradiance / π: ∫ L(ω) max(0, N·ω) V dω / π
 over the directions ω the sky lights, V the visibility. A sky sets its radiance L so that this is
@@ -90,17 +89,11 @@ def bake_image(
     if obj.type != "MESH" or uv_map not in obj.data.uv_layers:
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map}'")
     with _bake_scene(obj, occluders, sky) as copy:
-        if bakes_at_vertices(obj, size):
+        if smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices):
             at_vertices = _bake_vertices(obj, copy, sky)
         else:
             return _bake_image(copy, uv_map, size, margin, sky.label)
     return scratch_scene.bake_point_values(obj, uv_map, size, at_vertices, margin=margin)[0]
-
-
-def bakes_at_vertices(obj: bpy.types.Object, size: int) -> bool:
-    """Whether a size² image of ``obj`` is baked at its vertices and drawn across its triangles:
-    its mesh is smooth at its vertices and has at most TEXELS_PER_VERTEX texels per vertex."""
-    return smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices)
 
 
 def _bake_image(copy, uv_map, size, margin, label):
@@ -128,7 +121,7 @@ def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.
     wall cut into quads, the probe just inside the pair's faces (CORNER_INSET)."""
     with scratch_scene.rendered(obj) as seen, _bake_scene(obj, occluders, sky) as copy:
         scratch_scene.check_corners_kept(obj, seen)
-        placed = Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
+        placed = _Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
         points, normals, corner_point = placed.corner_points(smooth=smooth_at_vertices(obj))
         return _bake_points(placed, copy, sky, points, normals)[corner_point]
 
@@ -146,7 +139,7 @@ def smooth_at_vertices(obj: bpy.types.Object) -> bool:
 
 
 @dataclass(frozen=True)
-class Placed:
+class _Placed:
     """A mesh placed in the bake's scene by ``matrix`` (4 x 4): its copy's there."""
 
     mesh: bpy.types.Mesh
@@ -159,10 +152,7 @@ class Placed:
 
     def normals(self, normals: np.ndarray) -> np.ndarray:
         """Unit ``normals`` (N, 3) of the mesh, as the bake's scene and its shading see them."""
-        return self.outward(normals.reshape(-1, 3) @ np.linalg.inv(self.matrix[:3, :3]))  # by the inverse transpose
-
-    def outward(self, normals: np.ndarray) -> np.ndarray:
-        """``normals`` (N, 3) already in the bake's frame, made unit and turned outwards."""
+        normals = normals.reshape(-1, 3) @ np.linalg.inv(self.matrix[:3, :3])  # by the inverse transpose
         if mesh_arrays.is_inside_out(self.mesh):  # baked from outside, as renders shade it (see _bake)
             normals = -normals
         return normals / np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-30)
@@ -207,7 +197,7 @@ class Placed:
 
 def _bake_vertices(target, copy, sky):
     """The map at every vertex of ``target`` (V,), baked in ``copy``'s scene (``_bake_points``)."""
-    placed = Placed(target.data, np.array(copy.matrix_world, dtype=np.float64))
+    placed = _Placed(target.data, np.array(copy.matrix_world, dtype=np.float64))
     return _bake_points(placed, copy, sky, *placed.vertex_points())
 
 
