@@ -2,20 +2,24 @@
 cost"; docs/model.md §8): the weathered material of the three modes, then the same with a
 preset's structure, then laid as ashlar.
 
-Each material's first EEVEE render compiles its shader (EEVEE's own engine shaders are compiled
-first, on a plain material); the later renders, interleaved in rounds, do not. Compile = first
-render − the median of the later ones. On a software-GL machine the fixed cost of a render varies
-by as much as a compile, so the table shows both numbers. Cycles' cost per sample is counted in
-instructions by shading_instructions.py (the material "all three modes, key light, baked maps,
-the limestone's structure").
+Each material is measured in a child process of its own, so that each first render finds EEVEE
+in the same state: its engine shaders compiled on a plain material, no other material of the
+table compiled yet (rendered one after another in one process, the first material's first render
+also paid for what the others then shared). The first render of the material compiles its
+shader; the later ones do not. Compile = first render − the median of the later ones. On a
+software-GL machine the fixed cost of a render varies by as much as a compile, so the table shows
+both numbers. Cycles' cost per sample is counted in instructions by shading_instructions.py (the
+material "all three modes, key light, baked maps, the limestone's structure").
 
     python benchmarks/bench_stone_cost.py [--size 64] [--samples 4] [--rounds 3] [--stone LIMESTONE]
 """
 
 import argparse
+import json
 import os
 import pathlib
 import statistics
+import subprocess
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
@@ -29,20 +33,21 @@ from porous_weathering.core import model, stones  # noqa: E402
 from porous_weathering.samples import studio  # noqa: E402
 
 
-def materials(sun, stone):
-    """label -> material: the same weathered material, uniform, with ``stone``'s structure, as ashlar."""
-    state = {name: value for name, value in speed.WEATHERING.items() if name in model.inputs_of(model.MODES)}
-
-    def weathered(label, **structure):
-        return pw.make_weathered_material(
-            label, modes=model.MODES, key_light=sun, **speed.stone(), **state, **structure
-        )
-
+def structures(stone):
+    """label -> the structure keywords of each material: uniform, with ``stone``'s structure, as ashlar."""
     return {
-        "all three modes, uniform": weathered("Uniform"),
-        f"all three modes, the {stone.lower()}'s structure": weathered("Structured", stone=stone),
-        f"all three modes, the {stone.lower()} as ashlar": weathered("Ashlar", stone=stone, masonry=stones.Ashlar()),
+        "all three modes, uniform": {},
+        f"all three modes, the {stone.lower()}'s structure": dict(stone=stone),
+        f"all three modes, the {stone.lower()} as ashlar": dict(stone=stone, masonry=stones.Ashlar()),
     }
+
+
+def material(label, sun, stone):
+    """The weathered material of the three modes under the key light ``sun``, with ``label``'s structure."""
+    state = {name: value for name, value in speed.WEATHERING.items() if name in model.inputs_of(model.MODES)}
+    return pw.make_weathered_material(
+        label, modes=model.MODES, key_light=sun, **speed.stone(), **state, **structures(stone)[label]
+    )
 
 
 def node_count(material):
@@ -58,25 +63,28 @@ def node_count(material):
     return count
 
 
-def measure(size, samples, rounds, stone):
-    """label -> (nodes, first render s, median later render s)."""
+def measure(label, size, samples, rounds, stone):
+    """(nodes, first render s, median later render s) of the material ``label``, alone in this process."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     obj = scenes.build(scene, "SPHERE", (speed.SUN,))
     sun = next(o for o in scene.objects if o.type == "LIGHT")
-    made = materials(sun, stone)
+    made = material(label, sun, stone)
     render.use_eevee(scene, size=size, samples=samples)
     studio.assign(obj, pw.make_base_material("Warm-up"))
     timing.timed_render(scene)  # compiles EEVEE's engine shaders
-    first = {}
-    for label, material in made.items():
-        studio.assign(obj, material)
-        first[label] = timing.timed_render(scene)[0]
-    times, _ = timing.interleaved_rounds(scene, obj, made, lambda *_: None, (samples,), rounds, warm_up=0)
-    return {
-        label: (node_count(material), first[label], statistics.median(times[label, samples]))
-        for label, material in made.items()
-    }
+    studio.assign(obj, made)
+    first = timing.timed_render(scene)[0]
+    later = [timing.timed_render(scene)[0] for _ in range(rounds)]
+    return node_count(made), first, statistics.median(later)
+
+
+def measure_apart(label, args):
+    """``measure`` of ``label`` in a child process (this script with --child)."""
+    command = [sys.executable, __file__, "--child", label, "--size", str(args.size), "--samples", str(args.samples)]
+    command += ["--rounds", str(args.rounds), "--stone", args.stone]
+    output = subprocess.run(command, check=True, capture_output=True, text=True).stdout
+    return json.loads(output.strip().splitlines()[-1])
 
 
 def main():
@@ -85,9 +93,13 @@ def main():
     parser.add_argument("--samples", type=int, default=4)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--stone", default="LIMESTONE")
+    parser.add_argument("--child", help=argparse.SUPPRESS)  # measure this material alone, print its JSON
     args = parser.parse_args()
+    if args.child:
+        print(json.dumps(measure(args.child, args.size, args.samples, args.rounds, args.stone)))
+        return
     load = os.getloadavg()[0]
-    measured = measure(args.size, args.samples, args.rounds, args.stone)
+    measured = {label: measure_apart(label, args) for label in structures(args.stone)}
     rows = [
         [label, nodes, f"{first:.2f}", f"{later:.2f}", f"{first - later:.2f}"]
         for label, (nodes, first, later) in measured.items()
