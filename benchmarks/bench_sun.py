@@ -1,13 +1,16 @@
 """Sun bake against the rain bake: error against a high-sample reference vs samples per texel and
-wall time, on the rain benchmark's scene.
+wall time, on the rain benchmark's scene or the main job's façade.
 
-    python benchmarks/bench_sun.py [--resolution 128] [--reference 1024]
+    python benchmarks/bench_sun.py [--scene terrain|facade] [--resolution 128] [--reference 1024]
 
-The ~100k-triangle terrain half under a roof of benchmarks/bench_rain.py, baked to a RESOLUTION²
-image: the rain (its default sky, the sun lamp; vertical rain, cone 15°) and the sun map (50° N,
-north along +Y). For each sample count: wall time and the RMSE against each map's own reference
-baked at --reference samples with another seed. Writes the table, and the sun samples that match
-the rain's default error, to docs/sun_benchmark.md.
+terrain (the default): the ~100k-triangle terrain half under a roof of benchmarks/bench_rain.py,
+baked to a RESOLUTION² image: the rain (its default sky, the sun lamp; vertical rain, cone 15°) and
+the sun map (50° N, north along +Y). facade: the main job's façade as benchmarks/bench_life.py
+prepares it (united, cut into 10 cm cells), baked per corner with the bake's default settings (the
+rain's and the sun's), the scene's other objects as occluders. For each sample count: wall time and
+the RMSE against each map's own reference baked at --reference samples with another seed. Writes
+the table, and the time the sun takes at the rain's default error, to docs/sun_benchmark.md
+(terrain) or docs/sun_benchmark_facade.md (facade).
 """
 
 import argparse
@@ -23,59 +26,90 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
 import bench_rain  # noqa: E402  (benchmarks/bench_rain.py: the scene)
 import machine  # noqa: E402  (benchmarks/machine.py)
 
-from porous_weathering.maps import rain, sun  # noqa: E402
+from porous_weathering.maps import rain, sky_bake, sun  # noqa: E402
 
 SAMPLES = (4, 16, 64, 256)
-OUT = pathlib.Path(__file__).resolve().parent.parent / "docs" / "sun_benchmark.md"
+DOCS = pathlib.Path(__file__).resolve().parent.parent / "docs"
+OUT = {"terrain": DOCS / "sun_benchmark.md", "facade": DOCS / "sun_benchmark_facade.md"}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--scene", choices=tuple(OUT), default="terrain")
     parser.add_argument("--resolution", type=int, default=128)
     parser.add_argument("--reference", type=int, default=1024)
     args = parser.parse_args()
+    bake, setting = (facade if args.scene == "facade" else terrain)(args)
+
+    def timed(kind, samples, seed=0):
+        started = time.perf_counter()
+        values = bake(kind, samples, seed)
+        return values, time.perf_counter() - started
+
+    rows = []
+    for kind in ("rain", "sun"):
+        reference, reference_time = timed(kind, args.reference, seed=1)
+        print(f"{kind:5} reference {args.reference} spp {reference_time:7.2f} s", flush=True)
+        for samples in SAMPLES:
+            values, seconds = timed(kind, samples)
+            rmse = float(np.sqrt(np.mean((values - reference) ** 2)))
+            rows.append((kind, samples, seconds, rmse))
+            print(f"{kind:5} {samples:5d} spp  {seconds:7.2f} s  RMSE {rmse:.4f}", flush=True)
+    OUT[args.scene].write_text(report(rows, setting, args))
+    print(f"wrote {OUT[args.scene]}")
+
+
+def terrain(args):
+    """(bake(kind, samples, seed) -> image, the setting's sentence) on bench_rain's terrain."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     obj, roof = bench_rain.terrain(bpy.context.scene)
     bpy.context.view_layer.update()
     obj.data.calc_loop_triangles()
-    triangles = len(obj.data.loop_triangles)
 
-    def bake(kind, samples, seed=0):
-        started = time.perf_counter()
+    def bake(kind, samples, seed):
         if kind == "rain":
             settings = rain.RainSettings(cone=15.0, samples=samples, seed=seed)
-            image = rain.bake_rain_image(obj, "UVMap", args.resolution, settings, occluders=[roof])
-        else:
-            settings = sun.SunSettings(latitude=50.0, north_angle=0.0, samples=samples, seed=seed)
-            image = sun.bake_sun_image(obj, "UVMap", args.resolution, settings, occluders=[roof])
-        return image, time.perf_counter() - started
+            return rain.bake_rain_image(obj, "UVMap", args.resolution, settings, occluders=[roof])
+        settings = sun.SunSettings(latitude=50.0, north_angle=0.0, samples=samples, seed=seed)
+        return sun.bake_sun_image(obj, "UVMap", args.resolution, settings, occluders=[roof])
 
-    rows = []
-    for kind in ("rain", "sun"):
-        reference, reference_time = bake(kind, args.reference, seed=1)
-        print(f"{kind:5} reference {args.reference} spp {reference_time:7.2f} s", flush=True)
-        for samples in SAMPLES:
-            image, seconds = bake(kind, samples)
-            rmse = float(np.sqrt(np.mean((image - reference) ** 2)))
-            rows.append((kind, samples, seconds, rmse))
-            print(f"{kind:5} {samples:5d} spp  {seconds:7.2f} s  RMSE {rmse:.4f}", flush=True)
-    OUT.write_text(report(rows, triangles, args))
-    print(f"wrote {OUT}")
+    return bake, (
+        f"A {len(obj.data.loop_triangles)}-triangle terrain half under a roof (benchmarks/bench_rain.py), "
+        f"{args.resolution}² texels; rain: vertical, cone 15°, sun lamp; sun: 50° N"
+    )
 
 
-def report(rows, triangles, args):
-    """docs/sun_benchmark.md: the setting, the table and the time each map takes at the rain's
+def facade(args):
+    """(bake(kind, samples, seed) -> corner values, the setting's sentence) on the main job's façade."""
+    import bench_life  # noqa: PLC0415  (benchmarks/bench_life.py: the main job's façade, on --scene facade only)
+
+    _, [obj], _ = bench_life.facade()
+    occluders = sky_bake.default_occluders(obj)
+
+    def bake(kind, samples, seed):
+        if kind == "rain":
+            return rain.bake_rain_corners(obj, rain.RainSettings(samples=samples, seed=seed), occluders)
+        return sun.bake_sun_corners(obj, sun.SunSettings(samples=samples, seed=seed), occluders)
+
+    return bake, (
+        f"The main job's façade as benchmarks/bench_life.py prepares it ({len(obj.data.polygons)} faces, "
+        f"{len(obj.data.loops)} corners), per corner; the rain and the sun with the bake's defaults"
+    )
+
+
+def report(rows, setting, args):
+    """The benchmark's page: the setting, the table and the time each map takes at the rain's
     default error (RMSE falls as 1 / √samples: interpolated in log-log between measured counts)."""
     lines = [
         "# Sun bake against the rain bake: error against samples per texel and wall time",
         "",
-        f"`python benchmarks/bench_sun.py` ({machine.describe(bpy.app.version_string)}).",
+        f"`python benchmarks/bench_sun.py{'' if args.scene == 'terrain' else ' --scene ' + args.scene}` "
+        f"({machine.describe(bpy.app.version_string)}).",
         "",
-        f"A {triangles}-triangle terrain half under a roof (benchmarks/bench_rain.py), {args.resolution}² texels; "
-        "rain: vertical, cone 15°, sun lamp; sun: 50° N. Each against its own reference at "
-        f"{args.reference} samples (another seed).",
+        f"{setting}. Each against its own reference at {args.reference} samples (another seed).",
         "",
-        "| map | samples per texel | wall time (s) | RMSE vs reference | RMSE × 255 |",
+        f"| map | samples per {'texel' if args.scene == 'terrain' else 'corner'} | wall time (s) | RMSE vs reference "
+        "| RMSE × 255 |",
         "|---|---:|---:|---:|---:|",
     ]
     lines += [f"| {kind} | {n} | {seconds:.2f} | {rmse:.4f} | {rmse * 255:.1f} |" for kind, n, seconds, rmse in rows]
