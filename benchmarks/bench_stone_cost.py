@@ -79,10 +79,9 @@ def measure(label, size, samples, rounds, stone):
     return node_count(made), first, statistics.median(later)
 
 
-def measure_apart(label, args):
-    """``measure`` of ``label`` in a child process (this script with --child)."""
-    command = [sys.executable, __file__, "--child", label, "--size", str(args.size), "--samples", str(args.samples)]
-    command += ["--rounds", str(args.rounds), "--stone", args.stone]
+def measure_apart(label):
+    """``measure`` of ``label`` in a child process (this script, its options and --child)."""
+    command = [sys.executable, __file__, *sys.argv[1:], "--child", label]
     output = subprocess.run(command, check=True, capture_output=True, text=True).stdout
     return json.loads(output.strip().splitlines()[-1])
 
@@ -99,7 +98,7 @@ def main():
         print(json.dumps(measure(args.child, args.size, args.samples, args.rounds, args.stone)))
         return
     load = os.getloadavg()[0]
-    measured = {label: measure_apart(label, args) for label in structures(args.stone)}
+    measured = {label: measure_apart(label) for label in structures(args.stone)}
     rows = [
         [label, nodes, f"{first:.2f}", f"{later:.2f}", f"{first - later:.2f}"]
         for label, (nodes, first, later) in measured.items()

@@ -35,11 +35,11 @@ OUT = {"terrain": DOCS / "sun_benchmark.md", "facade": DOCS / "sun_benchmark_fac
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--scene", choices=tuple(OUT), default="terrain")
+    parser.add_argument("--scene", choices=tuple(SCENES), default="terrain")
     parser.add_argument("--resolution", type=int, default=128)
     parser.add_argument("--reference", type=int, default=1024)
     args = parser.parse_args()
-    bake, setting = (facade if args.scene == "facade" else terrain)(args)
+    bake, setting, unit = SCENES[args.scene](args)
 
     def timed(kind, samples, seed=0):
         started = time.perf_counter()
@@ -55,12 +55,12 @@ def main():
             rmse = float(np.sqrt(np.mean((values - reference) ** 2)))
             rows.append((kind, samples, seconds, rmse))
             print(f"{kind:5} {samples:5d} spp  {seconds:7.2f} s  RMSE {rmse:.4f}", flush=True)
-    OUT[args.scene].write_text(report(rows, setting, args))
+    OUT[args.scene].write_text(report(rows, setting, unit, args))
     print(f"wrote {OUT[args.scene]}")
 
 
 def terrain(args):
-    """(bake(kind, samples, seed) -> image, the setting's sentence) on bench_rain's terrain."""
+    """(bake(kind, samples, seed) -> image, the setting's sentence, what a sample is per) on bench_rain's terrain."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     obj, roof = bench_rain.terrain(bpy.context.scene)
     bpy.context.view_layer.update()
@@ -73,14 +73,16 @@ def terrain(args):
         settings = sun.SunSettings(latitude=50.0, north_angle=0.0, samples=samples, seed=seed)
         return sun.bake_sun_image(obj, "UVMap", args.resolution, settings, occluders=[roof])
 
-    return bake, (
+    setting = (
         f"A {len(obj.data.loop_triangles)}-triangle terrain half under a roof (benchmarks/bench_rain.py), "
         f"{args.resolution}² texels; rain: vertical, cone 15°, sun lamp; sun: 50° N"
     )
+    return bake, setting, "texel"
 
 
 def facade(args):
-    """(bake(kind, samples, seed) -> corner values, the setting's sentence) on the main job's façade."""
+    """(bake(kind, samples, seed) -> corner values, the setting's sentence, what a sample is per) on the main job's
+    façade."""
     import bench_life  # noqa: PLC0415  (benchmarks/bench_life.py: the main job's façade, on --scene facade only)
 
     _, [obj], _ = bench_life.facade()
@@ -91,25 +93,29 @@ def facade(args):
             return rain.bake_rain_corners(obj, rain.RainSettings(samples=samples, seed=seed), occluders)
         return sun.bake_sun_corners(obj, sun.SunSettings(samples=samples, seed=seed), occluders)
 
-    return bake, (
+    setting = (
         f"The main job's façade as benchmarks/bench_life.py prepares it ({len(obj.data.polygons)} faces, "
         f"{len(obj.data.loops)} corners), per corner; the rain and the sun with the bake's defaults"
     )
+    return bake, setting, "corner"
 
 
-def report(rows, setting, args):
+#: The scenes (--scene), each (args) -> (bake, setting, unit).
+SCENES = {"terrain": terrain, "facade": facade}
+
+
+def report(rows, setting, unit, args):
     """The benchmark's page: the setting, the table and the time each map takes at the rain's
     default error (RMSE falls as 1 / √samples: interpolated in log-log between measured counts)."""
     lines = [
-        "# Sun bake against the rain bake: error against samples per texel and wall time",
+        f"# Sun bake against the rain bake: error against samples per {unit} and wall time",
         "",
         f"`python benchmarks/bench_sun.py{'' if args.scene == 'terrain' else ' --scene ' + args.scene}` "
         f"({machine.describe(bpy.app.version_string)}).",
         "",
         f"{setting}. Each against its own reference at {args.reference} samples (another seed).",
         "",
-        f"| map | samples per {'texel' if args.scene == 'terrain' else 'corner'} | wall time (s) | RMSE vs reference "
-        "| RMSE × 255 |",
+        f"| map | samples per {unit} | wall time (s) | RMSE vs reference | RMSE × 255 |",
         "|---|---:|---:|---:|---:|",
     ]
     lines += [f"| {kind} | {n} | {seconds:.2f} | {rmse:.4f} | {rmse * 255:.1f} |" for kind, n, seconds, rmse in rows]
