@@ -39,7 +39,7 @@ from porous_weathering.core.modes import base, soiling
 from porous_weathering.maps import runoff
 from porous_weathering.samples import studio
 from porous_weathering.shading import nodes
-from porous_weathering.shading.presets import PRESETS
+from porous_weathering.shading.presets import PATCH_OCTAVES, PRESETS
 
 XP = NumpyOps(colour=True)
 SCALAR = NumpyOps(colour=False)
@@ -133,7 +133,7 @@ def test_fields_are_zero_mean_and_bounded():
     stone = PRESETS["SANDSTONE"].structure
     rng = np.random.default_rng(0)
     # a texture's value lies in [0, 1]; a clipped layer's is taken beyond, where its clip acts
-    values = [rng.uniform(*((0.0, 1.0) if stones.unclipped(t.kind) else (-0.5, 1.5)), 1000) for t in stone.textures]
+    values = [rng.uniform(*((0.0, 1.0) if stones.unclipped(t) else (-0.5, 1.5)), 1000) for t in stone.textures]
     mirrored = [1.0 - v for v in values]  # a texture's values mirrored about 1/2
     z_p, z_c = stones.fields(XP, stone, values)
     z_p2, z_c2 = stones.fields(XP, stone, mirrored)
@@ -145,9 +145,32 @@ def test_a_layer_clipped_before_its_gain_is_clipped_after():
     """texture_value takes the noise's value clipped to where its z lies in [-1, 1], then the gain:
     clip(gain (v - 1/2), -1, 1) (docs/model.md §8.1), for every kind."""
     values = np.linspace(-0.5, 1.5, 2001)
-    for kind, gain in stones.GAIN.items():
-        expected = gain * (values - 0.5) if stones.unclipped(kind) else np.clip(gain * (values - 0.5), -1.0, 1.0)
-        np.testing.assert_allclose(stones.texture_value(XP, values, kind), expected, atol=1e-15)
+    layers = {(t.kind, t.gain): t for preset in PRESETS.values() for t in preset.structure.textures}
+    assert {kind for kind, _ in layers} == {stones.NOISE, stones.WAVE, stones.CELLS}
+    for texture in layers.values():
+        gain = texture.gain
+        expected = gain * (values - 0.5) if stones.unclipped(texture) else np.clip(gain * (values - 0.5), -1.0, 1.0)
+        np.testing.assert_allclose(stones.texture_value(XP, values, texture), expected, atol=1e-15)
+
+
+def test_a_noise_spreads_as_wide_whatever_its_octaves():
+    """A noise's gain scales with how narrow its normalised octaves leave it (docs/model.md §8.1):
+    Blender's fBm of independent octaves, sampled here as sums of independent uniform draws of
+    equal spread, spreads gain (v - 1/2) alike for the presets' octaves and the calibration's."""
+    rng = np.random.default_rng(1)
+
+    def spread(texture):
+        octaves = int(texture.detail) + 1
+        amplitudes = texture.roughness ** np.arange(octaves)
+        draws = rng.uniform(-0.5, 0.5, (200_000, octaves)) @ amplitudes / amplitudes.sum()
+        return texture.gain * draws.std()
+
+    detail, roughness = stones.NOISE_GAIN_OCTAVES
+    calibration = stones.Texture(stones.NOISE, 0.1, 1.0, 0.0, detail=detail, roughness=roughness)
+    assert calibration.gain == stones.GAIN[stones.NOISE]
+    patches = stones.Texture(stones.NOISE, 0.1, 1.0, 0.0, **PATCH_OCTAVES)
+    assert patches.gain > calibration.gain
+    assert spread(patches) == pytest.approx(spread(calibration), rel=0.01)
 
 
 def blender_reflect(a, b):

@@ -30,10 +30,12 @@ NOISE, WAVE, CELLS = "NOISE", "WAVE", "CELLS"
 #: Per kind, the factor that spreads a texture's value v (mean 1/2) into z = clip(gain (v - 1/2),
 #: -1, 1) (``texture_value``).  A Voronoi cell's random value and a sine band are uniform-like over
 #: [0, 1] (gain 2); Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is
-#: larger (2.5 for the presets' two octaves, whose spread is 1.14-1.21 times that of the three or
-#: four they had at gain 3: docs/model.md §8.1).  Each distribution is symmetric about 1/2, and the
-#: clip is symmetric, so z has mean 0.
+#: larger: 2.5 for two octaves of halving amplitude, and for other octaves that times the ratio of
+#: their spreads (``Texture.gain``, docs/model.md §8.1).  Each distribution is symmetric about 1/2,
+#: and the clip is symmetric, so z has mean 0.
 GAIN = {NOISE: 2.5, WAVE: 2.0, CELLS: 2.0}
+#: The octaves (detail, roughness) at which GAIN[NOISE] spreads a noise as wide as the others.
+NOISE_GAIN_OCTAVES = (1.0, 0.5)
 
 #: Blender's Wave texture (bands) has the phase 20 x (scale x coordinate): its period along the
 #: bands' direction is 2 pi / 20 / scale.  So a period P metres needs the scale 2 pi / (20 P).
@@ -64,6 +66,10 @@ class Texture:
     distortion: float = 0.0  #: WAVE: how far the bands wander (veins); NOISE: domain distortion
     #: WAVE: the bands' axis in object space, "Z" for horizontal bedding, "DIAGONAL" for veins.
     direction: str = "Z"
+    #: NOISE: each octave's size over the next's (Blender's Lacunarity) and its amplitude's
+    #: (Roughness): 2 and 0.5 halve both; 8 and 1 give octaves a factor 8 apart, as strong.
+    lacunarity: float = 2.0
+    roughness: float = 0.5
 
     @property
     def scale(self) -> float:
@@ -71,6 +77,26 @@ class Texture:
         if self.kind == WAVE:
             return 2.0 * math.pi / (WAVE_PHASE_PER_UNIT * self.size)
         return 1.0 / self.size
+
+    @property
+    def gain(self) -> float:
+        """The factor that spreads this layer's value into z (``GAIN``): a noise's by how narrow
+        its normalised octaves leave it against NOISE_GAIN_OCTAVES', so that every noise spreads
+        alike."""
+        if self.kind != NOISE:
+            return GAIN[self.kind]
+        return GAIN[NOISE] * fbm_spread(*NOISE_GAIN_OCTAVES) / fbm_spread(self.detail, self.roughness)
+
+
+def fbm_spread(detail: float, roughness: float) -> float:
+    """How wide Blender's normalised fBm of ``detail`` octaves spreads, relative to one octave:
+    sqrt(sum a_i^2) / sum a_i over its octaves' amplitudes a_i = roughness^i (independent octaves
+    of equal spread; a fractional last octave counts by its fraction, as Blender weighs it)."""
+    whole = int(detail)
+    amplitudes = [roughness**i for i in range(whole + 1)]
+    if detail > whole:
+        amplitudes.append((detail - whole) * roughness ** (whole + 1))
+    return math.sqrt(sum(a * a for a in amplitudes)) / sum(amplitudes)
 
 
 @dataclass(frozen=True)
@@ -109,27 +135,27 @@ class Stone:
             raise ValueError("a stone's relative amplitudes must lie in [0, 1), so no parameter changes sign")
 
 
-def texture_value(xp, value, kind):
+def texture_value(xp, value, texture):
     """z of one layer: its texture's value v (mean 1/2) spread into [-1, 1], symmetric about 0:
     gain (v' - 1/2), v' the value clipped where the gain would take z beyond (``clipped_value``)."""
-    return xp.multiply_add(clipped_value(xp, value, kind), GAIN[kind], -0.5 * GAIN[kind])
+    return xp.multiply_add(clipped_value(xp, value, texture), texture.gain, -0.5 * texture.gain)
 
 
-def clipped_value(xp, value, kind):
+def clipped_value(xp, value, texture):
     """A layer's texture value clipped to [1/2 - 1/gain, 1/2 + 1/gain], where its z lies in
     [-1, 1]: clip(gain (v - 1/2), -1, 1) is gain (clip(v, ...) - 1/2), the gain increasing.  A
     texture's value lies in [0, 1], so at a gain of at most 2 (cells, bands) it is the value itself,
-    no clip built; the noise's 2.5 needs the clip."""
-    if unclipped(kind):
+    no clip built; a noise's gain needs the clip."""
+    if unclipped(texture):
         return value
-    reach = 1.0 / GAIN[kind]
+    reach = 1.0 / texture.gain
     return xp.clip(value, 0.5 - reach, 0.5 + reach)
 
 
-def unclipped(kind):
-    """Whether a layer of ``kind`` needs no clip: a texture's value lies in [0, 1], so at a gain
-    of at most 2 its z already lies in [-1, 1] (cells and bands; the noise's 2.5 needs the clip)."""
-    return GAIN[kind] <= 2.0
+def unclipped(texture):
+    """Whether ``texture``'s layer needs no clip: a texture's value lies in [0, 1], so at a gain of
+    at most 2 its z already lies in [-1, 1] (cells and bands; a noise's larger gain needs the clip)."""
+    return texture.gain <= 2.0
 
 
 def fields(xp, stone, values):
@@ -138,10 +164,10 @@ def fields(xp, stone, values):
     Each layer's z is gain (v' - 1/2), affine in its clipped value v' (``texture_value``): each
     field takes it as (weight x gain) v', the constants -weight x gain / 2 of all the layers summed
     once at the start, so that a layer costs one multiply-add per field (docs/model.md §8.1)."""
-    z_p = sum(-0.5 * GAIN[t.kind] * t.porosity for t in stone.textures)
-    z_c = sum(-0.5 * GAIN[t.kind] * t.colour for t in stone.textures)
+    z_p = sum(-0.5 * t.gain * t.porosity for t in stone.textures)
+    z_c = sum(-0.5 * t.gain * t.colour for t in stone.textures)
     for texture, value in zip(stone.textures, values):
-        clipped, gain = clipped_value(xp, value, texture.kind), GAIN[texture.kind]
+        clipped, gain = clipped_value(xp, value, texture), texture.gain
         if texture.porosity:
             z_p = xp.multiply_add(clipped, texture.porosity * gain, z_p)
         if texture.colour:

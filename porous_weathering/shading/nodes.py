@@ -30,8 +30,9 @@ from ..core.shader_math import Graph, dot, normalize
 #: scalar clip in one Clamp node; build 11 the stone's per-point values in fewer nodes per point,
 #: §8.2, §8.9: the receptive groups take them as varying, k_d is clamped in one fewer node everywhere;
 #: build 12 the grains' plane, §8.1, in four nodes, its mirror from the rounded normal, and the
-#: noise's clamp taken before its gain.)
-BUILD_VERSION = 12
+#: noise's clamp taken before its gain; build 13 the stones' patches in two octaves as strong, a
+#: factor 8 apart, §8.1.)
+BUILD_VERSION = 13
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -604,7 +605,13 @@ def texture_value(graph, place, texture, metres_per_unit):
     if texture.kind == stones.NOISE:
         node = graph.node(
             "ShaderNodeTexNoise",
-            {**common, "Detail": texture.detail, "Roughness": 0.5, "Distortion": texture.distortion},
+            {
+                **common,
+                "Detail": texture.detail,
+                "Roughness": texture.roughness,
+                "Lacunarity": texture.lacunarity,
+                "Distortion": texture.distortion,
+            },
             noise_dimensions="3D",
         )
         return graph.wrap(node.outputs[0])  # "Fac" (4.5) / "Factor" (5.x)

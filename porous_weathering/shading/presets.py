@@ -71,6 +71,12 @@ class Preset:
         return (*colorimetry.measured_linear(self.base_color, "srgb").tolist(), 1.0)
 
 
+#: A stone's patches (cementation, firing, trowelling, pour): two octaves of noise as strong, the
+#: second an eighth of the first (docs/model.md §8.1): a stone carries its texture's power down to
+#: its centimetres as it does at its decimetres, as the photographs' spectra show, where octaves of
+#: halving amplitude a half apart left nothing below a few centimetres; at two octaves' cost.
+PATCH_OCTAVES = dict(detail=1.0, lacunarity=8.0, roughness=1.0)
+
 PRESETS = {
     "SANDSTONE": Preset(
         "Sandstone",
@@ -86,7 +92,7 @@ PRESETS = {
             (
                 Texture(CELLS, 0.0005, 0.35, 0.25),  # sand grains, ~0.5 mm
                 Texture(WAVE, 0.04, 0.45, 0.55, detail=0.0, distortion=1.5, direction="Z"),  # bedding, cm
-                Texture(NOISE, 0.15, 0.2, 0.2, detail=1.0),  # cementation patches, dm
+                Texture(NOISE, 0.15, 0.2, 0.2, **PATCH_OCTAVES),  # cementation patches, dm
             ),
             porosity=0.3,
             roughness=0.15,
@@ -111,7 +117,7 @@ PRESETS = {
                 Texture(CELLS, 0.001, 0.3, 0.15),  # ooids, ~1 mm
                 # bedding, dm: seen more than it weathers (a freestone, docs/model.md §8.1)
                 Texture(WAVE, 0.12, 0.1, 0.45, detail=0.0, distortion=1.0, direction="Z"),
-                Texture(NOISE, 0.08, 0.6, 0.4, detail=1.0),  # patches, cm-dm
+                Texture(NOISE, 0.08, 0.6, 0.4, **PATCH_OCTAVES),  # patches, cm-dm
             ),
             porosity=0.3,
             roughness=0.15,
@@ -159,7 +165,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.004, 0.4, 0.85),  # feldspar, quartz and mica crystals, ~4 mm
-                Texture(NOISE, 0.1, 0.6, 0.15, detail=1.0),  # weathered patches
+                Texture(NOISE, 0.1, 0.6, 0.15, **PATCH_OCTAVES),  # weathered patches
             ),
             porosity=0.3,
             roughness=0.1,
@@ -183,7 +189,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.0015, 0.3, 0.2),  # grog and sand, ~1.5 mm
-                Texture(NOISE, 0.1, 0.5, 0.6, detail=1.0),  # firing patches, dm
+                Texture(NOISE, 0.1, 0.5, 0.6, **PATCH_OCTAVES),  # firing patches, dm
                 Texture(NOISE, 0.01, 0.2, 0.2, detail=1.0),  # mottling, cm
             ),
             porosity=0.25,
@@ -208,7 +214,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.001, 0.3, 0.2),  # fine grog, ~1 mm
-                Texture(NOISE, 0.06, 0.7, 0.6, detail=1.0),  # firing patches
+                Texture(NOISE, 0.06, 0.7, 0.6, **PATCH_OCTAVES),  # firing patches
             ),
             porosity=0.2,
             roughness=0.1,
@@ -231,7 +237,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.0008, 0.2, 0.1),  # lime and sand grains
-                Texture(NOISE, 0.05, 0.8, 0.7, detail=1.0),  # trowelling, carbonation patches
+                Texture(NOISE, 0.05, 0.8, 0.7, **PATCH_OCTAVES),  # trowelling, carbonation patches
             ),
             porosity=0.25,
             roughness=0.15,
@@ -253,7 +259,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.008, 0.5, 0.55),  # aggregate against paste, ~8 mm
-                Texture(NOISE, 0.2, 0.5, 0.35, detail=1.0),  # pour and curing patches
+                Texture(NOISE, 0.2, 0.5, 0.35, **PATCH_OCTAVES),  # pour and curing patches
             ),
             porosity=0.3,
             roughness=0.15,
@@ -277,7 +283,7 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.001, 0.3, 0.3),  # sand in lime, ~1 mm
-                Texture(NOISE, 0.03, 0.7, 0.7, detail=1.0),  # pointing and carbonation patches, cm
+                Texture(NOISE, 0.03, 0.7, 0.7, **PATCH_OCTAVES),  # pointing and carbonation patches, cm
             ),
             porosity=0.25,
             roughness=0.1,
