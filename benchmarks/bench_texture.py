@@ -230,7 +230,7 @@ def measure(name, args, work):
             crops[age, seed] = render_crop(scene, top, left, seed)
         new, old, other_seed = crops[0.0, 0], crops[1.0, 0], crops[1.0, 1]
         seeds = texture_spectrum.fine_band_variance(old - other_seed) / texture_spectrum.fine_band_variance(old)
-        if verdict("seeds", seeds) == "✓" or 2 * samples > MOST_SAMPLES_FACTOR * args.samples:
+        if meets("seeds", seeds) or 2 * samples > MOST_SAMPLES_FACTOR * args.samples:
             break
         samples *= 2
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -256,9 +256,14 @@ def measure(name, args, work):
 # --- reporting -------------------------------------------------------------------------------
 
 
-def verdict(measure_name, value):
+def meets(measure_name, value):
+    """Whether ``value`` lies within the target of ``measure_name`` (TARGETS)."""
     low, high = TARGETS[measure_name]
-    return "✓" if (low is None or value >= low) and (high is None or value <= high) else "✗"
+    return (low is None or value >= low) and (high is None or value <= high)
+
+
+def verdict(measure_name, value):
+    return "✓" if meets(measure_name, value) else "✗"
 
 
 def target_text(measure_name):

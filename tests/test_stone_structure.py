@@ -156,21 +156,27 @@ def test_a_layer_clipped_before_its_gain_is_clipped_after():
 def test_a_noise_spreads_as_wide_whatever_its_octaves():
     """A noise's gain scales with how narrow its normalised octaves leave it (docs/model.md §8.1):
     Blender's fBm of independent octaves, sampled here as sums of independent uniform draws of
-    equal spread, spreads gain (v - 1/2) alike for the presets' octaves and the calibration's."""
+    equal spread (a fractional detail mixing, by its fraction, the normalised sums without and with
+    one octave more, as Blender's fBm does), spreads gain (v - 1/2) alike for the presets' octaves,
+    a fractional detail's and the calibration's."""
     rng = np.random.default_rng(1)
 
     def spread(texture):
-        octaves = int(texture.detail) + 1
-        amplitudes = texture.roughness ** np.arange(octaves)
-        draws = rng.uniform(-0.5, 0.5, (200_000, octaves)) @ amplitudes / amplitudes.sum()
-        return texture.gain * draws.std()
+        whole, fraction = int(texture.detail), texture.detail % 1.0
+        amplitudes = texture.roughness ** np.arange(whole + 2)
+        draws = rng.uniform(-0.5, 0.5, (200_000, whole + 2)) * amplitudes
+        without = draws[:, :-1].sum(axis=1) / amplitudes[:-1].sum()
+        with_next = draws.sum(axis=1) / amplitudes.sum()
+        return texture.gain * ((1.0 - fraction) * without + fraction * with_next).std()
 
     detail, roughness = stones.NOISE_GAIN_OCTAVES
     calibration = stones.Texture(stones.NOISE, 0.1, 1.0, 0.0, detail=detail, roughness=roughness)
     assert calibration.gain == stones.GAIN[stones.NOISE]
     patches = stones.Texture(stones.NOISE, 0.1, 1.0, 0.0, **PATCH_OCTAVES)
+    half_octave = stones.Texture(stones.NOISE, 0.1, 1.0, 0.0, detail=0.5, roughness=1.0)
     assert patches.gain > calibration.gain
-    assert spread(patches) == pytest.approx(spread(calibration), rel=0.01)
+    for texture in (patches, half_octave):
+        assert spread(texture) == pytest.approx(spread(calibration), rel=0.01)
 
 
 def blender_reflect(a, b):

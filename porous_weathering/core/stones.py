@@ -90,13 +90,15 @@ class Texture:
 
 def fbm_spread(detail: float, roughness: float) -> float:
     """How wide Blender's normalised fBm of ``detail`` octaves spreads, relative to one octave:
-    sqrt(sum a_i^2) / sum a_i over its octaves' amplitudes a_i = roughness^i (independent octaves
-    of equal spread; a fractional last octave counts by its fraction, as Blender weighs it)."""
-    whole = int(detail)
-    amplitudes = [roughness**i for i in range(whole + 1)]
-    if detail > whole:
-        amplitudes.append((detail - whole) * roughness ** (whole + 1))
-    return math.sqrt(sum(a * a for a in amplitudes)) / sum(amplitudes)
+    sqrt(sum w_i^2), w_i each (independent, equally spread) octave's weight in it.  Whole octaves
+    weigh a_i / sum a_i, a_i = roughness^i; a fractional ``detail`` mixes, by its fraction, that
+    sum with the one of an octave more, each normalised by its own amplitudes, as Blender does."""
+    whole, fraction = int(detail), detail - int(detail)
+    amplitudes = [roughness**i for i in range(whole + 2)]
+    without, with_next = sum(amplitudes[:-1]), sum(amplitudes)
+    weights = [a * ((1.0 - fraction) / without + fraction / with_next) for a in amplitudes[:-1]]
+    weights.append(amplitudes[-1] * fraction / with_next)
+    return math.sqrt(sum(w * w for w in weights))
 
 
 @dataclass(frozen=True)
