@@ -86,6 +86,17 @@ def facade(args):
     import bench_life  # noqa: PLC0415  (benchmarks/bench_life.py: the main job's façade, on --scene facade only)
 
     _, [obj], _ = bench_life.facade()
+    bake = corner_bake(obj)
+    setting = (
+        f"The main job's façade as benchmarks/bench_life.py prepares it ({len(obj.data.polygons)} faces, "
+        f"{len(obj.data.loops)} corners), per corner; the rain and the sun with the bake's defaults"
+    )
+    return bake, setting, "corner"
+
+
+def corner_bake(obj):
+    """bake(kind, samples, seed) -> the rain's or the sun's values at ``obj``'s corners, with the bake's
+    defaults and the scene's other objects as occluders."""
     occluders = sky_bake.default_occluders(obj)
 
     def bake(kind, samples, seed):
@@ -93,11 +104,7 @@ def facade(args):
             return rain.bake_rain_corners(obj, rain.RainSettings(samples=samples, seed=seed), occluders)
         return sun.bake_sun_corners(obj, sun.SunSettings(samples=samples, seed=seed), occluders)
 
-    setting = (
-        f"The main job's façade as benchmarks/bench_life.py prepares it ({len(obj.data.polygons)} faces, "
-        f"{len(obj.data.loops)} corners), per corner; the rain and the sun with the bake's defaults"
-    )
-    return bake, setting, "corner"
+    return bake
 
 
 #: The scenes (--scene), each (args) -> (bake, setting, unit).
