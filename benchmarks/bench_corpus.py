@@ -55,7 +55,7 @@ from mathutils import Vector  # noqa: E402
 from benchmarks import corpus_regions, machine  # noqa: E402
 from porous_weathering.blender import compat, mesh_arrays, render  # noqa: E402
 from porous_weathering.contracts import GROUP_NODE  # noqa: E402
-from porous_weathering.core import model  # noqa: E402
+from porous_weathering.core import model, stones  # noqa: E402
 from porous_weathering.core import modes as weathering_modes  # noqa: E402
 from porous_weathering.maps import edges, linking  # noqa: E402
 from porous_weathering.samples import studio  # noqa: E402
@@ -136,21 +136,25 @@ def bake(path):
         raise RuntimeError(f"bake of {path} failed ({done.returncode}): {done.stderr.strip()[-400:]}")
 
 
-def made_material(obj, modes, environment=None):
+def made_material(obj, modes, environment=None, changes=None):
     """The material the panel's Make gives ``obj`` for ``modes`` with the scene's default panel
     settings: the default stone and ``environment`` (None: the default one), their panel values,
-    the scene's sun (``ui/operators.py``)."""
+    the scene's sun (``ui/operators.py``); ``changes``: weathering inputs, and ``variation``, given
+    other values (None: none)."""
     stone = panel_settings.DEFAULT_SOURCE
     environment = environment or presets.DEFAULT_ENVIRONMENT
     defaults = presets.weathering_values(stone, environment)
     values = {item.name: defaults[item.name] for item in weathering_modes.inputs_of(modes) if item.panel}
+    changes = dict(changes or {})
+    variation = changes.pop("variation", stones.DEFAULT_VARIATION)
     return linking.weathered_material_for(
         obj,
         modes,
         preset=stone,
         key_light=panel_settings.scene_sun(bpy.context.scene),
-        values=values,
+        values={**values, **changes},
         environment=environment,
+        variation=variation,
     )
 
 

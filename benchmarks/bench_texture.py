@@ -3,7 +3,7 @@
 "Texture: β and fine share").
 
     python benchmarks/bench_texture.py [--size 540] [--samples 48] [--bake-samples 32]
-        [--only NAME ...] [--quick] [--work DIR] [--crops DIR]
+        [--only NAME ...] [--quick] [--work DIR] [--crops DIR] [--inputs NAME=VALUE ...]
 
 Each bundled sample is weathered as the main job weathers it (``demo.Sample``: its recipe's
 stone, environment, site rain, view and maps baked with the bake's defaults; the ground held
@@ -31,7 +31,9 @@ Targets (the photographs of real decay): at t = 1, 1.8 <= β <= 3.0 and fine sha
 every shape; the façade's ratio image β <= 3.2. Prints a Markdown table with a verdict per cell
 and the machine line. ``--crops DIR`` writes each shape's crops (t = 0, t = 1, and the ratio at
 half grey = 1) and a picture of where the crop lies. ``--quick``: 8 samples, 8 rain samples,
-the façade and the head only (unless ``--only``).
+the façade and the head only (unless ``--only``). ``--inputs``: weathering inputs (and the stone's
+``variation``) given other values on every shape, to see what holds its figures (``runoff=0
+streaks=0``: the rain alone; ``variation=0``: no stone).
 """
 
 import argparse
@@ -96,7 +98,7 @@ def open_sample(name, args, work):
     ground = sample.scene.objects["Ground"]
     studio.assign(ground, studio.holdout_material())
     others = [obj for obj in sample.scene.objects if obj.type == "MESH" and obj not in (*sample.objects, ground)]
-    return sample.scene, lambda age: sample.show(model.SOILING, age), others
+    return sample.scene, lambda age: sample.show(model.SOILING, age, **args.inputs), others
 
 
 def open_corpus_shape(shape, args, work):
@@ -110,7 +112,7 @@ def open_corpus_shape(shape, args, work):
     bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
     scene, obj = bpy.context.scene, bpy.data.objects[shape]
     scene.render.resolution_x = scene.render.resolution_y  # bench_corpus.py's pictures are square
-    material = bench_corpus.made_material(obj, (model.SOILING,))
+    material = bench_corpus.made_material(obj, (model.SOILING,), changes=args.inputs)
 
     def show(age):
         weathering.set_input(material.node_tree.nodes[GROUP_NODE], "time", age)
@@ -319,6 +321,15 @@ def write_pictures(folder, name, pictures):
     bench_visible.write_areas(pictures["where"], [], os.path.join(folder, f"{name}_where.png"))
 
 
+def input_value(text):
+    """(name, value) of a NAME=VALUE argument."""
+    name, _, value = text.partition("=")
+    try:
+        return name, float(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: give NAME=VALUE, VALUE a number") from None
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     bench_visible.add_render_options(parser, size=540, samples=48)
@@ -326,7 +337,16 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true", help="a small check: 8 samples, 8 rain samples, 2 shapes")
     parser.add_argument("--work", help="keep the corpus scenes here, reused (default: a temporary folder)")
     parser.add_argument("--crops", metavar="DIR", help="write each shape's crops and where they lie here (PNG)")
+    parser.add_argument(
+        "--inputs",
+        nargs="+",
+        default=[],
+        type=input_value,
+        metavar="NAME=VALUE",
+        help="weathering inputs, or variation, given other values on every shape (default: none)",
+    )
     args = parser.parse_args(argv)
+    args.inputs = dict(args.inputs)
     if args.quick:
         args.samples, args.bake_samples = 8, 8
     names = args.only or (QUICK_SHAPES if args.quick else SHAPES)
@@ -347,7 +367,9 @@ def main(argv=None):
     print(
         f"\nCrops {CROP} x {CROP}, {args.samples} samples (more where the seeds differed: the last column), "
         "4 bounces, pixel filter 1.5, no denoising, "
-        f"{args.bake_samples} rain samples; soiling; {machine.describe(bpy.app.version_string)}; "
+        f"{args.bake_samples} rain samples; soiling"
+        + "".join(f", {name} {value:g}" for name, value in args.inputs.items())
+        + f"; {machine.describe(bpy.app.version_string)}; "
         f"{time.time() - started:.0f} s"
     )
     os._exit(0)  # bpy 4.5 can hang at interpreter exit
