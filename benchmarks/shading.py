@@ -29,6 +29,7 @@ import porous_weathering as pw  # noqa: E402
 from benchmarks import machine, scenes, speed, timing  # noqa: E402
 from porous_weathering.blender import mesh_arrays, render
 from porous_weathering.core import backends, model, porous
+from porous_weathering.core import modes as weathering_modes
 from porous_weathering.samples import studio  # noqa: E402
 
 SAMPLES = (8, 40)
@@ -66,10 +67,10 @@ MAP_ATTRIBUTE = "pw_bench_map"
 MAP_RANGE = (0.2, 0.8)
 
 
-def weathered(modes, key_light, maps=False, stone=None):
-    """The material of ``modes``; ``maps``: every mask read from MAP_ATTRIBUTE; ``stone``: a
-    preset key whose structure the material takes (docs/model.md §8)."""
-    masks = {name: MAP_ATTRIBUTE for name in ("rain_map", "edge_map", "efflorescence_map")} if maps else {}
+def weathered(modes, key_light, maps=(), stone=None):
+    """The material of ``modes``; ``maps``: the mask inputs read from MAP_ATTRIBUTE (BAKED_MAPS,
+    EVERY_MAP); ``stone``: a preset key whose structure the material takes (docs/model.md §8)."""
+    masks = {name: MAP_ATTRIBUTE for name in maps}
     state = {name: value for name, value in {**WEATHERING, **masks}.items() if name in model.inputs_of(modes)}
     name = "+".join(modes) + (f" {stone}" if stone else "")
     return pw.make_weathered_material(name, modes=modes, key_light=key_light, stone=stone, **speed.stone(), **state)
@@ -94,9 +95,16 @@ FOLDED = f"Diffuse+Glossy, {FOLDED_CHAIN} Math nodes behind a Map Range of const
 #: The weathered material with a stone's structure (docs/model.md §8), against the same without it.
 STRUCTURED_STONE = "LIMESTONE"
 STRUCTURED = f"all three modes, key light, baked maps, the {STRUCTURED_STONE.lower()}'s structure"
+#: The masks "baked maps" reads from MAP_ATTRIBUTE (the rest keep their defaults: no run-off, damp
+#: or shade, which Cycles folds), and every mask the modes have (the run-off map brings the
+#: rivulets, docs/model.md §8.8).
+BAKED_MAPS = ("rain_map", "edge_map", "efflorescence_map")
+EVERY_MAP = tuple(item.name for item in weathering_modes.inputs_of(model.MODES) if item.mask)
+ON_EVERY_MAP = "all modes, key light, every map"
+STRUCTURED_ON_EVERY_MAP = f"{ON_EVERY_MAP}, the {STRUCTURED_STONE.lower()}'s structure"
 #: Materials shading_instructions.py can count but the timings leave out: designs measured, not
-#: shipped, and a check of what Cycles folds.
-EXPERIMENTS = ("porous key light, lookup texture", FOLDED)
+#: shipped, a check of what Cycles folds, and the weathered material on every map.
+EXPERIMENTS = ("porous key light, lookup texture", FOLDED, ON_EVERY_MAP, STRUCTURED_ON_EVERY_MAP)
 
 
 def folded_chain_material():
@@ -182,8 +190,10 @@ def material_makers(sun):
         FOLDED: folded_chain_material,
         "all three modes, key light": lambda: weathered(model.MODES, sun),
         "all three modes, ambient": lambda: weathered(model.MODES, None),
-        "all three modes, key light, baked maps": lambda: weathered(model.MODES, sun, maps=True),
-        STRUCTURED: lambda: weathered(model.MODES, sun, maps=True, stone=STRUCTURED_STONE),
+        "all three modes, key light, baked maps": lambda: weathered(model.MODES, sun, BAKED_MAPS),
+        STRUCTURED: lambda: weathered(model.MODES, sun, BAKED_MAPS, stone=STRUCTURED_STONE),
+        ON_EVERY_MAP: lambda: weathered(model.MODES, sun, EVERY_MAP),
+        STRUCTURED_ON_EVERY_MAP: lambda: weathered(model.MODES, sun, EVERY_MAP, stone=STRUCTURED_STONE),
         **{f"{mode}, key light": (lambda mode=mode: weathered((mode,), sun)) for mode in model.MODES},
     }
 

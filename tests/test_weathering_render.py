@@ -30,7 +30,7 @@ from helpers import (
     weathered,
 )
 from porous_weathering.blender import compat
-from porous_weathering.core import model
+from porous_weathering.core import model, shader_math, voronoi
 from porous_weathering.core.backends import NumpyOps
 from porous_weathering.core.modes import biological
 from porous_weathering.samples import studio
@@ -304,6 +304,26 @@ def test_the_numpy_lichen_seeds_are_the_renders(fresh_scene):
     assert np.abs(distance - seeds[0][covered]).max() < 1e-5
     assert np.array_equal(value.astype(np.float32), seeds[1][covered])
     assert len(np.unique(value)) > 4  # several seeds on the plane
+
+
+def test_the_numpy_white_noise_is_the_renders(fresh_scene):
+    """A cell's draws in numpy (voronoi.white_noise_colour: the rivulets', docs/model.md §8.8) are the
+    White Noise texture's Color in 1D at each pixel's whole-numbered W, with this Blender's hash:
+    cells of 0.2 m across the 2 m plane, negative and positive."""
+    plane = MaskedPlane(fresh_scene)
+    cells_per_metre = 5.0
+
+    def build(graph, geometry):
+        position = graph.node("ShaderNodeSeparateXYZ", {"Vector": geometry.outputs["Position"]})
+        cell = shader_math.floor(graph.wrap(position.outputs["X"]) * cells_per_metre)
+        return graph.node("ShaderNodeTexWhiteNoise", {"W": cell}, noise_dimensions="1D").outputs["Color"]
+
+    colour = plane.render(studio.emission_probe("White Noise Probe", build))
+    place = plane.render(studio.emission_probe("Place Probe", lambda graph, geometry: geometry.outputs["Position"]))
+    covered = place[..., 3] > 0.999
+    cells = np.floor(place[..., 0][covered].astype(np.float32) * np.float32(cells_per_metre))
+    assert cells.min() < 0.0 < cells.max()
+    assert np.array_equal(np.stack(voronoi.white_noise_colour(cells), axis=-1), colour[..., :3][covered])
 
 
 def test_biological_matches_model(fresh_scene):

@@ -8,7 +8,7 @@ Neither backend imports bpy.
 
 import numpy as np
 
-from . import shader_math
+from . import shader_math, voronoi
 
 
 class NumpyOps:
@@ -29,6 +29,12 @@ class NumpyOps:
     @staticmethod
     def multiply_add(a, b, c):
         return a * b + c
+
+    @staticmethod
+    def white_noise(w):
+        """Blender's White Noise of ``w`` in 1D, its three channels (``voronoi.white_noise_colour``),
+        in double precision as the rest of the model (the single-precision draws exactly)."""
+        return tuple(channel.astype(np.float64) for channel in voronoi.white_noise_colour(w))
 
     @staticmethod
     def face_upward(x):
@@ -74,6 +80,7 @@ class NodeOps:
     sqrt = staticmethod(shader_math.sqrt)
     arccos = staticmethod(shader_math.arccos)
     floor = staticmethod(shader_math.floor)
+    white_noise = staticmethod(shader_math.white_noise)
     face_upward = staticmethod(shader_math.face_upward)
     smoothstep = staticmethod(shader_math.smoothstep)
     front = staticmethod(shader_math.front)

@@ -468,6 +468,14 @@ def floor(x):
     return x.graph.math("FLOOR", x) if isinstance(x, Expr) else float(math.floor(x))
 
 
+def white_noise(w):
+    """Three draws in [0, 1] of a scalar ``w``: the White Noise texture's Color in 1D, one node and
+    the Separate Color of its channels (``voronoi.white_noise_colour`` in numpy)."""
+    noise = w.graph.node("ShaderNodeTexWhiteNoise", {"W": w}, noise_dimensions="1D")
+    channels = w.graph.node("ShaderNodeSeparateColor", {"Color": noise.outputs["Color"]})
+    return tuple(w.graph.wrap(output) for output in channels.outputs[:3])
+
+
 def face_upward(x):
     """The vector x or -x, whichever has z > 0 (-x where z = 0): one Vector Math Faceforward."""
     return x.graph.math("FACEFORWARD", x, (0.0, 0.0, -1.0), x)

@@ -1,9 +1,10 @@
-"""Blender's Voronoi texture (2D, F1, Euclidean, randomness 1: the node's defaults) as Cycles
-computes it, in numpy and in single precision as the shader works, so that a point's nearest seed
-is the render's (docs/model.md §10.1: the survey's lichens). Each cell's seed and value are a hash
-of the cell, which Blender changed in 5.0: ``LOOKUP3`` (up to 4.5: Bob Jenkins' lookup3 of the
-bits of the cell's float coordinates) or ``PCG`` (from 5.0: the PCG hash of its integer
-coordinates, Jarzynski & Olano 2020), both as Cycles' ``util/hash.h`` writes them. No bpy."""
+"""Blender's Voronoi texture (2D, F1, Euclidean, randomness 1: the node's defaults) and White Noise
+texture (1D, its Color) as Cycles computes them, in numpy and in single precision as the shader
+works, so that a point's nearest seed is the render's (docs/model.md §10.1: the survey's lichens)
+and a cell's draws are the render's (§8.8: the rivulets). The Voronoi's cells are hashed by a hash
+Blender changed in 5.0: ``LOOKUP3`` (up to 4.5: Bob Jenkins' lookup3 of the bits of the cell's
+float coordinates) or ``PCG`` (from 5.0: the PCG hash of its integer coordinates, Jarzynski &
+Olano 2020); the White Noise by lookup3 in both; all as Cycles' ``util/hash.h`` writes them. No bpy."""
 
 import numpy as np
 
@@ -11,7 +12,7 @@ LOOKUP3 = "lookup3"
 PCG = "pcg"
 
 #: lookup3's starting value for a hash of n words: 0xdeadbeef + (n << 2) + 13.
-_START = {2: 0xDEADBEEF + (2 << 2) + 13, 3: 0xDEADBEEF + (3 << 2) + 13}
+_START = {n: 0xDEADBEEF + (n << 2) + 13 for n in (1, 2, 3)}
 _PCG_MULTIPLIER, _PCG_INCREMENT = np.int32(1664525), np.int32(1013904223)
 
 
@@ -31,12 +32,14 @@ def _final(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> np.ndarray:
 
 
 def lookup3(*words: np.ndarray) -> np.ndarray:
-    """Cycles' ``hash_float2_to_float`` / ``hash_float3_to_float``: lookup3 of the words' float32
-    bits, as a float32 in [0, 1]."""
+    """Cycles' ``hash_float_to_float`` / ``hash_float2_to_float`` / ``hash_float3_to_float``:
+    lookup3 of the one to three words' float32 bits, as a float32 in [0, 1]."""
     bits = [np.ascontiguousarray(word, dtype=np.float32).view(np.uint32) for word in words]
     a = np.full(bits[0].shape, _START[len(bits)], dtype=np.uint32)
     b, c = a.copy(), a.copy()
-    a, b = a + bits[0], b + bits[1]
+    a = a + bits[0]
+    if len(bits) >= 2:
+        b = b + bits[1]
     if len(bits) == 3:
         c = c + bits[2]
     return _final(a, b, c).astype(np.float32) * np.float32(2.0**-32)
@@ -98,3 +101,10 @@ def voronoi_f1(x: np.ndarray, y: np.ndarray, scale: np.ndarray | float, kind: st
                 best = np.where(nearer, distance, best)
                 value = np.where(nearer, own, value)
     return best, value
+
+
+def white_noise_colour(w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The Color of the White Noise texture node in 1D at ``w``, Cycles' ``hash_float_to_float3``:
+    three float32 draws in [0, 1], lookup3 of w's float32 bits, then of (w, 1) and (w, 2)."""
+    w = np.asarray(w, dtype=np.float32)
+    return lookup3(w), lookup3(w, np.ones_like(w)), lookup3(w, np.full_like(w, 2.0))

@@ -205,9 +205,6 @@ RIVULET_HALF_WIDTHS = (0.1, 0.4)
 #: slope alone gives at most Q = E l, so R = 1 - exp(-(l / L) E); run-off beyond that came from
 #: elsewhere, gathered by a feature above.
 RAIN_ALONE_RATIO = 5.0
-#: The modulus of the cells' hash, the permutation (34 x + 1) x mod 289 of Gustavson's simplex
-#: noise: whole numbers below 2^24 throughout, exact in a shader's single precision.
-HASH_MODULUS = 289.0
 
 
 def fall_line(xp, x, y, normal_x, normal_y):
@@ -218,21 +215,11 @@ def fall_line(xp, x, y, normal_x, normal_y):
     return (x * normal_y - y * normal_x) / xp.maximum(horizontal, porous.EPSILON), horizontal
 
 
-def _modulo(xp, whole):
-    """A whole number modulo HASH_MODULUS, in [0, HASH_MODULUS) (the half keeps floor off a
-    rounding at the multiples)."""
-    return whole - HASH_MODULUS * xp.floor((whole + 0.5) / HASH_MODULUS)
-
-
-def _permute(xp, whole):
-    return _modulo(xp, (34.0 * whole + 1.0) * whole)
-
-
 def cell_draws(xp, cell):
-    """Three draws in [0, 1) of a whole-numbered cell (docs/model.md §8.8): its rivulet's place,
-    width and strength; the same cell, the same draws, in both backends."""
-    own = _permute(xp, _modulo(xp, cell))
-    return tuple(_permute(xp, own + float(j)) / HASH_MODULUS for j in range(3))
+    """Three draws in [0, 1] of a whole-numbered cell (docs/model.md §8.8): its rivulet's place,
+    width and strength, Blender's White Noise of the cell (``xp.white_noise``); the same cell, the
+    same draws, in both backends."""
+    return xp.white_noise(cell)
 
 
 def flow_concentration(xp, rain_map, runoff_map):
