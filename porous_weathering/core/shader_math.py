@@ -8,6 +8,8 @@ constants cost no nodes.  Nodes are laid out in columns by their depth in the gr
 
 import math
 
+from . import voronoi
+
 SCALAR, VECTOR = "SCALAR", "VECTOR"
 #: Nodes whose outputs are not known when the group is built: the shading geometry, the texture
 #: coordinates and the object's own data (its location).
@@ -470,7 +472,10 @@ def floor(x):
 
 def white_noise(w):
     """Three draws in [0, 1] of a scalar ``w``: the White Noise texture's Color in 1D, one node and
-    the Separate Color of its channels (``voronoi.white_noise_colour`` in numpy)."""
+    the Separate Color of its channels; of a constant, the numbers themselves
+    (``voronoi.white_noise_colour``, as numpy draws them)."""
+    if not isinstance(w, Expr):
+        return tuple(float(channel) for channel in voronoi.white_noise_colour(w))
     noise = w.graph.node("ShaderNodeTexWhiteNoise", {"W": w}, noise_dimensions="1D")
     channels = w.graph.node("ShaderNodeSeparateColor", {"Color": noise.outputs["Color"]})
     return tuple(w.graph.wrap(output) for output in channels.outputs[:3])
