@@ -134,11 +134,9 @@ class FacadePoints:
 
 
 def year_table():
-    """The year's suns at LATITUDE as a (days, instants) table: scene directions and weights."""
-    days = np.arange(1, solar.DAYS + 1)
-    hour_angle = 2.0 * np.pi * ((np.arange(solar.STEPS_PER_DAY) + 0.5) / solar.STEPS_PER_DAY - 0.5)
-    directions = solar.sun_vector(LATITUDE, solar.declination(days)[:, None], hour_angle[None, :]).reshape(-1, 3)
-    weights = solar.beam(directions[:, 2])
+    """The year's suns at LATITUDE as a (days, instants) table (``solar.year_grid``, day by day):
+    scene directions and weights."""
+    directions, weights = solar.year_grid(LATITUDE)
     return solar.scene_directions(directions, 0.0), weights / weights.sum()
 
 

@@ -64,17 +64,24 @@ def beam(cos_zenith: np.ndarray) -> np.ndarray:
     return relative
 
 
-def year(latitude: float, steps_per_day: int = STEPS_PER_DAY) -> tuple[np.ndarray, np.ndarray]:
-    """(directions (N, 3), weights (N,)): the sun's positions over the year at ``latitude``
-    (degrees, south negative) in the site frame, those above the horizon only, and their share
-    of the year's beam irradiation at normal incidence (beam × time step, summing to 1)."""
+def year_grid(latitude: float, steps_per_day: int = STEPS_PER_DAY) -> tuple[np.ndarray, np.ndarray]:
+    """(directions (DAYS × steps_per_day, 3), beams): the sun at every instant of the year at
+    ``latitude`` (degrees, south negative) in the site frame, day by day, below the horizon too,
+    and its beam at normal incidence there (``beam``: 0 below the horizon)."""
     latitude = real_number("latitude", latitude)
     if not -90.0 <= latitude <= 90.0:
         raise ValueError(f"latitude must be in [-90, 90] degrees, not {latitude}")
     day = np.arange(1, DAYS + 1)
     hour_angle = 2.0 * np.pi * ((np.arange(steps_per_day) + 0.5) / steps_per_day - 0.5)
     directions = sun_vector(latitude, declination(day)[:, None], hour_angle[None, :]).reshape(-1, 3)
-    weights = beam(directions[:, 2])
+    return directions, beam(directions[:, 2])
+
+
+def year(latitude: float, steps_per_day: int = STEPS_PER_DAY) -> tuple[np.ndarray, np.ndarray]:
+    """(directions (N, 3), weights (N,)): the sun's positions over the year at ``latitude``
+    (degrees, south negative) in the site frame, those above the horizon only, and their share
+    of the year's beam irradiation at normal incidence (beam × time step, summing to 1)."""
+    directions, weights = year_grid(latitude, steps_per_day)
     up = weights > 0.0
     return directions[up], weights[up] / weights[up].sum()
 
