@@ -59,12 +59,18 @@ def main():
     print(f"wrote {OUT[args.scene]}")
 
 
-def terrain(args):
-    """(bake(kind, samples, seed) -> image, the setting's sentence, what a sample is per) on bench_rain's terrain."""
+def terrain_scene():
+    """(terrain, roof): bench_rain's terrain half under a roof, in a new empty scene."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     obj, roof = bench_rain.terrain(bpy.context.scene)
     bpy.context.view_layer.update()
     obj.data.calc_loop_triangles()
+    return obj, roof
+
+
+def terrain(args):
+    """(bake(kind, samples, seed) -> image, the setting's sentence, what a sample is per) on bench_rain's terrain."""
+    obj, roof = terrain_scene()
 
     def bake(kind, samples, seed):
         if kind == "rain":

@@ -1,8 +1,8 @@
-"""Two ways to a less noisy sun map, against Cycles' image bake (docs/maps.md, "Sun exposure",
-"Measured and not kept"): smoothing the baked map over its neighbours, and drawing the suns by
-their share of each plane's open exposure.
+"""Ways to a less noisy or cheaper sun map, against Cycles' image bake (docs/maps.md, "Sun exposure",
+"Measured and not kept"): smoothing the baked map over its neighbours, drawing the suns by their
+share of each plane's open exposure, and a smaller sky image.
 
-    python benchmarks/bench_sun_estimators.py [--reference 1024]
+    python benchmarks/bench_sun_estimators.py [--reference 1024] [--only terrain facade sky]
 
 Smoothing: on bench_sun's terrain (128², the image bake, 50° N) a Gaussian of SIGMAS texels over
 the sun baked at 16 and 64 samples and the rain at 64, each against its own bake at --reference
@@ -17,10 +17,15 @@ shifted at random per point, through the table's marginal and conditional CDFs, 
 weight w alone (the estimate the mean of max(0, N·s) V) or by w · max(0, N·s) (the open plane's S
 times the share of rays that escape). Points where the two geometries disagree (the 256-draw
 estimate over 0.1 off the reference: crevices where the façade's parts meet, which a single ray
-and Cycles' probe see differently) are left out of every error, Cycles' included. Prints the lines.
+and Cycles' probe see differently) are left out of every error, Cycles' included.
+
+A smaller sky image: on bench_sun's terrain, the sun at 64 samples under sky images SKY_WIDTHS
+pixels wide (the bake's is ``sun.SKY_WIDTH``) and the rain at 64, two rounds, each timed, the sun's
+error against the bake's own image at --reference samples. Prints the lines.
 """
 
 import argparse
+import dataclasses
 import pathlib
 import sys
 import time
@@ -37,9 +42,10 @@ import bench_sun  # noqa: E402  (benchmarks/bench_sun.py: the terrain and the ba
 
 from porous_weathering.blender import mesh_arrays, scratch_scene  # noqa: E402
 from porous_weathering.core import solar  # noqa: E402
-from porous_weathering.maps import sky_bake  # noqa: E402
+from porous_weathering.maps import rain, sky_bake, sun  # noqa: E402
 
 SIGMAS = (0.7, 1.0, 1.5)
+SKY_WIDTHS = (1024, 512, 256)
 DRAWS = (16, 32, 64)
 LATITUDE = 50.0
 #: Roberts' R2 lattice: the plastic number's powers.
@@ -203,12 +209,44 @@ def facade_runs(reference_samples):
             )
 
 
+def sky_widths(reference_samples):
+    obj, roof = bench_sun.terrain_scene()
+    settings = sun.SunSettings(latitude=LATITUDE, north_angle=0.0)
+    directions, weights = solar.year(LATITUDE)
+    directions = solar.scene_directions(directions, 0.0)
+
+    def sun_bake(width, samples, seed):
+        radiance = sun.sky_radiance(directions, weights, width)
+        sky = sun.sky(dataclasses.replace(settings, samples=samples, seed=seed), LATITUDE, 0.0)
+        sky = dataclasses.replace(sky, add=lambda scene, made: sun._add_sky(scene, radiance, made))
+        return sky_bake.bake_image(obj, "UVMap", 128, sky, [roof])
+
+    def timed(bake):
+        started = time.perf_counter()
+        values = bake()
+        return values, time.perf_counter() - started
+
+    rain_settings = rain.RainSettings(cone=15.0, samples=64)
+    reference = sun_bake(sun.SKY_WIDTH, reference_samples, 1)
+    for round_ in (1, 2):
+        _, seconds = timed(lambda: rain.bake_rain_image(obj, "UVMap", 128, rain_settings, [roof]))
+        print(f"sky round {round_}: rain 64 samples {seconds:.2f} s", flush=True)
+        for width in SKY_WIDTHS:
+            values, seconds = timed(lambda width=width: sun_bake(width, 64, 0))
+            error = rmse(values, reference)
+            print(f"sky round {round_}: sun 64 samples, {width} wide, {seconds:.2f} s, RMSE {error:.4f}", flush=True)
+
+
+PARTS = {"terrain": terrain_smoothing, "facade": facade_runs, "sky": sky_widths}
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--reference", type=int, default=1024)
+    parser.add_argument("--only", nargs="+", choices=tuple(PARTS), default=tuple(PARTS), help="these parts only")
     args = parser.parse_args()
-    terrain_smoothing(args.reference)
-    facade_runs(args.reference)
+    for part in args.only:
+        PARTS[part](args.reference)
 
 
 if __name__ == "__main__":
