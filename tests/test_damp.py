@@ -5,6 +5,7 @@ the wet mode and the efflorescence reading D as the model does, and D = 0 exactl
 bad flags refused before any work."""
 
 import dataclasses
+import os
 
 import bpy
 
@@ -30,6 +31,7 @@ from porous_weathering.core.modes import base as mode_base
 from porous_weathering.core.modes import efflorescence, wet
 from porous_weathering.maps import bake, damp, edges, rain
 from porous_weathering.maps import registry as maps
+from porous_weathering.samples import demo
 from porous_weathering.shading import presets
 
 SETTINGS = damp.DampSettings()
@@ -154,6 +156,21 @@ def test_a_wall_on_the_ground_is_damp_to_its_front_at_its_corners(fresh_scene):
     faces = np.abs(normals[:, 1]) > 0.9  # the wall's faces: wet to 1.07 m, dry from 1.18 m
     assert np.all(values[faces & (points[:, 2] < 1.0)] > 0.99) and np.all(values[faces & (points[:, 2] > 1.2)] < 0.01)
     assert 0.05 < values[faces & np.isclose(points[:, 2], 1.1)].mean() < 0.95  # in the fringe
+
+
+def test_a_bust_on_the_ground_is_damp_nearly_all_over(fresh_scene):
+    """A small body stands below the steady front of its own thickness (docs/scans.md, "Rising damp on
+    a scan"): the sample bust, 0.5 m high in millimetres, baked at the defaults, has D = 1 on 83% of
+    its corners, the rest (its hat, high and thin) dry."""
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(demo.SAMPLES_DIR, "bust.blend"), load_ui=False)
+    bust = bpy.data.objects["Bust"]
+    assert bust.dimensions.z * bpy.context.scene.unit_settings.scale_length == pytest.approx(0.5, rel=1e-3)
+    assert [o.status for o in bake.bake_maps([bust], bake.BakeOptions(maps=("damp",), target="attribute"))] == [
+        "written"
+    ]
+    values = corner_values(bust, damp.DAMP_ATTRIBUTE)
+    assert (values > 0.999).mean() == pytest.approx(0.83, abs=0.01)
+    assert ((values > 0.001) & (values < 0.999)).mean() < 0.01  # nearly all wholly damp or dry
 
 
 def test_the_same_wall_in_millimetres_is_the_same_map(fresh_scene):
