@@ -149,3 +149,14 @@ def test_the_clocks_come_from_years_at_a_site():
     assert aging.ages_for_years(1e6, 0.3)["biological_years"] == biological.BIOLOGICAL_YEARS.high
     with pytest.raises(ValueError, match="years"):
         aging.ages_for_years(-1.0, 0.3)
+
+
+def test_age_for_years_reads_each_modes_clock():
+    soiling_age = aging.age_for_years(20.0, 0.3)
+    assert soiling_age < 1.0  # not capped: the two clocks must differ below
+    for mode in ("soiling", "wet", "efflorescence"):
+        assert aging.age_for_years(20.0, 0.3, mode=mode) == soiling_age
+    assert aging.age_for_years(20.0, 0.3, mode="biological") == 20.0
+    assert aging.age_for_years(1e6, 0.3, mode="biological") == biological.BIOLOGICAL_YEARS.high
+    with pytest.raises(ValueError, match="unknown weathering modes"):
+        aging.age_for_years(20.0, 0.3, mode="moss")

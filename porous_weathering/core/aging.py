@@ -11,6 +11,7 @@ import math
 
 from . import modes
 from .arguments import choice, real_number
+from .modes import Input
 
 #: Reflectance loss of a sheltered surface at t = 1 (Pio et al. 1998: 30% calls for cleaning).
 LOSS_AT_FULL_AGE = 0.30
@@ -35,17 +36,26 @@ def reflectance_loss(dose_ratio: float, law: str = "sqrt") -> float:
     return 1.0 - (1.0 - LOSS_AT_FULL_AGE) ** dose_ratio
 
 
-def age_for_years(years: float, elemental_carbon: float, law: str = "sqrt") -> float:
+def age_for_years(years: float, elemental_carbon: float, law: str = "sqrt", mode: str | None = None) -> float:
     """t in [0, 1] after ``years`` of exposure at ``elemental_carbon`` µg/m³ (annual mean), by the
     soiling ``law`` of rain-sheltered surfaces ("sqrt" or "exponential"): the reflectance loss
     over the 30% of t = 1, capped at 1 (the model's fully weathered state; the stone goes on
-    darkening).  ValueError for negative years, a concentration not above 0 or an unknown law."""
+    darkening).  With ``mode``, the value of that mode's clock instead (docs/model.md §9.4): t for
+    the modes that run on it, the years themselves for ``"biological"``.  ValueError for negative
+    years, a concentration not above 0, an unknown law or an unknown mode."""
     if not (math.isfinite(real_number("years", years)) and years >= 0.0):
         raise ValueError(f"years must be a number >= 0, not {years!r}")
     if not (math.isfinite(real_number("elemental_carbon", elemental_carbon)) and elemental_carbon > 0.0):
         raise ValueError(f"elemental_carbon must be a concentration > 0 µg/m³, not {elemental_carbon!r}")
+    clocks = [item for item in modes.inputs_of(modes.checked(mode)) if item.clock] if mode is not None else []
     ratio = years * elemental_carbon / (REFERENCE_YEARS * REFERENCE_ELEMENTAL_CARBON)  # inf past 1e308: t = 1
-    return min(reflectance_loss(ratio, law) / LOSS_AT_FULL_AGE, 1.0)
+    t = min(reflectance_loss(ratio, law) / LOSS_AT_FULL_AGE, 1.0)
+    return _clock_value(clocks[0], years, t) if clocks else t
+
+
+def _clock_value(clock: Input, years: float, t: float) -> float:
+    """What ``clock`` reads after ``years`` whose soiling age is ``t``."""
+    return t if clock.clock == "age" else min(float(years), clock.high)
 
 
 def years_for_full_age(elemental_carbon: float) -> float:
@@ -70,10 +80,5 @@ def ages_for_years(years: float, elemental_carbon: float, law: str = "sqrt") -> 
     years x concentration); "years", the years themselves, capped at the input's range (life's
     pace is set by water and light, not by soot; a site's air sets how much life there is, its
     level and lichen density). ValueError as ``age_for_years``."""
-    clocks = {}
-    for item in modes.inputs().values():
-        if item.clock == "age":
-            clocks[item.name] = age_for_years(years, elemental_carbon, law)
-        elif item.clock == "years":
-            clocks[item.name] = min(float(years), item.high)
-    return clocks
+    t = age_for_years(years, elemental_carbon, law)
+    return {item.name: _clock_value(item, years, t) for item in modes.inputs().values() if item.clock}
