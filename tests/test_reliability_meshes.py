@@ -8,6 +8,7 @@ import time
 
 import bpy
 
+import bmesh
 import numpy as np
 import pytest
 
@@ -171,6 +172,86 @@ def test_inside_out_cube_is_baked_from_outside(fresh_scene, tmp_path):
     assert by_face[(0, 0, -1)] == pytest.approx(1.0, abs=0.05) and by_face[(0, 0, 1)] < 0.01
     assert ([tuple(v.co) for v in obj.data.vertices], [p.vertices[:] for p in obj.data.polygons]) == before
     assert np.all(edges.curvature(obj, 0.05) > 0)  # its corners are convex from outside too
+
+
+def tall_box(scene, name, inside_out=False, at=(0.0, 0.0, 0.0), size=1.0):
+    """A size x size x 4 size box standing at ``at`` (the scene in metres), in faces a tenth of
+    its sides, so that its run-off and its damp front (1.5 m for 1 m, over 0.5 m for a 1/8 box)
+    are resolved; turned inside out or not."""
+    obj = cube(scene, name, location=(at[0], at[1], at[2] + 2.0 * size))
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=9, use_grid_fill=True)
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.scale = (size, size, 4.0 * size)
+    if inside_out:
+        obj.data.flip_normals()
+    bpy.context.view_layer.update()
+    return obj
+
+
+def baked_per_face(obj, target, out_dir, maps):
+    """{map: values at the faces' centres, ordered by the centres}: the attribute's face means,
+    or the image's texel at each face's UV centre."""
+    rain_settings = rain.RainSettings(samples=64)  # the two boxes' rain noise apart, within the tolerance
+    options = bake.BakeOptions(
+        maps=maps, target=target, resolution=256, out_dir=str(out_dir), rain_settings=rain_settings
+    )
+    made = bake.bake_maps([obj], options)
+    mesh = obj.data
+    order = np.lexsort(np.array([tuple(p.center) for p in mesh.polygons]).round(4).T)
+    found = {}
+    for outcome in made:
+        if target == "attribute":
+            values = attribute_values(mesh, outcome.where)  # per vertex (the edges) or per corner
+            at = (lambda p: p.vertices) if len(values) == len(mesh.vertices) else (lambda p: p.loop_indices)
+            per_face = [values[list(at(p))].mean() for p in mesh.polygons]
+        else:
+            pixels = imageio.read_image(outcome.where)[0][..., 0]  # top row first
+            uvs = mesh.uv_layers[lightmap.LIGHTMAP_UV].data
+            centres = [np.mean([uvs[i].uv for i in p.loop_indices], axis=0) for p in mesh.polygons]
+            per_face = [pixels[int((1.0 - v) * 256), int(u * 256)] for u, v in centres]
+        found[outcome.map] = np.array(per_face)[order]
+    return found
+
+
+@pytest.mark.parametrize("target", ["attribute", "image"])
+def test_inside_out_box_gets_the_maps_of_the_box_right_way_out(fresh_scene, tmp_path, target):
+    # a scan saved with its normals turned in: the run-off's flow and drips, the damp's
+    # thickness rays and the edge mask's texel normals all read it from outside, as the rain does
+    maps = ("rain", "edges", "runoff", "damp")
+    right = baked_per_face(tall_box(fresh_scene, "Right"), target, tmp_path / "right", maps)
+    bpy.data.objects.remove(bpy.data.objects["Right"])  # not an occluder of the other
+    turned = baked_per_face(tall_box(fresh_scene, "Turned", inside_out=True), target, tmp_path / "turned", maps)
+    assert right["damp"].min() == 0.0 and right["damp"].max() == 1.0  # its front stands on the box
+    assert right["runoff"].max() > 0.5
+    for name in maps:
+        if target == "image" and name in ("edges", "runoff"):
+            # the two lightmaps differ, and a texel's place in its face with them: the mask falls
+            # steeply from each edge, so compare means (before: 0.094 against 0.024)
+            assert turned[name].mean() == pytest.approx(right[name].mean(), abs=0.003), name
+        else:
+            np.testing.assert_allclose(turned[name], right[name], atol=0.03, err_msg=name)
+
+
+@pytest.mark.parametrize("target", ["attribute", "image"])
+@pytest.mark.parametrize(
+    "at, size", [((1000.0, 0.0, 30.0), 0.125), ((12345.0, 23456.0, 100.0), 1.0)], ids=["1 km", "26 km"]
+)
+def test_an_object_far_from_the_origin_gets_the_maps_it_gets_there(fresh_scene, tmp_path, target, at, size):
+    # a statue in a site model, a building in a national grid: where it stands changes no map
+    # (before: the damp's rays started outside it in single precision, 0.68 for 1 on the small
+    # box; the edge mask's grid stood on the world's origin, up to 0.06 apart)
+    maps = ("rain", "edges", "runoff", "damp")
+    here = baked_per_face(tall_box(fresh_scene, "Here", size=size), target, tmp_path / "here", maps)
+    bpy.data.objects.remove(bpy.data.objects["Here"])
+    there = baked_per_face(tall_box(fresh_scene, "There", at=at, size=size), target, tmp_path / "there", maps)
+    # the run-off within 0.001: the box's vertices lie on its flow cells' faces, where a rounding
+    # of the far place's sum picks the cell on either side
+    tolerance = {"rain": 1e-4, "damp": 1e-4, "edges": 0.002, "runoff": 0.002}
+    for name in maps:
+        np.testing.assert_allclose(there[name], here[name], atol=tolerance[name], err_msg=name)
 
 
 def test_open_mesh_facing_down_is_taken_as_given(fresh_scene):

@@ -431,6 +431,29 @@ def test_faces_are_read_from_north():
     ]
 
 
+@pytest.mark.parametrize("turned", ["mirrored", "inside out", "both"])
+def test_faces_are_read_from_outside_on_a_mirrored_or_inside_out_mesh(fresh_scene, turned):
+    # the faces a survey tallies (north wall, top, ...) are the render's, whatever the winding
+    mesh = bpy.data.meshes.new("Box")
+    bm = bmesh.new()
+    bmesh.ops.create_cube(bm, size=EDGE)
+    bm.to_mesh(mesh)
+    bm.free()
+    if turned in ("inside out", "both"):
+        mesh.flip_normals()
+    obj = bpy.data.objects.new("Box", mesh)
+    fresh_scene.collection.objects.link(obj)
+    if turned in ("mirrored", "both"):
+        obj.scale.x = -1.0
+    bpy.context.view_layer.update()
+    found = survey.points.surface(obj)
+    centres = found.triangles_m.mean(axis=1)
+    assert np.all(np.einsum("ij,ij->i", found.normals, centres) > 0)  # out of the box at the origin
+    assert sorted(condition.FACES[i] for i in condition.faces_of(found.normals)) == sorted(
+        2 * ["east", "north", "west", "south", "up", "down"]
+    )
+
+
 def test_north_is_the_one_given_else_the_one_the_sun_map_was_baked_with(fresh_scene):
     obj = box(1.0, {}, modes=("soiling",))
     assert survey.SurveyOptions(ages=(0.5,)).north_of(obj) == 0.0  # no sun map, no Sun Position: +Y

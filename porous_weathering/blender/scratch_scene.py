@@ -16,7 +16,7 @@ from typing import TypeVar
 import bpy
 
 import numpy as np
-from mathutils import Vector
+from mathutils import Matrix, Vector
 
 from ..core.shader_math import Graph
 from . import compat, mesh_arrays
@@ -270,17 +270,23 @@ def bake_point_values(obj, uv_map_name, resolution, values, *, margin=0):
     return baked[..., 0].copy(), baked[..., 3] > 0
 
 
-def emit_bakes(obj, uv_map_name, resolution, emitted, prepare=None, margin=0):
+def emit_bakes(obj, uv_map_name, resolution, emitted, prepare=None, margin=0, origin=None):
     """One float RGBA (H, W, 4) array, top row first, per ``emitted(graph, geometry)``: exact
     Cycles EMIT bakes (one sample, the texel centre) of probe materials emitting it, on a copy
     of the object (its mesh first given to ``prepare``) in a temporary scene: the user's
     scene, mesh, materials and selection are untouched. Texels off every UV island and its
-    ``margin`` (filled by EXTEND) have alpha 0."""
+    ``margin`` (filled by EXTEND) have alpha 0. With ``origin`` (a world point, (3,)) the copy
+    stands moved by ``-origin``: positions come out relative to it, in Cycles' single precision
+    of the object's size rather than of its distance from the world's origin."""
     with Ledger() as made:
         image = made.add(bpy.data.images.new("PW Texel Bake", resolution, resolution, alpha=True, float_buffer=True))
         probes = [made.add(emission_probe(f"PW Texel Probe {index}", build)) for index, build in enumerate(emitted)]
         scene = temporary_scene(made, "PW Texel Bake")
         copy = placed_copy(obj, scene, probes[0], own_mesh=True, ledger=made)
+        if origin is not None:
+            moved = np.array(copy.matrix_world, dtype=np.float64)
+            moved[:3, 3] -= origin
+            copy.matrix_world = Matrix(moved.tolist())
         if prepare is not None:
             prepare(copy.data)
         baked = []

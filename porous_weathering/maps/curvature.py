@@ -380,14 +380,21 @@ def _grid_sums(sources, points, normals, radius, shift):
     Sources and points go in blocks of ``BLOCK``, from their positions on, so that no
     temporary outgrows the CPU cache, and the corners are numbered without sorting
     (``_cell_numbering``): time grows linearly."""
-    low = np.floor(np.minimum(sources.points.min(axis=0), points.min(axis=0, initial=np.inf)) / radius + shift)
-    high = np.floor(np.maximum(sources.points.max(axis=0), points.max(axis=0, initial=-np.inf)) / radius + shift)
+    # the grid stands on the centre of the sources' box, not on the world's origin: where the
+    # object stands changes nothing (and far from the origin, the cells keep their precision)
+    anchor = (sources.points.min(axis=0) + sources.points.max(axis=0)) / 2.0
+    low = np.floor(
+        (np.minimum(sources.points.min(axis=0), points.min(axis=0, initial=np.inf)) - anchor) / radius + shift
+    )
+    high = np.floor(
+        (np.maximum(sources.points.max(axis=0), points.max(axis=0, initial=-np.inf)) - anchor) / radius + shift
+    )
     width, height, depth = (high - low).astype(np.int64) + 2
     corner_offsets = (CORNERS[:, 0] * height + CORNERS[:, 1]) * depth + CORNERS[:, 2]
 
     def cells(where, block):
         """(key of the cell (n,), position in it (n, 3)) of the points ``where[block]``."""
-        scaled = where[block] / radius + shift - low
+        scaled = (where[block] - anchor) / radius + shift - low
         cell = np.floor(scaled)
         index = cell.astype(np.int64)
         return (index[:, 0] * height + index[:, 1]) * depth + index[:, 2], scaled - cell

@@ -357,18 +357,26 @@ def _median_edge(obj):
 def bake_texel_geometry(
     obj: bpy.types.Object, uv_map_name: str, resolution: int, *, smooth_normals: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(positions, normals, islands): the world-space position and shading normal (smooth
-    ones with ``smooth_normals``) of ``obj`` at the centre of every texel of ``uv_map_name``,
-    float32 (H, W, 3), and the (H, W) bool map of the texels on a UV island (the others are 0).
-    All top row first."""
+    """(positions, normals, islands): the world-space position (float64) and shading normal
+    (float32; smooth ones with ``smooth_normals``), out of the object, of ``obj`` at the centre of
+    every texel of ``uv_map_name``, (H, W, 3), and the (H, W) bool map of the texels on a UV
+    island (the others are 0). All top row first. A closed mesh turned inside out is read from
+    outside, as renders shade it: its normals are turned. The positions are baked about the
+    centre of its surface (``surface_box``: a stray point plays no part), so an object far from
+    the world's origin keeps its own precision."""
+    with evaluated_mesh(obj) as (mesh, matrix_world):
+        box = _box_of_faces(mesh)
+        outward = -1.0 if mesh_arrays.is_inside_out(mesh) else 1.0
+    centre = np.zeros(3) if box is None else matrix_world[:3, :3] @ box.mean(axis=0) + matrix_world[:3, 3]
     position, normal = scratch_scene.emit_bakes(
         obj,
         uv_map_name,
         resolution,
         [lambda graph, geometry, name=name: geometry.outputs[name] for name in ("Position", "Normal")],
         prepare=(lambda mesh: mesh.shade_smooth()) if smooth_normals else None,
+        origin=centre,
     )
-    return position[..., :3].copy(), normal[..., :3].copy(), position[..., 3] > 0
+    return position[..., :3] + centre, outward * normal[..., :3], position[..., 3] > 0
 
 
 # --- the record (docs/architecture.md, "Add a map") ---------------------------------------------------------

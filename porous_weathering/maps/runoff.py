@@ -94,7 +94,8 @@ class RunoffSettings:
 @dataclass(frozen=True)
 class _Mesh:
     """An object's mesh as the render sees it, in world space, as triangles wound so that their
-    normals point out of the object as rendered (a mirroring transform reverses the winding)."""
+    normals point out of the object as rendered (a mirroring transform reverses the winding, and
+    a closed mesh turned inside out is read from outside)."""
 
     vertices: np.ndarray  #: (V, 3)
     triangles: np.ndarray  #: (T, 3) vertex indices
@@ -135,7 +136,9 @@ def _triangles_of(mesh, matrix, uv_map=None):
             (along[:, 1] == loop_vertices[start]) & (along[:, 0] == triangles[:, (k + 2) % 3])
         )
         border[:, k] = follows & (uses[edge] == 1)
-    if np.linalg.det(matrix[:3, :3]) < 0:  # mirrored: swap two corners (and the edges facing them)
+    # mirrored, or closed and inside out (read from outside, as renders shade it), but not both:
+    # swap two corners (and the edges facing them)
+    if (np.linalg.det(matrix[:3, :3]) < 0) != mesh_arrays.is_inside_out(mesh):
         triangles, corners, border = (array[:, [0, 2, 1]] for array in (triangles, corners, border))
     uvs = lightmap.corner_uvs(mesh, uv_map)[corners] if uv_map is not None else None
     return _Mesh(vertices, triangles, corners, border, uvs)
@@ -157,16 +160,19 @@ def spacing_for(obj: bpy.types.Object, world: _Mesh, target: str, resolution: in
 
 
 def _lander(world):
-    """Where rays (world space) first meet the surface ``world``: a ray cast on a BVH of it."""
-    tree = BVHTree.FromPolygons(world.vertices.tolist(), world.triangles.tolist(), all_triangles=True)
+    """Where rays (world space) first meet the surface ``world``: a ray cast on a BVH of it, built
+    about the surface's lowest corner (the BVH holds single precision: of the object's size,
+    not of its distance from the world's origin)."""
+    corner = world.vertices.min(axis=0)
+    tree = BVHTree.FromPolygons((world.vertices - corner).tolist(), world.triangles.tolist(), all_triangles=True)
 
     def land(origins, direction):
         hits = np.full((len(origins), 3), np.nan)
         towards = Vector(np.asarray(direction, float))
-        for index, origin in enumerate(origins):
+        for index, origin in enumerate(np.asarray(origins, float) - corner):
             location = tree.ray_cast(Vector(origin), towards)[0]
             if location is not None:
-                hits[index] = np.array(location)
+                hits[index] = np.array(location) + corner
         return hits
 
     return land
@@ -227,11 +233,14 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
 
 
 def world_corner_normals(seen):
-    """The world-space unit normals of ``seen``'s corners (normals transform by the inverse
-    transpose, which keeps them outwards under a mirror)."""
+    """The world-space unit normals of ``seen``'s corners, out of the object (normals transform
+    by the inverse transpose, which keeps them outwards under a mirror; a closed mesh turned
+    inside out is read from outside, as renders shade it)."""
     normals = np.empty(len(seen.mesh.loops) * 3, np.float32)
     seen.mesh.corner_normals.foreach_get("vector", normals)
     normals = normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(seen.matrix_world[:3, :3])
+    if mesh_arrays.is_inside_out(seen.mesh):
+        normals = -normals
     return normals / np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
 
 
