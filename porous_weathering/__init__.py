@@ -6,6 +6,7 @@ The public API (docs/api.md):
     porous_weathering.make_base_material    the same Diffuse + Glossy without porosity
     porous_weathering.make_weathered_material  soiling / wet / efflorescence over time
     porous_weathering.make_preset_material  a porous material from a preset (docs/presets.md)
+    porous_weathering.ColorAttribute        a base colour read from a colour attribute (a scan's vertex colours)
 and the modules of ``PUBLIC_MODULES`` at their documented places (``porous_weathering.bake``,
 ``porous_weathering.export``, ...): each is the module of its layer (docs/architecture.md), served
 from that table by a finder this package installs; no file stands in for them.
@@ -48,6 +49,7 @@ _LAZY = {
     "make_base_material": "shading.material",
     "make_weathered_material": "shading.weathering",
     "make_preset_material": "shading.material",
+    "ColorAttribute": "shading.material",
 }
 
 

@@ -95,6 +95,20 @@ def follow_fallback(obj: "bpy.types.Object", map_name: str) -> str:
     return found[0]
 
 
+def scan_colours(obj: "bpy.types.Object") -> "material.ColorAttribute | None":
+    """The colour attribute holding ``obj``'s own colours (a scan's vertex colours, as a PLY or OBJ
+    import makes them): its render colour attribute, else its first, leaving out the maps baked
+    into colour attributes; None for an object without one."""
+    if obj.type != "MESH":
+        return None
+    baked = {kind.attribute for kind in registry.all_kinds()}
+    found = [attribute.name for attribute in obj.data.color_attributes if attribute.name not in baked]
+    render = obj.data.color_attributes.render_color_index
+    chosen = obj.data.color_attributes[render].name if 0 <= render < len(obj.data.color_attributes) else None
+    name = chosen if chosen in found else next(iter(found), None)
+    return material.ColorAttribute(name) if name else None
+
+
 def weathered_material_for(
     obj: "bpy.types.Object",
     modes: tuple[str, ...],
@@ -110,14 +124,15 @@ def weathered_material_for(
     weathering input ``values``, every mask input read from the map of ``obj`` that feeds it
     (``map_inputs``), lit by ``key_light``. From the stone ``preset`` (a key of
     ``presets.PRESETS``), or, with None, from ``obj``'s own material: its base colour and
-    roughness images are kept. ``environment`` sets the site's inputs ``values`` leave out;
+    roughness images are kept, or its vertex colours (the colour attribute its material's base
+    colour reads, else ``scan_colours``). ``environment`` sets the site's inputs ``values`` leave out;
     ``stone`` replaces material keywords (a measured ``base_color``: ``presets.from_colorimetry``).
     A preset's material has its stone's structure at ``variation`` (docs/model.md §8); an object
     whose size is implausible at the scene's unit scale gets a PorousInputWarning saying how to
     set the unit (§8.4). ValueError on a bad input (see ``make_weathered_material``)."""
     if preset is None:
         textures = material.principled_textures(obj.active_material)
-        params = {"base_color": textures.get("Base Color", DEFAULT_BASE_COLOR)}
+        params = {"base_color": textures.get("Base Color") or scan_colours(obj) or DEFAULT_BASE_COLOR}
         name = f"{obj.active_material.name if obj.active_material else obj.name} Porous"
     else:
         chosen = presets.PRESETS[preset]

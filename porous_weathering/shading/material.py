@@ -2,6 +2,7 @@
 
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import bpy
 
@@ -15,8 +16,19 @@ from ..core.shader_math import Graph
 from . import nodes
 from .presets import PRESETS
 
-#: k_d as a colour (RGB or RGBA), an image, or an image file's path.
-ColorSource = Sequence[float] | bpy.types.Image | str | os.PathLike
+
+@dataclass(frozen=True)
+class ColorAttribute:
+    """k_d read from the mesh's colour attribute ``name`` (a scan's vertex colours) by an
+    Attribute node."""
+
+    name: str
+
+
+#: k_d as a colour (RGB or RGBA), an image, an image file's path, or a colour attribute.
+ColorSource = Sequence[float] | bpy.types.Image | ColorAttribute | str | os.PathLike
+#: The base colours that vary over the surface: fed to the group by a node.
+TEXTURED = (bpy.types.Image, ColorAttribute)
 
 #: Light object types and the light mode each is wired as.
 LIGHT_MODE_OF_TYPE = {"SUN": nodes.SUN, "POINT": nodes.POINT, "SPOT": nodes.POINT, "AREA": nodes.POINT}
@@ -37,7 +49,8 @@ def make_porous_material(
 ) -> "bpy.types.Material":
     """A new material that renders the porous BRDF post-process (docs/model.md §2) in EEVEE and Cycles.
 
-    ``base_color`` is k_d: an RGB(A) colour, a ``bpy.types.Image`` or an image file path.
+    ``base_color`` is k_d: an RGB(A) colour, a ``bpy.types.Image``, an image file path, or a
+    ``ColorAttribute`` (the mesh's vertex colours).
     ``ks`` is k_s, ``roughness`` m, ``porosity`` alpha, ``pore_depth_ratio`` s_p.
     ``key_light`` is a light object (or its name) for the key-light mode; ``None`` gives the
     ambient mode.  ``stone`` (a preset key, e.g. "LIMESTONE") gives the material that stone's
@@ -147,7 +160,7 @@ def connect_stone(graph, group_node, key, structure, variation, masonry, base_co
     inputs = group_node.inputs
     for socket in ("Porosity", "Pore Depth Ratio", "Roughness"):
         node.inputs[socket].default_value = inputs[socket].default_value
-    if isinstance(base_color, bpy.types.Image):
+    if isinstance(base_color, TEXTURED):
         graph.connect(inputs["Base Color"].links[0].from_socket, node.inputs["Base Color"])
     else:
         node.inputs["Base Color"].default_value = inputs["Base Color"].default_value
@@ -177,8 +190,8 @@ def make_base_material(
     tree = material.node_tree
     tree.nodes.clear()
     graph = Graph(tree)
-    if isinstance(base_color, bpy.types.Image):
-        base_color = _image_node(graph, base_color).outputs["Color"]
+    if isinstance(base_color, TEXTURED):
+        base_color = _base_color_output(graph, base_color)
     bsdf = nodes.diffuse_plus_glossy(graph, base_color, values["Specular"], values["Roughness"])
     graph.node("ShaderNodeOutputMaterial", {"Surface": bsdf})
     return material
@@ -193,7 +206,9 @@ def porous_parameters(
     porosity, pore_depth_ratio = real_number("porosity", porosity), real_number("pore_depth_ratio", pore_depth_ratio)
     if isinstance(base_color, (str, os.PathLike)):
         base_color = load_image(base_color)
-    if isinstance(base_color, bpy.types.Image):
+    if isinstance(base_color, ColorAttribute) and not (isinstance(base_color.name, str) and base_color.name):
+        raise ValueError(f"base_color's colour attribute needs a name, not {base_color.name!r}")
+    if isinstance(base_color, TEXTURED):
         ks = model.sanitize("k_s", ks, 0.0, 1.0)
     else:
         rgb = np.asarray(base_color, dtype=np.float64).ravel()
@@ -268,9 +283,16 @@ def _image_node(graph, image):
     return graph.node("ShaderNodeTexImage", depth=1, image=image)
 
 
+def _base_color_output(graph, source):
+    """The socket giving a varying base colour: an Image Texture's, or an Attribute node's."""
+    if isinstance(source, ColorAttribute):
+        return graph.node("ShaderNodeAttribute", depth=1, attribute_name=source.name).outputs["Color"]
+    return _image_node(graph, source).outputs["Color"]
+
+
 def _connect_base_color(graph, group_node, base_color):
-    if isinstance(base_color, bpy.types.Image):
-        graph.connect(_image_node(graph, base_color).outputs["Color"], group_node.inputs["Base Color"])
+    if isinstance(base_color, TEXTURED):
+        graph.connect(_base_color_output(graph, base_color), group_node.inputs["Base Color"])
     else:
         group_node.inputs["Base Color"].default_value = base_color
 
@@ -313,9 +335,10 @@ def _driven_vector(graph, light, transform_types, label):
     return combine.outputs["Vector"]
 
 
-def principled_textures(material: bpy.types.Material) -> dict[str, bpy.types.Image]:
-    """{'Base Color': image, 'Roughness': image} of the images feeding an existing material's
-    Principled BSDF directly (what an artist's scan or texture set usually is)."""
+def principled_textures(material: bpy.types.Material) -> dict[str, bpy.types.Image | ColorAttribute]:
+    """{'Base Color': image or colour attribute, 'Roughness': image} of what feeds an existing
+    material's Principled BSDF directly (what an artist's scan or texture set usually is: its
+    images, or a scan's vertex colours read by a Color Attribute or Attribute node)."""
     found = {}
     if material is None or material.node_tree is None:
         return found
@@ -327,6 +350,10 @@ def principled_textures(material: bpy.types.Material) -> dict[str, bpy.types.Ima
             source = links[0].from_node if links else None
             if source is not None and source.type == "TEX_IMAGE" and source.image is not None:
                 found.setdefault(socket_name, source.image)
+            elif socket_name == "Base Color" and source is not None:
+                name = {"VERTEX_COLOR": "layer_name", "ATTRIBUTE": "attribute_name"}.get(source.type)
+                if name and getattr(source, name):
+                    found.setdefault(socket_name, ColorAttribute(getattr(source, name)))
     return found
 
 

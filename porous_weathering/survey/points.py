@@ -68,7 +68,7 @@ class Surface:
     """An object's mesh as rendered, in metres: its triangles' world corners ``triangles_m``
     (n, 3, 3), their corners' loop indices (n, 3), material slot (n,), areas in m² (n,) and
     unit normals (n, 3); its UV maps ({name: (corners, 2)}, "" the active render one) and colour
-    attributes ({name: (corners,)}, the Attribute node's Fac) per corner; and its origin in the
+    attributes ({name: (corners, 3)}, linear RGB) per corner; and its origin in the
     world in metres (the Object Info node's Location: the shader's textures of the point's place
     are read from it, docs/model.md §8.2)."""
 
@@ -116,8 +116,7 @@ def surface(obj: "bpy.types.Object") -> Surface:
             uv_maps[""] = uv_maps[active]  # what an Image Texture without a UV Map node reads
         colours = {}
         for attribute in mesh.color_attributes:
-            values = mesh_arrays.attribute(mesh, attribute.name, np.float32, 4)
-            values = values[:, :3].astype(np.float64).mean(axis=1)  # the Attribute node's Fac: the average
+            values = mesh_arrays.attribute(mesh, attribute.name, np.float32, 4)[:, :3].astype(np.float64)
             colours[attribute.name] = values[corner_vert] if attribute.domain == "POINT" else values
         # out of the object, as the render shades it: a mirroring transform reverses the winding,
         # and a closed mesh turned inside out is read from outside (the bakes' rule)
@@ -183,7 +182,9 @@ def _reader(obj, material, socket, found):
         values = found.colour_attributes.get(name)
         if values is None:  # the shader reads 0 where the attribute is missing
             return _constant(0.0), {"attribute": name, "missing": True}
-        return _corners(values, found), {"attribute": name}
+        # a colour input reads the node's Color (a scan's vertex colours), any other its Fac, the average
+        colour = socket.type == "RGBA"
+        return _corners(values if colour else values.mean(axis=1), found, colour), {"attribute": name}
     if node.type == "TEX_IMAGE" and node.image is not None:
         uv_map = _uv_map_of(node)
         if uv_map not in found.uv_maps:
@@ -208,9 +209,13 @@ def _constant(value):
     return lambda triangles, bary: np.broadcast_to(value, (len(triangles), len(bary), *value.shape))
 
 
-def _corners(per_loop, found):
+def _corners(per_loop, found, colour=False):
+    """Per-corner values (corners,) or colours (corners, 3) read at barycentric ``bary`` (s, 3)
+    of ``triangles`` (n,): (n, s) or (n, s, 3)."""
+
     def read(triangles, bary):
-        return per_loop[found.loops[triangles]] @ bary.T
+        at = per_loop[found.loops[triangles]]  # (n, 3) or (n, 3, 3)
+        return np.einsum("nkc,sk->nsc", at, bary) if colour else at @ bary.T
 
     return read
 

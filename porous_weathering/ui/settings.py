@@ -11,7 +11,8 @@ from ..core import aging, environments, stones
 from ..core import modes as weathering_modes
 from ..shading import presets
 
-#: The Stone choice that keeps the object's own material (its base colour and roughness images).
+#: The Stone choice that keeps the object's own material (its base colour and roughness images, or
+#: its vertex colours).
 FROM_MATERIAL = "FROM_MATERIAL"
 DEFAULT_SOURCE = "LIMESTONE"
 
@@ -96,7 +97,8 @@ def settings_class() -> type:
                 (
                     FROM_MATERIAL,
                     "Object's Own Material",
-                    "Keep the base colour and roughness images of the object's current material",
+                    "Keep the base colour and roughness images of the object's current material, "
+                    "or its vertex colours (a scan's)",
                 )
             ],
             update=_apply_source,
