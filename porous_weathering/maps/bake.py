@@ -56,8 +56,9 @@ DEFAULT_RESOLUTION = 512
 #: ``uv.padding_for(resolution)`` texels apart).
 MARGIN = 4
 #: Bumped when a change of the bake itself makes old maps stale (2: the input hash holds every
-#: field of a map's settings, ``MapKind.inputs``).
-BAKE_VERSION = 2
+#: field of a map's settings, ``MapKind.inputs``; 3: the maps of an inside-out mesh and of an
+#: object far from the world's origin mended, the edge mask's grid on its samples' centre).
+BAKE_VERSION = 3
 
 
 def __getattr__(name):
