@@ -22,7 +22,7 @@ from porous_weathering.core import model
 from porous_weathering.maps import lightmap
 from porous_weathering.publish import export, mapping
 from porous_weathering.samples.studio import add_sun
-from porous_weathering.shading import nodes, weathering
+from porous_weathering.shading import material, nodes, weathering
 
 SIZE = 32  #: texels: the wall's UV map is the whole square, so every texel is one point of the model
 STONE = dict(base_color=(0.6, 0.55, 0.45), ks=0.1, roughness=0.4, porosity=0.3, pore_depth_ratio=0.5)
@@ -291,6 +291,42 @@ def test_the_stones_structure_reaches_the_exported_textures(tmp_path):
     gltf, binary = read_glb(without.path)
     unreceptive, _, _ = material_values(variant_materials(gltf)["t=0.5"], gltf, binary, tmp_path)
     assert np.abs(soiled - unreceptive).max() > 0.02
+
+
+def test_a_scans_vertex_colours_reach_the_exported_textures(tmp_path):
+    """A wall whose base colour is its colour attribute (a scan's vertex colours, read by an
+    Attribute node): the clean variant's base colour is the model's with k_d the attribute's
+    colour at each texel (the stone's colour times 0.5 + 0.5 v at the corners, linear across the
+    faces, so exact at the texel centres)."""
+    wall = make_wall()
+    mesh = wall.data
+    uvs = np.empty(len(mesh.loops) * 2, dtype=np.float32)
+    mesh.uv_layers.active.data.foreach_get("uv", uvs)
+    shade = 0.5 + 0.5 * uvs.reshape(-1, 2)[:, 1]
+    colours = np.column_stack([np.outer(shade, STONE["base_color"]), np.ones(len(shade))])
+    mesh.color_attributes.new("Col", "FLOAT_COLOR", "CORNER").data.foreach_set(
+        "color", colours.astype(np.float32).ravel()
+    )
+    masks = dict(rain_map="pw_rain", edge_map="pw_edges", **SOILING)
+    made = weathering.make_weathered_material(
+        "Scan Stone", modes=("soiling",), **{**STONE, "base_color": material.ColorAttribute("Col")}, **masks
+    )
+    mesh.materials.clear()
+    mesh.materials.append(made)
+    save(tmp_path)
+    result = export.export_variants([wall], (0.0, 1.0), size=SIZE, out_dir=str(tmp_path / "out"))
+    gltf, binary = read_glb(result.path)
+    base, _, _ = material_values(variant_materials(gltf)["clean"], gltf, binary, tmp_path)
+    v = (np.arange(SIZE)[::-1] + 0.5) / SIZE  # the texels' rows, top row first
+    srgb = mapping.linear_to_srgb
+    for row, v_row in enumerate(v):
+        stone = dict(STONE, base_color=tuple(np.multiply(STONE["base_color"], 0.5 + 0.5 * v_row)))
+        kd, ks, water = model.weathered_coefficients(
+            *stone.values(), None, 1.0, modes=("soiling",), time=0.0, rain_map=0.5, edge_map=0.5, **SOILING
+        )
+        want = export.pbr_from_weights(kd, np.asarray(ks), water, STONE["roughness"], 0.05)[0]
+        assert np.abs(srgb(base[row]) - srgb(np.asarray(want))).max() <= 1.5 / 255, row
+    assert np.ptp(srgb(base[:, :, 0])) > 0.1  # the colours vary down the wall
 
 
 def test_webp_textures_match_the_png_ones(exported, tmp_path):
