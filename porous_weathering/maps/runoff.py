@@ -102,6 +102,7 @@ class _Mesh:
     corners: np.ndarray  #: (T, 3) face-corner (loop) indices
     border: np.ndarray  #: (T, 3) bool: the edge facing each corner is on the mesh's border
     uvs: np.ndarray | None  #: (T, 3, 2) the UV map the bake reads and writes through, if any
+    inside_out: bool  #: the mesh is closed and its normals point inwards (``mesh_arrays.is_inside_out``)
 
 
 def _world_mesh(seen, uv_map=None):
@@ -138,10 +139,11 @@ def _triangles_of(mesh, matrix, uv_map=None):
         border[:, k] = follows & (uses[edge] == 1)
     # mirrored, or closed and inside out (read from outside, as renders shade it), but not both:
     # swap two corners (and the edges facing them)
-    if (np.linalg.det(matrix[:3, :3]) < 0) != mesh_arrays.is_inside_out(mesh):
+    inside_out = mesh_arrays.is_inside_out(mesh)
+    if (np.linalg.det(matrix[:3, :3]) < 0) != inside_out:
         triangles, corners, border = (array[:, [0, 2, 1]] for array in (triangles, corners, border))
     uvs = lightmap.corner_uvs(mesh, uv_map)[corners] if uv_map is not None else None
-    return _Mesh(vertices, triangles, corners, border, uvs)
+    return _Mesh(vertices, triangles, corners, border, uvs, inside_out)
 
 
 def spacing_for(obj: bpy.types.Object, world: _Mesh, target: str, resolution: int | None = None) -> float:
@@ -219,7 +221,7 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
         # read at the vertices, and apart at the corners whose normals differ from their vertex's
         # (sharp edges, flat shading): a smooth scan's corners share their vertex's value
         vertex_of = mesh_arrays.attribute(seen.mesh, ".corner_vert", np.int32)
-        corner_normals = world_corner_normals(seen)
+        corner_normals = world_corner_normals(seen, world.inside_out)
     vertex_normals = np.zeros_like(world.vertices)
     np.add.at(vertex_normals, vertex_of, corner_normals)
     vertex_normals /= np.maximum(np.linalg.norm(vertex_normals, axis=1), 1e-300)[:, None]
@@ -232,14 +234,17 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
     return runoff_flow.runoff_map(flux, runoff_length)
 
 
-def world_corner_normals(seen):
+def world_corner_normals(seen, inside_out: bool | None = None):
     """The world-space unit normals of ``seen``'s corners, out of the object (normals transform
     by the inverse transpose, which keeps them outwards under a mirror; a closed mesh turned
-    inside out is read from outside, as renders shade it)."""
+    inside out is read from outside, as renders shade it). ``inside_out``: whether its mesh is,
+    when the caller knows (``mesh_arrays.is_inside_out``, seconds on a scan)."""
     normals = np.empty(len(seen.mesh.loops) * 3, np.float32)
     seen.mesh.corner_normals.foreach_get("vector", normals)
     normals = normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(seen.matrix_world[:3, :3])
-    if mesh_arrays.is_inside_out(seen.mesh):
+    if inside_out is None:
+        inside_out = mesh_arrays.is_inside_out(seen.mesh)
+    if inside_out:
         normals = -normals
     return normals / np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
 
