@@ -55,6 +55,13 @@ def is_inside_out(mesh):
     return encloses_negative_volume(np.bincount(loop_edge, minlength=len(mesh.edges)), corners[starts], area_vectors)
 
 
+def winding_reversed(matrix_world, inside_out):
+    """True when the faces, placed by ``matrix_world`` (4, 4), must have their winding read
+    reversed to face out of the object, as renders shade them: the transform mirrors (negative
+    determinant) or the mesh is closed and inside out (``is_inside_out``), but not both."""
+    return bool((np.linalg.det(np.asarray(matrix_world)[:3, :3]) < 0) != inside_out)
+
+
 def grey_rgba(values):
     """``values`` (n,) as grey colours of alpha 1, flat float32 (n * 4,): what a colour
     attribute's ``foreach_set("color", ...)`` takes."""

@@ -131,7 +131,7 @@ def _body(obj, seen):
     origin = (used.min(axis=0) + used.max(axis=0)) / 2.0
     tree = BVHTree.FromPolygons((points - origin).tolist(), triangles.tolist(), all_triangles=True)
     ground = float(used[:, 2].min())
-    start = RAY_START_FRACTION * max(edges.object_size(obj), 1e-12)
+    start = RAY_START_FRACTION * max(edges.surface_size(mesh, matrix), 1e-12)
     return _Body(tree, origin, ground, metres_per_unit(obj), start)
 
 
@@ -178,9 +178,10 @@ def bake_damp_corners(obj: bpy.types.Object, settings: DampSettings) -> np.ndarr
 def bake_damp_image(obj: bpy.types.Object, uv_map: str, resolution: int, settings: DampSettings, margin: int):
     """D on ``uv_map`` at ``resolution``, texel by texel (its centre's position and normal as the render
     sees them), the ``margin`` grown from the islands."""
-    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, resolution)
     with scratch_scene.rendered(obj) as seen:
         body = _body(obj, seen)
+        frame = edges.texel_frame(seen.mesh, seen.matrix_world)
+    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, resolution, frame=frame)
     found = normals[islands].astype(np.float64)
     found /= np.maximum(np.linalg.norm(found, axis=1), 1e-300)[:, None]
     values = np.zeros((resolution, resolution), np.float32)

@@ -158,7 +158,12 @@ def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = N
     of ``surface_box``, in world units (it turns with the object, so a rotation does not change
     it); 0 when it has no face of non-zero area."""
     with evaluated_mesh(obj, depsgraph) as (mesh, matrix_world):
-        box = _box_of_faces(mesh)
+        return surface_size(mesh, matrix_world)
+
+
+def surface_size(mesh: bpy.types.Mesh, matrix_world: np.ndarray) -> float:
+    """``object_size`` of an object whose evaluated mesh is ``mesh``, placed by ``matrix_world``."""
+    box = _box_of_faces(mesh)
     return 0.0 if box is None else float(np.linalg.norm(matrix_world[:3, :3] @ (box[1] - box[0])))
 
 
@@ -354,29 +359,53 @@ def _median_edge(obj):
     return float(np.median(np.linalg.norm(points[ends[:, 0]] - points[ends[:, 1]], axis=1))) if len(ends) else math.inf
 
 
+@dataclass(frozen=True)
+class TexelFrame:
+    """Where ``bake_texel_geometry`` bakes an object's texels from: ``centre``, the world point
+    (3,) its positions are baked about (the centre of its surface's box, ``surface_box``, so a
+    stray point plays no part), and ``outward``, 1, or −1 for a closed mesh turned inside out
+    (its normals turned, so it is read from outside as renders shade it)."""
+
+    centre: np.ndarray
+    outward: float
+
+
+def texel_frame(mesh: bpy.types.Mesh, matrix_world: np.ndarray, inside_out: bool | None = None) -> TexelFrame:
+    """The ``TexelFrame`` of an object whose evaluated mesh is ``mesh``, placed by
+    ``matrix_world``; ``inside_out``: whether the mesh is (``mesh_arrays.is_inside_out``, seconds
+    on a scan), when the caller knows."""
+    box = _box_of_faces(mesh)
+    if inside_out is None:
+        inside_out = mesh_arrays.is_inside_out(mesh)
+    centre = np.zeros(3) if box is None else matrix_world[:3, :3] @ box.mean(axis=0) + matrix_world[:3, 3]
+    return TexelFrame(centre, -1.0 if inside_out else 1.0)
+
+
 def bake_texel_geometry(
-    obj: bpy.types.Object, uv_map_name: str, resolution: int, *, smooth_normals: bool = False
+    obj: bpy.types.Object,
+    uv_map_name: str,
+    resolution: int,
+    *,
+    smooth_normals: bool = False,
+    frame: TexelFrame | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(positions, normals, islands): the world-space position (float64) and shading normal
     (float32; smooth ones with ``smooth_normals``), out of the object, of ``obj`` at the centre of
     every texel of ``uv_map_name``, (H, W, 3), and the (H, W) bool map of the texels on a UV
-    island (the others are 0). All top row first. A closed mesh turned inside out is read from
-    outside, as renders shade it: its normals are turned. The positions are baked about the
-    centre of its surface (``surface_box``: a stray point plays no part), so an object far from
-    the world's origin keeps its own precision."""
-    with evaluated_mesh(obj) as (mesh, matrix_world):
-        box = _box_of_faces(mesh)
-        outward = -1.0 if mesh_arrays.is_inside_out(mesh) else 1.0
-    centre = np.zeros(3) if box is None else matrix_world[:3, :3] @ box.mean(axis=0) + matrix_world[:3, 3]
+    island (the others are 0). All top row first. ``frame``: the object's ``texel_frame``, when
+    the caller has its evaluated mesh at hand (else it is evaluated here once more)."""
+    if frame is None:
+        with evaluated_mesh(obj) as (mesh, matrix_world):
+            frame = texel_frame(mesh, matrix_world)
     position, normal = scratch_scene.emit_bakes(
         obj,
         uv_map_name,
         resolution,
         [lambda graph, geometry, name=name: geometry.outputs[name] for name in ("Position", "Normal")],
         prepare=(lambda mesh: mesh.shade_smooth()) if smooth_normals else None,
-        origin=centre,
+        origin=frame.centre,
     )
-    return position[..., :3] + centre, outward * normal[..., :3], position[..., 3] > 0
+    return position[..., :3] + frame.centre, frame.outward * normal[..., :3], position[..., 3] > 0
 
 
 # --- the record (docs/architecture.md, "Add a map") ---------------------------------------------------------

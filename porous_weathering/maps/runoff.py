@@ -103,6 +103,7 @@ class _Mesh:
     border: np.ndarray  #: (T, 3) bool: the edge facing each corner is on the mesh's border
     uvs: np.ndarray | None  #: (T, 3, 2) the UV map the bake reads and writes through, if any
     inside_out: bool  #: the mesh is closed and its normals point inwards (``mesh_arrays.is_inside_out``)
+    size: float  #: the object's size (``edges.object_size``)
 
 
 def _world_mesh(seen, uv_map=None):
@@ -137,19 +138,18 @@ def _triangles_of(mesh, matrix, uv_map=None):
             (along[:, 1] == loop_vertices[start]) & (along[:, 0] == triangles[:, (k + 2) % 3])
         )
         border[:, k] = follows & (uses[edge] == 1)
-    # mirrored, or closed and inside out (read from outside, as renders shade it), but not both:
-    # swap two corners (and the edges facing them)
+    # read from outside, as renders shade it: swap two corners (and the edges facing them)
     inside_out = mesh_arrays.is_inside_out(mesh)
-    if (np.linalg.det(matrix[:3, :3]) < 0) != inside_out:
+    if mesh_arrays.winding_reversed(matrix, inside_out):
         triangles, corners, border = (array[:, [0, 2, 1]] for array in (triangles, corners, border))
     uvs = lightmap.corner_uvs(mesh, uv_map)[corners] if uv_map is not None else None
-    return _Mesh(vertices, triangles, corners, border, uvs, inside_out)
+    return _Mesh(vertices, triangles, corners, border, uvs, inside_out, edges.surface_size(mesh, matrix))
 
 
 def spacing_for(obj: bpy.types.Object, world: _Mesh, target: str, resolution: int | None = None) -> float:
     """The sampling of the flow over ``world``, ``obj``'s mesh (with its UVs for an image), in
     scene units (see the module's docstring)."""
-    size = edges.object_size(obj)
+    size = world.size
     if target == "image":
         a, b, c = (world.vertices[world.triangles[:, k]] for k in range(3))
         area = 0.5 * np.linalg.norm(cross(b - a, c - a), axis=1).sum()
@@ -180,12 +180,12 @@ def _lander(world):
     return land
 
 
-def flow(obj: bpy.types.Object, world, rain_at, spacing: float, settings: RunoffSettings, rain_settings) -> tuple:
-    """(surface, flux, L) of ``obj`` (its mesh as rendered, in world space: ``world``): the
+def flow(world: _Mesh, rain_at, spacing: float, settings: RunoffSettings, rain_settings) -> tuple:
+    """(surface, flux, L) of an object whose mesh as rendered, in world space, is ``world``: the
     run-off flux Q of its surface's nodes under the rain ``rain_at(triangles, weights) -> E`` (at
     points given as barycentric weights of triangles)."""
     surface = runoff_flow.sample_surface(world.vertices, world.triangles, spacing, world.border, rain_at)
-    runoff_length, absorption_length = settings.lengths(edges.object_size(obj))
+    runoff_length, absorption_length = settings.lengths(world.size)
     fall = -np.asarray(rain_settings.towards_rain(), float)
     result = runoff_flow.route(
         surface,
@@ -211,7 +211,6 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
         world = _world_mesh(seen)
         corner_rain = rain[world.corners]
         surface, result, runoff_length = flow(
-            obj,
             world,
             lambda tri, w: (corner_rain[tri] * w).sum(1),
             spacing_for(obj, world, "attribute"),
@@ -261,6 +260,7 @@ def bake_runoff_image(obj: bpy.types.Object, uv_map: str, options, margin: int) 
         ) from error
     with scratch_scene.rendered(obj) as seen:
         world = _world_mesh(seen, uv_map)
+        frame = edges.texel_frame(seen.mesh, seen.matrix_world, world.inside_out)
     size = rain_image.shape[0]
 
     def rain_at(tri, weights):
@@ -268,8 +268,8 @@ def bake_runoff_image(obj: bpy.types.Object, uv_map: str, options, margin: int) 
         return _bilinear(rain_image, uv, size)
 
     spacing = spacing_for(obj, world, "image", options.resolution)
-    surface, result, runoff_length = flow(obj, world, rain_at, spacing, options.runoff_settings, options.rain_settings)
-    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, options.resolution)
+    surface, result, runoff_length = flow(world, rain_at, spacing, options.runoff_settings, options.rain_settings)
+    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, options.resolution, frame=frame)
     values = np.zeros((options.resolution, options.resolution), np.float32)
     flux = runoff_flow.interpolate(surface, result.flux, positions[islands], normals[islands])
     values[islands] = runoff_flow.runoff_map(flux, runoff_length)

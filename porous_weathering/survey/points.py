@@ -118,9 +118,8 @@ def surface(obj: "bpy.types.Object") -> Surface:
         for attribute in mesh.color_attributes:
             values = mesh_arrays.attribute(mesh, attribute.name, np.float32, 4)[:, :3].astype(np.float64)
             colours[attribute.name] = values[corner_vert] if attribute.domain == "POINT" else values
-        # out of the object, as the render shades it: a mirroring transform reverses the winding,
-        # and a closed mesh turned inside out is read from outside (the bakes' rule)
-        outward = -1.0 if (np.linalg.det(matrix[:3, :3]) < 0) != mesh_arrays.is_inside_out(mesh) else 1.0
+        # out of the object, as the render shades it (the bakes' rule)
+        outward = -1.0 if mesh_arrays.winding_reversed(matrix, mesh_arrays.is_inside_out(mesh)) else 1.0
     triangles = world[verts.reshape(-1, 3)]
     area_vectors = outward * cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
     doubled = np.linalg.norm(area_vectors, axis=1)
