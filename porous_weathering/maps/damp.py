@@ -107,13 +107,15 @@ def metres_per_unit(obj: bpy.types.Object) -> float:
 class _Body:
     """The object as rendered in world space: its triangles' BVH about ``origin`` (a world point
     near it: the BVH holds single precision, of the object's size rather than of its distance
-    from the world's origin), its ground (world z) and the metres per scene unit."""
+    from the world's origin), its ground (world z), the metres per scene unit and where its
+    texels are baked from (``edges.texel_frame``)."""
 
     tree: BVHTree
     origin: np.ndarray  #: (3,), world
     ground: float
     metres: float
     start: float  #: how far inside the surface rays start, scene units
+    frame: edges.TexelFrame
 
 
 def _body(obj, seen):
@@ -123,16 +125,18 @@ def _body(obj, seen):
     triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
     mesh.loop_triangles.foreach_get("vertices", triangles)
     triangles = triangles.reshape(-1, 3)
-    points = mesh_arrays.attribute(mesh, "position", np.float32, 3).astype(np.float64) @ matrix[:3, :3].T
-    points += matrix[:3, 3]
+    positions = mesh_arrays.attribute(mesh, "position", np.float32, 3).astype(np.float64)
+    points = positions @ matrix[:3, :3].T + matrix[:3, 3]
     if not len(triangles):
         raise ValueError(f"object '{obj.name}' has no faces to draw damp up")
     used = points[np.unique(triangles)]
     origin = (used.min(axis=0) + used.max(axis=0)) / 2.0
     tree = BVHTree.FromPolygons((points - origin).tolist(), triangles.tolist(), all_triangles=True)
     ground = float(used[:, 2].min())
-    start = RAY_START_FRACTION * max(edges.surface_size(mesh, matrix), 1e-12)
-    return _Body(tree, origin, ground, metres_per_unit(obj), start)
+    box = edges.box_of_surface(positions, triangles)
+    start = RAY_START_FRACTION * max(edges.size_of_box(box, matrix), 1e-12)
+    frame = edges.texel_frame(box, matrix, mesh_arrays.is_inside_out(mesh))
+    return _Body(tree, origin, ground, metres_per_unit(obj), start, frame)
 
 
 def damp_at(body: _Body, points: np.ndarray, normals: np.ndarray, settings: DampSettings) -> np.ndarray:
@@ -167,7 +171,7 @@ def bake_damp_corners(obj: bpy.types.Object, settings: DampSettings) -> np.ndarr
         sizes = np.empty(len(mesh.polygons), np.int32)
         mesh.polygons.foreach_get("loop_total", sizes)
         face_centres = np.repeat(centres.reshape(-1, 3).astype(np.float64), sizes, axis=0)
-        normals = world_corner_normals(seen)
+        normals = world_corner_normals(seen, inside_out=body.frame.outward < 0)
     keys = np.ascontiguousarray(np.column_stack([vertex_of, normals]).astype(np.float64))
     _, first, shared = np.unique(keys.view(np.dtype((np.void, 32))).ravel(), return_index=True, return_inverse=True)
     inside = corners[first] + CORNER_INSET * (face_centres[first] - corners[first])
@@ -180,8 +184,7 @@ def bake_damp_image(obj: bpy.types.Object, uv_map: str, resolution: int, setting
     sees them), the ``margin`` grown from the islands."""
     with scratch_scene.rendered(obj) as seen:
         body = _body(obj, seen)
-        frame = edges.texel_frame(seen.mesh, seen.matrix_world)
-    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, resolution, frame=frame)
+    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, resolution, frame=body.frame)
     found = normals[islands].astype(np.float64)
     found /= np.maximum(np.linalg.norm(found, axis=1), 1e-300)[:, None]
     values = np.zeros((resolution, resolution), np.float32)

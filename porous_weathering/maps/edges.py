@@ -149,8 +149,18 @@ def surface_box(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = N
 
 
 def _box_of_faces(mesh):
-    points = surface_points(mesh_arrays.attribute(mesh, "position", np.float32, 3), lightmap.triangle_corners(mesh)[1])
+    return box_of_surface(mesh_arrays.attribute(mesh, "position", np.float32, 3), lightmap.triangle_corners(mesh)[1])
+
+
+def box_of_surface(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray | None:
+    """``surface_box`` of the mesh whose vertex ``positions`` (V, 3) its ``triangles`` (T, 3) use."""
+    points = surface_points(positions, triangles)
     return np.stack([points.min(axis=0), points.max(axis=0)]) if len(points) else None
+
+
+def size_of_box(box: np.ndarray | None, matrix_world: np.ndarray) -> float:
+    """``object_size`` of an object whose ``surface_box`` is ``box``, placed by ``matrix_world``."""
+    return 0.0 if box is None else float(np.linalg.norm(matrix_world[:3, :3] @ (box[1] - box[0])))
 
 
 def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = None) -> float:
@@ -158,13 +168,7 @@ def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = N
     of ``surface_box``, in world units (it turns with the object, so a rotation does not change
     it); 0 when it has no face of non-zero area."""
     with evaluated_mesh(obj, depsgraph) as (mesh, matrix_world):
-        return surface_size(mesh, matrix_world)
-
-
-def surface_size(mesh: bpy.types.Mesh, matrix_world: np.ndarray) -> float:
-    """``object_size`` of an object whose evaluated mesh is ``mesh``, placed by ``matrix_world``."""
-    box = _box_of_faces(mesh)
-    return 0.0 if box is None else float(np.linalg.norm(matrix_world[:3, :3] @ (box[1] - box[0])))
+        return size_of_box(_box_of_faces(mesh), matrix_world)
 
 
 def effective_radius(
@@ -370,13 +374,9 @@ class TexelFrame:
     outward: float
 
 
-def texel_frame(mesh: bpy.types.Mesh, matrix_world: np.ndarray, inside_out: bool | None = None) -> TexelFrame:
-    """The ``TexelFrame`` of an object whose evaluated mesh is ``mesh``, placed by
-    ``matrix_world``; ``inside_out``: whether the mesh is (``mesh_arrays.is_inside_out``, seconds
-    on a scan), when the caller knows."""
-    box = _box_of_faces(mesh)
-    if inside_out is None:
-        inside_out = mesh_arrays.is_inside_out(mesh)
+def texel_frame(box: np.ndarray | None, matrix_world: np.ndarray, inside_out: bool) -> TexelFrame:
+    """The ``TexelFrame`` of an object whose ``surface_box`` is ``box``, placed by
+    ``matrix_world``, its mesh inside out or not (``mesh_arrays.is_inside_out``)."""
     centre = np.zeros(3) if box is None else matrix_world[:3, :3] @ box.mean(axis=0) + matrix_world[:3, 3]
     return TexelFrame(centre, -1.0 if inside_out else 1.0)
 
@@ -396,7 +396,7 @@ def bake_texel_geometry(
     the caller has its evaluated mesh at hand (else it is evaluated here once more)."""
     if frame is None:
         with evaluated_mesh(obj) as (mesh, matrix_world):
-            frame = texel_frame(mesh, matrix_world)
+            frame = texel_frame(_box_of_faces(mesh), matrix_world, mesh_arrays.is_inside_out(mesh))
     position, normal = scratch_scene.emit_bakes(
         obj,
         uv_map_name,

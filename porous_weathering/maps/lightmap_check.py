@@ -51,7 +51,9 @@ def surface_points(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     positions = np.asarray(positions, dtype=np.float64)
     triangles = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     solid = triangle_areas(positions[triangles]) > 0
-    return positions[np.unique(triangles[solid])]
+    used = np.zeros(len(positions), dtype=bool)
+    used[triangles[solid].ravel()] = True  # in index order, as np.unique gives them, without its sort
+    return positions[used]
 
 
 def _cross(u, v):

@@ -104,6 +104,7 @@ class _Mesh:
     uvs: np.ndarray | None  #: (T, 3, 2) the UV map the bake reads and writes through, if any
     inside_out: bool  #: the mesh is closed and its normals point inwards (``mesh_arrays.is_inside_out``)
     size: float  #: the object's size (``edges.object_size``)
+    frame: edges.TexelFrame  #: where its texels are baked from (``edges.bake_texel_geometry``)
 
 
 def _world_mesh(seen, uv_map=None):
@@ -143,7 +144,9 @@ def _triangles_of(mesh, matrix, uv_map=None):
     if mesh_arrays.winding_reversed(matrix, inside_out):
         triangles, corners, border = (array[:, [0, 2, 1]] for array in (triangles, corners, border))
     uvs = lightmap.corner_uvs(mesh, uv_map)[corners] if uv_map is not None else None
-    return _Mesh(vertices, triangles, corners, border, uvs, inside_out, edges.surface_size(mesh, matrix))
+    box = edges.box_of_surface(points, triangles)
+    frame = edges.texel_frame(box, matrix, inside_out)
+    return _Mesh(vertices, triangles, corners, border, uvs, inside_out, edges.size_of_box(box, matrix), frame)
 
 
 def spacing_for(obj: bpy.types.Object, world: _Mesh, target: str, resolution: int | None = None) -> float:
@@ -260,7 +263,6 @@ def bake_runoff_image(obj: bpy.types.Object, uv_map: str, options, margin: int) 
         ) from error
     with scratch_scene.rendered(obj) as seen:
         world = _world_mesh(seen, uv_map)
-        frame = edges.texel_frame(seen.mesh, seen.matrix_world, world.inside_out)
     size = rain_image.shape[0]
 
     def rain_at(tri, weights):
@@ -269,7 +271,7 @@ def bake_runoff_image(obj: bpy.types.Object, uv_map: str, options, margin: int) 
 
     spacing = spacing_for(obj, world, "image", options.resolution)
     surface, result, runoff_length = flow(world, rain_at, spacing, options.runoff_settings, options.rain_settings)
-    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, options.resolution, frame=frame)
+    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, options.resolution, frame=world.frame)
     values = np.zeros((options.resolution, options.resolution), np.float32)
     flux = runoff_flow.interpolate(surface, result.flux, positions[islands], normals[islands])
     values[islands] = runoff_flow.runoff_map(flux, runoff_length)
