@@ -163,22 +163,18 @@ def _add_sky(scene, settings, made):
 # --- the record (docs/architecture.md, "Add a map") ---------------------------------------------------------
 
 
-def _occluders(obj, options):
-    return sky_bake.default_occluders(obj, options.occluder_collection())
-
-
 def _rain_image(obj, uv_map, options, margin):
-    settings = options.rain_settings
-    return bake_rain_image(obj, uv_map, options.resolution, settings, _occluders(obj, options), margin=margin)
+    occluders = sky_bake.options_occluders(obj, options)
+    return bake_rain_image(obj, uv_map, options.resolution, options.rain_settings, occluders, margin=margin)
 
 
 def _rain_attribute(obj, options):
-    values = bake_rain_corners(obj, options.rain_settings, _occluders(obj, options))
+    values = bake_rain_corners(obj, options.rain_settings, sky_bake.options_occluders(obj, options))
     mesh_arrays.write_corner_attribute(obj.data, RAIN_ATTRIBUTE, values)
 
 
 def _rain_hash(obj, options, digests):
-    return dict(occluders=sorted((o.name, digests(o)) for o in _occluders(obj, options)))
+    return dict(occluders=sky_bake.occluders_digest(obj, options, digests))
 
 
 MAP = MapKind(

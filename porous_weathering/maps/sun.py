@@ -193,24 +193,20 @@ def _add_sky(scene, radiance, made):
 # --- the record (docs/architecture.md, "Add a map") ---------------------------------------------------------
 
 
-def _occluders(obj, options):
-    return sky_bake.default_occluders(obj, options.occluder_collection())
-
-
 def _sun_image(obj, uv_map, options, margin):
-    settings = options.sun_settings
-    return bake_sun_image(obj, uv_map, options.resolution, settings, _occluders(obj, options), margin=margin)
+    occluders = sky_bake.options_occluders(obj, options)
+    return bake_sun_image(obj, uv_map, options.resolution, options.sun_settings, occluders, margin=margin)
 
 
 def _sun_attribute(obj, options):
-    values = bake_sun_corners(obj, options.sun_settings, _occluders(obj, options))
+    values = bake_sun_corners(obj, options.sun_settings, sky_bake.options_occluders(obj, options))
     mesh_arrays.write_corner_attribute(obj.data, SUN_ATTRIBUTE, values)
 
 
 def _sun_hash(obj, options, digests):
     # the occluders, and the site as the bake takes it: unset, the scene's Sun Position (a change of it bakes again)
     latitude, north_angle = site(options.sun_settings, scene_of(obj))
-    occluders = sorted((o.name, digests(o)) for o in _occluders(obj, options))
+    occluders = sky_bake.occluders_digest(obj, options, digests)
     return dict(occluders=occluders, latitude=latitude, north_angle=north_angle)
 
 
