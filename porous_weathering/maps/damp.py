@@ -105,13 +105,12 @@ def metres_per_unit(obj: bpy.types.Object) -> float:
 
 @dataclass(frozen=True)
 class _Body:
-    """The object as rendered in world space: its triangles' BVH about ``origin`` (a world point
-    near it: the BVH holds single precision, of the object's size rather than of its distance
-    from the world's origin), its ground (world z), the metres per scene unit and where its
-    texels are baked from (``edges.texel_frame``)."""
+    """The object as rendered in world space: its triangles' BVH about the centre of its surface,
+    ``frame.centre`` (the BVH holds single precision: of the object's size rather than of its
+    distance from the world's origin; ``frame`` is also where its texels are baked from,
+    ``edges.texel_frame``), its ground (world z) and the metres per scene unit."""
 
     tree: BVHTree
-    origin: np.ndarray  #: (3,), world
     ground: float
     metres: float
     start: float  #: how far inside the surface rays start, scene units
@@ -129,14 +128,12 @@ def _body(obj, seen):
     points = positions @ matrix[:3, :3].T + matrix[:3, 3]
     if not len(triangles):
         raise ValueError(f"object '{obj.name}' has no faces to draw damp up")
-    used = points[np.unique(triangles)]
-    origin = (used.min(axis=0) + used.max(axis=0)) / 2.0
-    tree = BVHTree.FromPolygons((points - origin).tolist(), triangles.tolist(), all_triangles=True)
-    ground = float(used[:, 2].min())
     box = edges.box_of_surface(positions, triangles)
-    start = RAY_START_FRACTION * max(edges.size_of_box(box, matrix), 1e-12)
     frame = edges.texel_frame(box, matrix, mesh_arrays.is_inside_out(mesh))
-    return _Body(tree, origin, ground, metres_per_unit(obj), start, frame)
+    tree = BVHTree.FromPolygons((points - frame.centre).tolist(), triangles.tolist(), all_triangles=True)
+    ground = float(points[triangles, 2].min())  # the lowest point a face uses
+    start = RAY_START_FRACTION * max(edges.size_of_box(box, matrix), 1e-12)
+    return _Body(tree, ground, metres_per_unit(obj), start, frame)
 
 
 def damp_at(body: _Body, points: np.ndarray, normals: np.ndarray, settings: DampSettings) -> np.ndarray:
@@ -146,7 +143,7 @@ def damp_at(body: _Body, points: np.ndarray, normals: np.ndarray, settings: Damp
     highest = float(settings.front(rising_damp.MAX_THICKNESS)) * (1.0 + rising_damp.FRINGE)
     low = np.flatnonzero(heights < highest)
     cast = body.tree.ray_cast
-    origins = (points[low] - body.origin - normals[low] * body.start).tolist()
+    origins = (points[low] - body.frame.centre - normals[low] * body.start).tolist()
     hits = [cast(origin, inwards) for origin, inwards in zip(origins, (-normals[low]).tolist())]
     reached = np.array([np.nan if hit[0] is None else hit[3] for hit in hits], dtype=np.float64)
     thickness = np.where(np.isnan(reached), settings.sheet_thickness, (reached + body.start) * body.metres)

@@ -166,18 +166,18 @@ def spacing_for(obj: bpy.types.Object, world: _Mesh, target: str, resolution: in
 
 def _lander(world):
     """Where rays (world space) first meet the surface ``world``: a ray cast on a BVH of it, built
-    about the surface's lowest corner (the BVH holds single precision: of the object's size,
-    not of its distance from the world's origin)."""
-    corner = world.vertices.min(axis=0)
-    tree = BVHTree.FromPolygons((world.vertices - corner).tolist(), world.triangles.tolist(), all_triangles=True)
+    about the centre of its surface (``world.frame``: the BVH holds single precision, of the
+    object's size, not of its distance from the world's origin or from a stray vertex)."""
+    centre = world.frame.centre
+    tree = BVHTree.FromPolygons((world.vertices - centre).tolist(), world.triangles.tolist(), all_triangles=True)
 
     def land(origins, direction):
         hits = np.full((len(origins), 3), np.nan)
         towards = Vector(np.asarray(direction, float))
-        for index, origin in enumerate(np.asarray(origins, float) - corner):
+        for index, origin in enumerate(np.asarray(origins, float) - centre):
             location = tree.ray_cast(Vector(origin), towards)[0]
             if location is not None:
-                hits[index] = np.array(location) + corner
+                hits[index] = np.array(location) + centre
         return hits
 
     return land
@@ -236,16 +236,14 @@ def bake_runoff_corners(obj: bpy.types.Object, options) -> np.ndarray:
     return runoff_flow.runoff_map(flux, runoff_length)
 
 
-def world_corner_normals(seen, inside_out: bool | None = None):
+def world_corner_normals(seen, inside_out: bool):
     """The world-space unit normals of ``seen``'s corners, out of the object (normals transform
     by the inverse transpose, which keeps them outwards under a mirror; a closed mesh turned
-    inside out is read from outside, as renders shade it). ``inside_out``: whether its mesh is,
-    when the caller knows (``mesh_arrays.is_inside_out``, seconds on a scan)."""
+    inside out, ``inside_out`` (``mesh_arrays.is_inside_out``), is read from outside, as renders
+    shade it)."""
     normals = np.empty(len(seen.mesh.loops) * 3, np.float32)
     seen.mesh.corner_normals.foreach_get("vector", normals)
     normals = normals.reshape(-1, 3).astype(np.float64) @ np.linalg.inv(seen.matrix_world[:3, :3])
-    if inside_out is None:
-        inside_out = mesh_arrays.is_inside_out(seen.mesh)
     if inside_out:
         normals = -normals
     return normals / np.maximum(np.linalg.norm(normals, axis=1), 1e-300)[:, None]
