@@ -399,3 +399,37 @@ def test_faces_a_million_sizes_apart_get_a_lightmap_in_bounded_time(fresh_scene)
     )
     made = within(lightmap.iter_lightmap(obj.data, 32), 30)
     assert made.name == lightmap.LIGHTMAP_UV and made.report.ok
+
+
+def test_drips_land_where_they_land_beside_a_far_stray_vertex(fresh_scene):
+    """A slab over a floor, one mesh: the slab's edges drip onto the floor beneath it, sheltered
+    from the rain (the run-off's drip rays). One loose vertex far away moves nothing (before: the
+    drips' BVH stood on the lowest vertex, the stray one, and lost the slab's size in single
+    precision)."""
+
+    def slab(low, high):
+        corners = np.array([(x, y, z) for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
+        return corners, [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+
+    floor, quads = slab((-2.0, -2.0, 0.0), (2.0, 2.0, 0.1))
+    top, _ = slab((-0.5, -0.5, 1.0), (0.5, 0.5, 1.1))
+    obj = mesh_object(
+        fresh_scene, "Table", np.concatenate([floor, top]), faces=quads + [tuple(np.add(q, 8)) for q in quads]
+    )
+    bmesh_cut = bmesh.new()
+    bmesh_cut.from_mesh(obj.data)
+    bmesh.ops.subdivide_edges(bmesh_cut, edges=bmesh_cut.edges[:], cuts=7, use_grid_fill=True)
+    bmesh_cut.to_mesh(obj.data)
+    bmesh_cut.free()
+    bpy.context.view_layer.update()
+    options = bake.BakeOptions(maps=("rain", "runoff"), target="attribute", rain_settings=FAST_RAIN)
+    bake.bake_maps([obj], options)
+    clean = attribute_values(obj.data, "pw_runoff")
+    assert clean.max() > 0.5
+    obj.data.vertices.add(1)
+    obj.data.vertices[-1].co = (-1e7, -1e7, -1e7)
+    obj.data.update()
+    bpy.context.view_layer.update()
+    bake.bake_maps([obj], options)
+    stray = attribute_values(obj.data, "pw_runoff")
+    np.testing.assert_allclose(stray, clean, atol=1e-6)
