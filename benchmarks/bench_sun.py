@@ -1,16 +1,17 @@
 """Sun bake against the rain bake: error against a high-sample reference vs samples per texel and
 wall time, on the rain benchmark's scene or the main job's façade.
 
-    python benchmarks/bench_sun.py [--scene terrain|facade] [--resolution 128] [--reference 1024]
+    python benchmarks/bench_sun.py [--scene terrain|facade] [--resolution 512] [--reference 1024]
 
 terrain (the default): the ~100k-triangle terrain half under a roof of benchmarks/bench_rain.py,
-baked to a RESOLUTION² image: the rain (its default sky, the sun lamp; vertical rain, cone 15°) and
-the sun map (50° N, north along +Y). facade: the main job's façade as benchmarks/bench_life.py
-prepares it (united, cut into 10 cm cells), baked per corner with the bake's default settings (the
-rain's and the sun's), the scene's other objects as occluders. For each sample count: wall time and
-the RMSE against each map's own reference baked at --reference samples with another seed. Writes
-the table, and the time the sun takes at the rain's default error, to docs/sun_benchmark.md
-(terrain) or docs/sun_benchmark_facade.md (facade).
+baked to a RESOLUTION² image (the bake's default, 512, unless given): the rain (its default sky,
+the sun lamp; vertical rain, cone 15°) and the sun map (50° N, north along +Y). facade: the main
+job's façade as benchmarks/bench_life.py prepares it (united, cut into 10 cm cells), baked per
+corner with the bake's default settings (the rain's and the sun's), the scene's other objects as
+occluders. For each sample count: wall time and the RMSE against each map's own reference baked
+at --reference samples with another seed. Writes the table, and the time the sun takes at the
+rain's default error, to docs/sun_benchmark.md (terrain) or docs/sun_benchmark_facade.md
+(facade).
 """
 
 import argparse
@@ -27,8 +28,9 @@ import bench_rain  # noqa: E402  (benchmarks/bench_rain.py: the scene)
 import machine  # noqa: E402  (benchmarks/machine.py)
 
 from porous_weathering.maps import rain, sky_bake, sun  # noqa: E402
+from porous_weathering.maps.bake import DEFAULT_RESOLUTION  # noqa: E402
 
-SAMPLES = (4, 16, 64, 256)
+SAMPLES = (4, 16, 64, 128, 256)
 DOCS = pathlib.Path(__file__).resolve().parent.parent / "docs"
 OUT = {"terrain": DOCS / "sun_benchmark.md", "facade": DOCS / "sun_benchmark_facade.md"}
 
@@ -36,7 +38,7 @@ OUT = {"terrain": DOCS / "sun_benchmark.md", "facade": DOCS / "sun_benchmark_fac
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--scene", choices=tuple(SCENES), default="terrain")
-    parser.add_argument("--resolution", type=int, default=128)
+    parser.add_argument("--resolution", type=int, default=DEFAULT_RESOLUTION)
     parser.add_argument("--reference", type=int, default=1024)
     args = parser.parse_args()
     bake, setting, unit = SCENES[args.scene](args)
@@ -140,7 +142,8 @@ def report(rows, setting, unit, args):
     lines += [
         "",
         f"At the rain's default error (`rain.DEFAULT_SAMPLES` = {rain.DEFAULT_SAMPLES}: RMSE {target * 255:.1f}/255 "
-        f"in {rain_time:.2f} s) the sun bake takes {sun_time:.2f} s (interpolated in log-log); its default, "
+        f"in {rain_time:.2f} s) the sun bake takes {sun_time:.2f} s (interpolated in log-log), "
+        f"{sun_time / rain_time:.2f}× the rain's time; its default, "
         f"`sun.DEFAULT_SAMPLES` = {sun.DEFAULT_SAMPLES}. "
         "Why: [maps.md](maps.md#sun-exposure-s-porous_weatheringmapssunpy).",
     ]

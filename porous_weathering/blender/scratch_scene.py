@@ -229,9 +229,13 @@ def emission_probe(name, build):
     """A material that emits ``build(graph, geometry)`` (a colour Expr or socket) exactly.
 
     Cycles renders an Emission closure of strength 1 as its colour, so the pixels of a
-    probe render are the shading quantity itself at each pixel's centre.
+    probe render are the shading quantity itself at each pixel's centre. A probe lights nothing:
+    Cycles would otherwise make its mesh a light and build a light tree over every triangle
+    before each bake (0.33 s of a 0.36 s EMIT bake of a 100k-triangle terrain at 128², 0.03 s
+    without, the same texels).
     """
     material = compat.new_material(name)
+    material.cycles.emission_sampling = "NONE"
     tree = material.node_tree
     tree.nodes.clear()
     graph = Graph(tree)

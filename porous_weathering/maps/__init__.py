@@ -1,7 +1,8 @@
 """The maps: their registry (``registry``: it finds the ``MAP`` record of each map's module,
 re-exported here as ``porous_weathering.maps``), the one bake pipeline behind the operator, the command line and
-Dask (``bake``) and what a map was made from (``provenance``), the direct-light bake the rain
-and sun maps share (``sky_bake``), each map's bake (``rain``; ``sun``;
+Dask (``bake``) and what a map was made from (``provenance``), the direct-light bake of the rain
+and the points of both sky maps (``sky_bake``), the sun's shadow rays (``shadow_rays``), each
+map's bake (``rain``; ``sun``;
 ``runoff`` over its numpy flow, ``runoff_flow``; ``edges``, the bpy side of the edge mask over
 its numpy maths, ``curvature``), the lightmap UVs image maps are baked on (``lightmap``, over
 its check, ``lightmap_check``, and its unwrap, the child process ``lightmap_child``), the checks
@@ -13,7 +14,7 @@ and xatlas for the unwrap), and neither does importing this package: the registr
 on first use; ``lightmap_check`` imports nothing of this package and
 ``lightmap_child`` only it, so the unwrap runs as a plain script in a child process.
 
-May import: bpy, numpy, xatlas, ``core``, ``common``, ``blender`` and ``shading`` (``linking``
+May import: bpy, numpy, xatlas, embreex, ``core``, ``common``, ``blender`` and ``shading`` (``linking``
 builds the materials the maps feed).
 """
 

@@ -1,6 +1,7 @@
 """Direct-light bakes: what a sky sends straight to every point of an object, shadowed by the
-object itself and its occluders, baked with Cycles. The rain map (``rain``, docs/model.md §5) and
-the sun map (``sun``, §9.1) are such bakes under their own skies (``Sky``).
+object itself and its occluders, baked with Cycles. The rain map (``rain``, docs/model.md §5) is
+such a bake under its own sky (``Sky``); the sun map (``sun``, §9.1) casts its own rays from the
+same points (``Placed``, ``bakes_at_vertices``).
 
 Cycles' DIFFUSE bake with only the direct pass returns irradiance / π: ∫ L(ω) max(0, N·ω) V dω / π
 over the directions ω the sky lights, V the visibility. A sky sets its radiance L so that this is
@@ -101,11 +102,17 @@ def bake_image(
     if obj.type != "MESH" or uv_map not in obj.data.uv_layers:
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map}'")
     with _bake_scene(obj, occluders, sky) as copy:
-        if smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices):
+        if bakes_at_vertices(obj, size):
             at_vertices = _bake_vertices(obj, copy, sky)
         else:
             return _bake_image(copy, uv_map, size, margin, sky.label)
     return scratch_scene.bake_point_values(obj, uv_map, size, at_vertices, margin=margin)[0]
+
+
+def bakes_at_vertices(obj: bpy.types.Object, size: int) -> bool:
+    """Whether a size² image of ``obj`` is baked at its vertices and drawn across its triangles:
+    its mesh is smooth at its vertices and has at most TEXELS_PER_VERTEX texels per vertex."""
+    return smooth_at_vertices(obj) and size**2 <= TEXELS_PER_VERTEX * len(obj.data.vertices)
 
 
 def _bake_image(copy, uv_map, size, margin, label):
@@ -133,7 +140,7 @@ def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.
     wall cut into quads, the probe just inside the pair's faces (CORNER_INSET)."""
     with scratch_scene.rendered(obj) as seen, _bake_scene(obj, occluders, sky) as copy:
         scratch_scene.check_corners_kept(obj, seen)
-        placed = _Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
+        placed = Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
         points, normals, corner_point = placed.corner_points(smooth=smooth_at_vertices(obj))
         return _bake_points(placed, copy, sky, points, normals)[corner_point]
 
@@ -151,7 +158,7 @@ def smooth_at_vertices(obj: bpy.types.Object) -> bool:
 
 
 @dataclass(frozen=True)
-class _Placed:
+class Placed:
     """A mesh placed in the bake's scene by ``matrix`` (4 x 4): its copy's there."""
 
     mesh: bpy.types.Mesh
@@ -209,7 +216,7 @@ class _Placed:
 
 def _bake_vertices(target, copy, sky):
     """The map at every vertex of ``target`` (V,), baked in ``copy``'s scene (``_bake_points``)."""
-    placed = _Placed(target.data, np.array(copy.matrix_world, dtype=np.float64))
+    placed = Placed(target.data, np.array(copy.matrix_world, dtype=np.float64))
     return _bake_points(placed, copy, sky, *placed.vertex_points())
 
 

@@ -5,12 +5,15 @@ object and its occluders, over that on a surface always facing the sun; s_i are 
 positions over the year at the site's latitude and w_i their share of the year's beam
 (``core.solar.year``, weights summing to 1).
 
-Baked as a direct-light bake (``sky_bake``: irradiance / π) under a world whose environment image
-holds the year's sun path: each position's w_i falls in its pixel of an equirectangular image
-(nearest-pixel lookup, so the radiance is constant over each pixel), as radiance π w_i / Ω, Ω the
-pixel's solid angle; ∫ L max(0, N·ω) V dω / π is then S, within the pixel's size (a few tenths
-of a degree). Cycles draws the world's directions from the image's own importance map, so the
-samples go where the sun was (docs/maps.md, "Sun exposure", for the noise measured).
+Estimated at each point as the open plane's S₀(N) = Σ_i w_i max(0, N·s_i) (``solar.open_plane_exposures``)
+less what shadows take of it, the mean of max(0, N·s) (1 − V) over ``samples`` suns drawn with
+probability w (``solar.lattice_draws``: Roberts' lattice over the days and the hours, shifted at
+random per point, so the estimate is unbiased and its draws spread over the year), V from a ray
+towards each drawn sun in front of the surface (``shadow_rays``) through the object and its
+occluders as the render sees them. A point nothing shadows gets S₀(N) exactly, with no noise; the
+noise is where shadows fall. The points are the rain bake's (``sky_bake.Placed``: corners,
+vertices of a scan) or the texels' centres (docs/maps.md, "Sun exposure", for the noise and the
+time against the rain bake).
 
 The site: ``latitude`` and ``north_angle`` of the settings where given; else the scene's Sun
 Position add-on's (``scene.sun_pos_properties``: latitude in degrees, north offset in radians,
@@ -25,11 +28,11 @@ import bpy
 
 import numpy as np
 
-from ..blender import compat, mesh_arrays
+from ..blender import mesh_arrays, scratch_scene
 from ..common.options import check, option
 from ..contracts import map_attribute
 from ..core import solar
-from . import sky_bake
+from . import edges, shadow_rays, sky_bake
 from .registry import MapKind
 
 #: The colour attribute a sun bake writes (per face corner).
@@ -37,10 +40,14 @@ SUN_ATTRIBUTE = map_attribute("sun")
 #: The latitude where neither the settings nor the scene give one: 50° N, the site of
 #: docs/model.md §9.1's figures (northern France, southern England, the Rhineland).
 DEFAULT_LATITUDE = 50.0
-#: Samples per texel: the rain's count, at about twice its error (docs/maps.md, "Sun exposure").
+#: Suns drawn per texel or corner (docs/maps.md, "Sun exposure").
 DEFAULT_SAMPLES = 64
-#: Width of the sky image (its height is half): pixels of 0.35°.
-SKY_WIDTH = 1024
+#: The most suns a point draws.
+MAX_SAMPLES = 1 << 16
+#: Draws held in memory at once (a direction and a cosine each), the points they are for with them.
+DRAWS_AT_ONCE = 1 << 20
+#: Draws made for a bake: shifts of the lattice the points share (``_Suns.exposure``).
+DRAWS_DRAWN = 1 << 18
 
 
 def north_angle_option(unset: str):
@@ -83,13 +90,13 @@ class SunSettings:
         label="Sun Samples",
         flag="--sun-samples",
         low=1,
-        high=sky_bake.MAX_SAMPLES,
+        high=MAX_SAMPLES,
         whole=True,
         metavar="N",
         estimate=True,
-        tooltip="Sun samples per texel or corner (docs/maps.md)",
+        tooltip="Suns drawn per texel or corner (docs/maps.md)",
     )
-    seed: int = option(0, label="Sun Seed", whole=True, ui=False, estimate=True, tooltip="Cycles seed of the sun bake")
+    seed: int = option(0, label="Sun Seed", whole=True, ui=False, estimate=True, tooltip="Seed of the sun bake's draws")
 
     def __post_init__(self):
         check(self)
@@ -115,37 +122,6 @@ def scene_of(obj: bpy.types.Object) -> bpy.types.Scene:
     return obj.users_scene[0] if obj.users_scene else bpy.context.scene
 
 
-def sky_radiance(directions: np.ndarray, weights: np.ndarray, width: int = SKY_WIDTH) -> np.ndarray:
-    """The (width / 2, width) radiance image, bottom row first (Blender's order), of suns
-    ``weights`` (N,) at unit ``directions`` (N, 3) in Cycles' equirectangular mapping
-    (u = 1/2 − atan2(y, x) / 2π, v = 1 − θ / π, θ from +Z): each pixel holds π Σ w / Ω, Ω its
-    solid angle, so that the direct DIFFUSE bake (irradiance / π) of a plane returns
-    Σ w max(0, N·s) over the suns it sees."""
-    height = width // 2
-    u = 0.5 - np.arctan2(directions[:, 1], directions[:, 0]) / (2.0 * np.pi)
-    v = 1.0 - np.arccos(np.clip(directions[:, 2], -1.0, 1.0)) / np.pi
-    column = np.minimum((u * width).astype(np.int64), width - 1)
-    row = np.minimum((v * height).astype(np.int64), height - 1)
-    energy = np.bincount(row * width + column, weights=weights, minlength=width * height).reshape(height, width)
-    edges = np.cos(np.pi * (1.0 - np.arange(height + 1) / height))  # cos θ at each row's lower and upper edge
-    solid_angle = (2.0 * np.pi / width) * np.diff(edges)
-    return np.pi * energy / solid_angle[:, None]
-
-
-def sky(settings: SunSettings, latitude: float, north_angle: float) -> sky_bake.Sky:
-    """The year's sun at the site as the light of a direct-light bake (``sky_bake``)."""
-    directions, weights = solar.year(latitude)
-    radiance = sky_radiance(solar.scene_directions(directions, north_angle), weights)
-    return sky_bake.Sky(
-        label="Sun",
-        samples=settings.samples,
-        seed=settings.seed,
-        add=lambda scene, made: _add_sky(scene, radiance, made),
-        # the sun stands somewhere above nearly every plane over a year: no surface is left out
-        reaches=lambda normals: np.ones(len(normals), dtype=bool),
-    )
-
-
 def bake_sun_image(
     obj: bpy.types.Object,
     uv_map: str,
@@ -154,40 +130,129 @@ def bake_sun_image(
     occluders: Sequence[bpy.types.Object] = (),
     margin: int = 4,
 ) -> np.ndarray:
-    """S on ``obj``'s UV map ``uv_map`` as a float32 (size, size) array, top row first
-    (``sky_bake.bake_image``: ``margin`` texels filled around every island, a scan drawn through
-    its vertices), at the site ``site(settings, scene_of(obj))``."""
-    return sky_bake.bake_image(obj, uv_map, size, sky(settings, *site(settings, scene_of(obj))), occluders, margin)
+    """S on ``obj``'s UV map ``uv_map`` as a float32 (size, size) array, top row first, at the
+    site ``site(settings, scene_of(obj))``: at every texel's centre (its position and normal as
+    the render sees them), ``margin`` texels grown around every island; a scan whose image is
+    hardly finer than its mesh (``sky_bake.bakes_at_vertices``) at its vertices, drawn across its
+    triangles."""
+    if obj.type != "MESH" or uv_map not in obj.data.uv_layers:
+        raise ValueError(f"object '{obj.name}' has no UV map '{uv_map}'")
+    suns = _Suns.at(settings, scene_of(obj))
+    at_vertices = sky_bake.bakes_at_vertices(obj, size)
+    if not at_vertices:
+        positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, size)
+    with scratch_scene.rendered(obj) as seen:
+        placing = sky_bake.unit_placing(obj)
+        placed = sky_bake.Placed(seen.mesh, placing @ seen.matrix_world)
+        shadows = _occluders(seen, occluders, placing)
+        lift = sky_bake.PROBE_SIZE * placed.mean_edge()
+        if at_vertices:
+            values = suns.exposure(shadows, *placed.vertex_points(), lift)
+        else:
+            points = positions[islands] @ placing[:3, :3].T + placing[:3, 3]  # placing: a scale and a shift
+            towards = normals[islands].astype(np.float64)
+            towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-30)
+            values = suns.exposure(shadows, points, towards, lift)
+    if at_vertices:
+        return scratch_scene.bake_point_values(obj, uv_map, size, values, margin=margin)[0]
+    image = np.zeros((size, size), np.float32)
+    image[islands] = values
+    known = islands
+    for _ in range(margin):
+        image, known = edges.grow(image, known)
+    return np.where(known, image, 0.0).astype(np.float32)
 
 
 def bake_sun_corners(
     obj: bpy.types.Object, settings: SunSettings = SunSettings(), occluders: Sequence[bpy.types.Object] = ()
 ) -> np.ndarray:
-    """S at every face corner of ``obj``'s mesh, as a float32 array (len(mesh.loops),)
-    (``sky_bake.bake_corners``), at the site ``site(settings, scene_of(obj))``."""
-    return sky_bake.bake_corners(obj, sky(settings, *site(settings, scene_of(obj))), occluders)
+    """S at every face corner of ``obj``'s mesh, as a float32 array (len(mesh.loops),), at the
+    site ``site(settings, scene_of(obj))``: once per vertex and normal its corners share, at the
+    rain bake's points (``sky_bake.Placed.corner_points``)."""
+    suns = _Suns.at(settings, scene_of(obj))
+    with scratch_scene.rendered(obj) as seen:
+        scratch_scene.check_corners_kept(obj, seen)
+        placing = sky_bake.unit_placing(obj)
+        placed = sky_bake.Placed(seen.mesh, placing @ seen.matrix_world)
+        points, normals, corner_point = placed.corner_points(smooth=sky_bake.smooth_at_vertices(obj))
+        shadows = _occluders(seen, occluders, placing)
+        lift = sky_bake.PROBE_SIZE * placed.mean_edge()
+    return suns.exposure(shadows, points, normals, lift)[corner_point]
 
 
-def _add_sky(scene, radiance, made):
-    height, width = radiance.shape
-    image = made.add(bpy.data.images.new("PW Sun Sky", width, height, alpha=False, float_buffer=True))
-    pixels = np.ones((height, width, 4), dtype=np.float32)
-    pixels[..., :3] = radiance[..., None]
-    image.pixels.foreach_set(pixels.ravel())
-    world = made.add(bpy.data.worlds.new("PW Sun"))
-    compat.use_world_nodes(world)
-    tree = world.node_tree
-    tree.nodes.clear()
-    texture = tree.nodes.new("ShaderNodeTexEnvironment")
-    texture.image = image
-    texture.interpolation = "Closest"  # the radiance constant over each pixel, as sky_radiance has it
-    background = tree.nodes.new("ShaderNodeBackground")
-    tree.links.new(texture.outputs["Color"], background.inputs["Color"])
-    output = tree.nodes.new("ShaderNodeOutputWorld")
-    tree.links.new(background.outputs[0], output.inputs["Surface"])
-    world.cycles.sampling_method = "MANUAL"
-    world.cycles.sample_map_resolution = width  # the importance map at the image's own pixels
-    scene.world = world
+def _occluders(seen, occluders, placing):
+    """``shadow_rays.Occluders`` of everything that casts shadows: the target as ``seen`` and each
+    of ``occluders`` as rendered, placed by ``placing`` (4 x 4)."""
+    parts = [_placed_triangles(seen, placing)]
+    for occluder in occluders:
+        with scratch_scene.rendered(occluder) as shown:
+            parts.append(_placed_triangles(shown, placing))
+    offsets = np.cumsum([0] + [len(vertices) for vertices, _ in parts[:-1]])
+    vertices = np.concatenate([vertices for vertices, _ in parts])
+    return shadow_rays.Occluders(
+        vertices, np.concatenate([faces + offset for (_, faces), offset in zip(parts, offsets)])
+    )
+
+
+def _placed_triangles(shown, placing):
+    """(vertices (V, 3), triangles (T, 3)) of ``shown`` (``scratch_scene.Rendered``) placed by ``placing``."""
+    mesh = shown.mesh
+    if mesh is None:  # an object that makes no surface (a metaball that is not its family's first)
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int32)
+    mesh.calc_loop_triangles()
+    triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+    mesh.loop_triangles.foreach_get("vertices", triangles)
+    matrix = placing @ shown.matrix_world
+    vertices = mesh_arrays.attribute(mesh, "position", np.float32, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+    return vertices, triangles.reshape(-1, 3)
+
+
+@dataclass(frozen=True)
+class _Suns:
+    """The year's suns at a site, in the scene's frame (``solar.year_by_day``), and the draws a
+    bake takes of them: ``samples`` per point, shifted by a generator seeded with ``seed``."""
+
+    directions: np.ndarray
+    weights: np.ndarray
+    days: np.ndarray
+    samples: int
+    seed: int
+
+    @classmethod
+    def at(cls, settings: SunSettings, scene: bpy.types.Scene) -> "_Suns":
+        latitude, north_angle = site(settings, scene)
+        directions, weights, days = solar.year_by_day(latitude)
+        return cls(solar.scene_directions(directions, north_angle), weights, days, settings.samples, settings.seed)
+
+    def exposure(
+        self, shadows: shadow_rays.Occluders, points: np.ndarray, normals: np.ndarray, lift: float
+    ) -> np.ndarray:
+        """S at ``points`` (P, 3) facing unit ``normals`` (P, 3), float32: S₀(N) less the mean of
+        max(0, N·s) over the point's draws s whose ray, from ``lift`` above the point, meets
+        ``shadows``; rays are cast only towards suns in front of the surface. The estimate is
+        held to [0, 1] (where shadows fall, a few draws can take more than S₀ would lose).
+
+        The draws are made once for up to ``DRAWS_DRAWN // samples`` random shifts of the lattice,
+        and each point takes one of them at random: each point's estimate is as unbiased and as
+        spread over the year as with a shift of its own, at a gather's cost."""
+        open_plane = solar.open_plane_exposures(normals, self.directions, self.weights, self.days)
+        generator = np.random.default_rng(self.seed)
+        shifts = generator.random((max(1, min(len(points), DRAWS_DRAWN // self.samples)), 2))
+        drawn = self.directions[solar.lattice_draws(self.weights, self.days, shifts, self.samples)].astype(np.float32)
+        shift_of = generator.integers(len(shifts), size=len(points))
+        origins = (points + lift * normals).astype(np.float32)
+        normals = normals.astype(np.float32)
+        shaded = np.zeros(len(points))
+        at_once = max(1, DRAWS_AT_ONCE // self.samples)
+        for start in range(0, len(points), at_once):
+            chunk = slice(start, start + at_once)
+            suns = drawn[shift_of[chunk]]
+            cosines = np.einsum("pkj,pj->pk", suns, normals[chunk])
+            point, draw = np.nonzero(cosines > 0.0)
+            blocked = shadows.blocked(origins[chunk][point], suns[point, draw])
+            lost = cosines[point[blocked], draw[blocked]]
+            shaded[chunk] = np.bincount(point[blocked], weights=lost, minlength=len(cosines)) / self.samples
+        return np.clip(open_plane - shaded, 0.0, 1.0).astype(np.float32)
 
 
 # --- the record (docs/architecture.md, "Add a map") ---------------------------------------------------------
