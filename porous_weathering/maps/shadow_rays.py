@@ -34,6 +34,8 @@ class Occluders:
         if rtcore_scene is not None:
             self._scene = rtcore_scene.EmbreeScene()
             TriangleMesh(self._scene, vertices, triangles)
+            # the scene builds its BVH at its first query: one ray here, before threads query it together
+            self._scene.run(np.zeros((1, 3), np.float32), np.array([[0.0, 0.0, 1.0]], np.float32), query="OCCLUDED")
         else:
             from mathutils.bvhtree import BVHTree  # noqa: PLC0415  (only without Embree)
 

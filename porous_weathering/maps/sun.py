@@ -1,4 +1,4 @@
-"""Sun exposure S (docs/model.md §9.1), baked with Cycles.
+"""Sun exposure S (docs/model.md §9.1), baked by casting shadow rays.
 
 S(p) = Σ_i w_i V(p, s_i) max(0, N·s_i): the year's clear-sky direct beam on p, shadowed by the
 object and its occluders, over that on a surface always facing the sun; s_i are the sun's
@@ -8,7 +8,7 @@ positions over the year at the site's latitude and w_i their share of the year's
 Estimated at each point as the open plane's S₀(N) = Σ_i w_i max(0, N·s_i) (``solar.open_plane_exposures``)
 less what shadows take of it, the mean of max(0, N·s) (1 − V) over ``samples`` suns drawn with
 probability w (``solar.lattice_draws``: Roberts' lattice over the days and the hours, shifted at
-random per point, so the estimate is unbiased and its draws spread over the year), V from a ray
+random, so the estimate is unbiased and its draws spread over the year), V from a ray
 towards each drawn sun in front of the surface (``shadow_rays``) through the object and its
 occluders as the render sees them. A point nothing shadows gets S₀(N) exactly, with no noise; the
 noise is where shadows fall. The points are the rain bake's (``sky_bake.Placed``: corners,
