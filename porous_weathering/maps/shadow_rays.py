@@ -1,7 +1,7 @@
 """Shadow rays: whether rays from points towards directions meet a set of triangles, many at once.
 
 Through Embree (``embreex``, its occlusion query, a thread per core: some 3 M rays a second on
-two cores) where its wheel is installed, else through ``mathutils``' BVH one ray at a time (ten
+two cores) where its wheel is installed, else through ``mathutils``' BVH one ray at a time (some six
 times slower, the same answers). Triangles are taken in single precision, so the caller places
 them about the origin at about unit size (``sky_bake.unit_placing``).
 """
