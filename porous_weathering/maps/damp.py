@@ -182,14 +182,10 @@ def bake_damp_image(obj: bpy.types.Object, uv_map: str, resolution: int, setting
     with scratch_scene.rendered(obj) as seen:
         body = _body(obj, seen)
     positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, resolution, frame=body.frame)
-    found = normals[islands].astype(np.float64)
-    found /= np.maximum(np.linalg.norm(found, axis=1), 1e-300)[:, None]
+    found = edges.unit(normals[islands].astype(np.float64))
     values = np.zeros((resolution, resolution), np.float32)
     values[islands] = damp_at(body, positions[islands].astype(np.float64), found, settings)
-    known = islands
-    for _ in range(margin):
-        values, known = edges.grow(values, known)
-    return np.where(known, values, 0.0).astype(np.float32)
+    return edges.with_margin(values, islands, margin)
 
 
 # --- the record (docs/architecture.md, "Add a map") ------------------------------------------------

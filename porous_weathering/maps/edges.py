@@ -145,10 +145,11 @@ def surface_box(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = N
     (``surface_points``), so that loose vertices and edges and collapsed faces (a scan's stray
     point) play no part; None when it has no face of non-zero area."""
     with evaluated_mesh(obj, depsgraph) as (mesh, _):
-        return _box_of_faces(mesh)
+        return box_of_faces(mesh)
 
 
-def _box_of_faces(mesh):
+def box_of_faces(mesh: bpy.types.Mesh) -> np.ndarray | None:
+    """``surface_box`` of ``mesh``, read from it (an evaluated mesh the caller holds)."""
     return box_of_surface(mesh_arrays.attribute(mesh, "position", np.float32, 3), lightmap.triangle_corners(mesh)[1])
 
 
@@ -168,7 +169,7 @@ def object_size(obj: bpy.types.Object, depsgraph: bpy.types.Depsgraph | None = N
     of ``surface_box``, in world units (it turns with the object, so a rotation does not change
     it); 0 when it has no face of non-zero area."""
     with evaluated_mesh(obj, depsgraph) as (mesh, matrix_world):
-        return size_of_box(_box_of_faces(mesh), matrix_world)
+        return size_of_box(box_of_faces(mesh), matrix_world)
 
 
 def effective_radius(
@@ -324,10 +325,16 @@ def edge_mask_image(
         positions, normals, islands = bake_texel_geometry(obj, uv_map_name, resolution, smooth_normals=smooth_normals)
         values = np.zeros((resolution, resolution), dtype=np.float32)
         values[islands] = smooth_over_radius(found.sources, positions[islands], unit(normals[islands]), radius)
-    mask, known = _settings_mask(values, radius, settings), islands
+    return with_margin(_settings_mask(values, radius, settings), islands, margin)
+
+
+def with_margin(values: np.ndarray, known: np.ndarray, margin: int) -> np.ndarray:
+    """The (H, W) float32 image of ``values`` at the ``known`` texels (the UV islands), grown
+    ``margin`` rings around them (``grow``: the bake's margin, so texture filtering never pulls in
+    empty texels) and 0 further out."""
     for _ in range(margin):
-        mask, known = grow(mask, known)
-    return np.where(known, mask, 0.0).astype(np.float32)
+        values, known = grow(values, known)
+    return np.where(known, values, 0.0).astype(np.float32)
 
 
 def grow(values: np.ndarray, known: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -396,7 +403,7 @@ def bake_texel_geometry(
     the caller has its evaluated mesh at hand (else it is evaluated here once more)."""
     if frame is None:
         with evaluated_mesh(obj) as (mesh, matrix_world):
-            frame = texel_frame(_box_of_faces(mesh), matrix_world, mesh_arrays.is_inside_out(mesh))
+            frame = texel_frame(box_of_faces(mesh), matrix_world, mesh_arrays.is_inside_out(mesh))
     position, normal = scratch_scene.emit_bakes(
         obj,
         uv_map_name,

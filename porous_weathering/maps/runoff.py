@@ -273,10 +273,7 @@ def bake_runoff_image(obj: bpy.types.Object, uv_map: str, options, margin: int) 
     values = np.zeros((options.resolution, options.resolution), np.float32)
     flux = runoff_flow.interpolate(surface, result.flux, positions[islands], normals[islands])
     values[islands] = runoff_flow.runoff_map(flux, runoff_length)
-    known = islands
-    for _ in range(margin):
-        values, known = edges.grow(values, known)
-    return np.where(known, values, 0.0).astype(np.float32)
+    return edges.with_margin(values, islands, margin)
 
 
 def _bilinear(image, uv, size):

@@ -324,9 +324,13 @@ def unit_placing(target: bpy.types.Object) -> np.ndarray:
     to 1. The maps depend on directions only, but Cycles offsets its rays by fixed distances:
     the same smooth scan in millimetres and in metres, baked per corner, had 3% of its corners
     more than 1e-3 apart at 16 samples; at one size none (docs/scans.md)."""
-    matrix = np.array(target.matrix_world, dtype=np.float64)
+    return placing_for(edges.surface_box(target), np.array(target.matrix_world, dtype=np.float64))
+
+
+def placing_for(box: np.ndarray | None, matrix: np.ndarray) -> np.ndarray:
+    """``unit_placing`` of an object whose ``edges.surface_box`` is ``box``, placed by ``matrix``
+    (4 x 4), for a caller that holds its evaluated mesh (``edges.box_of_faces``)."""
     placing = np.eye(4)
-    box = edges.surface_box(target)
     if box is None:
         return placing
     corners = np.array([[box[i, 0], box[j, 1], box[k, 2]] for i in (0, 1) for j in (0, 1) for k in (0, 1)])

@@ -139,28 +139,23 @@ def bake_sun_image(
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map}'")
     suns = _Suns.at(settings, scene_of(obj))
     at_vertices = sky_bake.bakes_at_vertices(obj, size)
-    if not at_vertices:
-        positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, size)
     with scratch_scene.rendered(obj) as seen:
-        placing = sky_bake.unit_placing(obj)
+        box = edges.box_of_faces(seen.mesh)
+        placing = sky_bake.placing_for(box, np.array(obj.matrix_world, dtype=np.float64))
         placed = sky_bake.Placed(seen.mesh, placing @ seen.matrix_world)
         shadows = _occluders(seen, occluders, placing)
         lift = sky_bake.PROBE_SIZE * placed.mean_edge()
         if at_vertices:
             values = suns.exposure(shadows, *placed.vertex_points(), lift)
         else:
-            points = positions[islands] @ placing[:3, :3].T + placing[:3, 3]  # placing: a scale and a shift
-            towards = normals[islands].astype(np.float64)
-            towards /= np.maximum(np.linalg.norm(towards, axis=1, keepdims=True), 1e-30)
-            values = suns.exposure(shadows, points, towards, lift)
+            frame = edges.texel_frame(box, seen.matrix_world, mesh_arrays.is_inside_out(seen.mesh))
     if at_vertices:
         return scratch_scene.bake_point_values(obj, uv_map, size, values, margin=margin)[0]
+    positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, size, frame=frame)
+    points = positions[islands] @ placing[:3, :3].T + placing[:3, 3]  # placing: a scale and a shift
     image = np.zeros((size, size), np.float32)
-    image[islands] = values
-    known = islands
-    for _ in range(margin):
-        image, known = edges.grow(image, known)
-    return np.where(known, image, 0.0).astype(np.float32)
+    image[islands] = suns.exposure(shadows, points, edges.unit(normals[islands].astype(np.float64)), lift)
+    return edges.with_margin(image, islands, margin)
 
 
 def bake_sun_corners(
@@ -172,7 +167,7 @@ def bake_sun_corners(
     suns = _Suns.at(settings, scene_of(obj))
     with scratch_scene.rendered(obj) as seen:
         scratch_scene.check_corners_kept(obj, seen)
-        placing = sky_bake.unit_placing(obj)
+        placing = sky_bake.placing_for(edges.box_of_faces(seen.mesh), np.array(obj.matrix_world, dtype=np.float64))
         placed = sky_bake.Placed(seen.mesh, placing @ seen.matrix_world)
         points, normals, corner_point = placed.corner_points(smooth=sky_bake.smooth_at_vertices(obj))
         shadows = _occluders(seen, occluders, placing)
@@ -197,8 +192,6 @@ def _occluders(seen, occluders, placing):
 def _placed_triangles(shown, placing):
     """(vertices (V, 3), triangles (T, 3)) of ``shown`` (``scratch_scene.Rendered``) placed by ``placing``."""
     mesh = shown.mesh
-    if mesh is None:  # an object that makes no surface (a metaball that is not its family's first)
-        return np.zeros((0, 3)), np.zeros((0, 3), np.int32)
     mesh.calc_loop_triangles()
     triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
     mesh.loop_triangles.foreach_get("vertices", triangles)
