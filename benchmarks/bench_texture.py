@@ -6,16 +6,16 @@
         [--only NAME ...] [--quick] [--work DIR] [--crops DIR] [--inputs NAME=VALUE ...]
 
 Each bundled sample is weathered as the main job weathers it (``demo.Sample``: its recipe's
-stone, environment, site rain, view and maps baked with the bake's defaults; the ground held
-out, the parts the recipe does not weather kept: the brick wall's mortar, the stone's plinth)
+stone, environment, site rain, view and maps baked with the bake's defaults, its parts each as
+its own stone: the brick wall's mortar; the ground held out, the parts the recipe does not
+weather kept: the stone's plinth)
 and each corpus shape as benchmarks/bench_corpus.py makes it (in millimetres: its scene, the
 command line's bake with its defaults, the panel's Make), in soiling mode. Cycles as the main job
 renders it (4 bounces, the default pixel filter 1.5 pixels wide, as a camera's pixel integrates
 its area) but **without denoising**, which would remove the very texture measured.
 
 The crop: a coverage render (``PROBE_HEIGHT`` pixels high, 1 sample, alpha; the transparent film
-shows what the object covers) finds the largest square the weathered objects cover fully (their
-gaps of a few pixels bridged, where the sample's other parts show: the brick wall's joints); the picture
+shows what the object covers) finds the largest square the weathered objects cover fully; the picture
 height is ``--size`` (the main job's 540) or, if the square would be smaller than the crop there,
 the height at which it holds the crop with a coverage-render pixel (``MARGIN``) to spare round
 it. Only the crop is rendered (a render border), centred on that square, at t = 0 and t = 1
@@ -74,9 +74,6 @@ PROBE_HEIGHT = 160
 #: as height / PROBE_HEIGHT pixels of the picture, so its edge is known to one of them.
 MARGIN = 1
 COVERED = 0.999
-#: Gaps in the weathered objects' coverage up to twice this many coverage pixels wide are
-#: bridged: the brick wall's 10 mm joints, about a pixel there, a few with the pixel filter.
-BRIDGED = 2
 #: Targets of the photographs of real decay: (low, high), None open.
 TARGETS = {"beta": (1.8, 3.0), "fine": (0.10, None), "ratio_beta": (None, 3.2), "seeds": (None, 0.10)}
 #: A shape whose two seeds differ by 10% or more of the fine band is rendered again at twice the
@@ -91,13 +88,16 @@ RATIO_TARGET_SHAPE = demo.FACADE
 
 def open_sample(name, args, work):
     """(scene, show(age), the other parts) of a bundled sample weathered as the main job
-    weathers it, its ground held out. The other parts, which the recipe does not weather (the
-    brick wall's mortar, the sculpted stone's plinth), are rendered: the brick wall's crop shows
-    its joints as a photograph of it would."""
+    weathers it (its parts too: the brick wall's mortar), its ground held out. The other parts,
+    which the recipe does not weather (the sculpted stone's plinth), are rendered."""
     sample = demo.Sample(name, map_dir=work, bake_samples=args.bake_samples, progress=True)
     ground = sample.scene.objects["Ground"]
     studio.assign(ground, studio.holdout_material())
-    others = [obj for obj in sample.scene.objects if obj.type == "MESH" and obj not in (*sample.objects, ground)]
+    others = [
+        obj
+        for obj in sample.scene.objects
+        if obj.type == "MESH" and obj not in (*sample.objects, *sample.parts, ground)
+    ]
     return sample.scene, lambda age: sample.show(model.SOILING, age, **args.inputs), others
 
 
@@ -151,26 +151,9 @@ def largest_square(covered):
     return (0, 0, 0) if found is None else (int(found[0]), int(found[1]), low)
 
 
-def closed(mask, reach):
-    """``mask`` with its gaps up to 2 ``reach`` pixels wide filled (a dilation, then an erosion,
-    by a square 2 ``reach`` + 1 pixels wide)."""
-    height, width = mask.shape
-
-    def each_neighbour(values, combine, outside):
-        padded = np.pad(values, reach, constant_values=outside)
-        result = values.copy()
-        for dy in range(2 * reach + 1):
-            for dx in range(2 * reach + 1):
-                result = combine(result, padded[dy : dy + height, dx : dx + width])
-        return result
-
-    return each_neighbour(each_neighbour(mask, np.logical_or, False), np.logical_and, True)
-
-
 def place_crop(scene, show, others, args, aspect):
     """(picture height, (top, left) of the crop in it, the coverage render, the square) for the
-    weathered objects: the pixels the sample covers (``others`` too) within BRIDGED coverage
-    pixels of the weathered objects' own (so the brick wall's joints count, the plinth does not)."""
+    weathered objects: the pixels they cover, the other parts hidden (the plinth does not count)."""
     use_cycles(scene, PROBE_HEIGHT, 1, aspect)
     show(0.0)
     coverage = render.render_array(scene)
@@ -179,7 +162,7 @@ def place_crop(scene, show, others, args, aspect):
         for obj in others:
             obj.hide_render = True
         try:
-            covered &= closed(render.render_array(scene)[..., 3] > COVERED, BRIDGED)
+            covered &= render.render_array(scene)[..., 3] > COVERED
         finally:
             for obj in others:
                 obj.hide_render = False

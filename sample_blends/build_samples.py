@@ -13,11 +13,12 @@ bust.blend              a scan-like limestone bust (scan_generator.py): 200k tri
 
 Modifiers are applied, so each mesh is what renders and bakes see. The façade's flat faces are
 cut into a grid of cells (``refine``), so that per-corner maps (colour-attribute bakes of rain
-and edges) resolve the shelter of a cornice or a sill. The bricks have a UV map projected from
-the front whose texture space lines up with the bond (``WALL_UV``), the layout that
-efflorescence_map.brick_joint_map draws. Every object has a porous preset material lit by the
-scene's key sun (key-light mode). Sizes are in metres, but for the bust: millimetres (the
-scene's unit scale says so), as scans come.
+and edges) resolve the shelter of a cornice or a sill. The bricks and their mortar have a UV map
+projected from the front whose texture space lines up with the bond (``WALL_UV``), the layout that
+efflorescence_map.brick_joint_map draws; each brick is a block of its own (its loose part, in the
+face attribute presets.mark_blocks writes), the mortar the lime mortar preset. Every object has
+a porous preset material lit by the scene's key sun (key-light mode). Sizes are in metres, but
+for the bust: millimetres (the scene's unit scale says so), as scans come.
 """
 
 import argparse
@@ -40,6 +41,7 @@ import scan_generator  # noqa: E402  (sample_blends/scan_generator.py)
 from porous_weathering.blender import compat
 from porous_weathering.samples import studio  # noqa: E402
 from porous_weathering.shading.material import make_preset_material  # noqa: E402
+from porous_weathering.shading.presets import mark_blocks  # noqa: E402
 
 # --- building blocks -------------------------------------------------------------------
 
@@ -274,10 +276,13 @@ def brick_wall(scene):
     array(bricks, courses // 2, (0.0, 0.0, 2 * course))
     apply_modifiers(bricks)
     project_wall_uvs(bricks, pitch, course)
+    mark_blocks(bricks, "ISLANDS")  # each brick its own block: a draw of the brick (docs/model.md §8.5)
     length, height = per_course * pitch + pitch / 2, courses * course + JOINT
     mortar = box(scene, "Mortar", (length, BRICK.y - 0.01, height), (length / 2, BRICK.y / 2 + 0.005, height / 2))
+    refine(mortar, course)  # its per-corner maps (the damp's tide) vary course by course
+    project_wall_uvs(mortar, pitch, course)  # the joints' salt map lines up on the mortar too
     give(make_preset_material("BRICK", key_light=sun), bricks)
-    give(make_preset_material("PLASTER", name="Lime Mortar", key_light=sun), mortar)
+    give(make_preset_material("LIME_MORTAR", key_light=sun), mortar)
     ground(scene)
     camera(scene, (1.6, -2.4, 0.9), (1.05, 0.0, 0.6))
     sky(scene)

@@ -423,7 +423,7 @@ def cycles_corner_bake(obj, sky, occluders=()):
     """``sky`` (a ``sky_bake.Sky``) baked by Cycles itself at every face corner of ``obj``
     (target VERTEX_COLORS, each corner at its vertex on its face), in the maps' bake scene:
     float32 (len(mesh.loops),)."""
-    with sky_bake._bake_scene(obj, occluders, sky) as copy:
+    with sky_bake._bake_scene(obj, occluders, sky, sky_bake.unit_placing(obj)) as copy:
         attribute = copy.data.color_attributes.new("PW Corner Reference", "FLOAT_COLOR", "CORNER")
         copy.data.color_attributes.active_color = attribute
         with bpy.context.temp_override(**scratch_scene.only_selected(copy)):

@@ -101,7 +101,7 @@ def bake_image(
     """
     if obj.type != "MESH" or uv_map not in obj.data.uv_layers:
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map}'")
-    with _bake_scene(obj, occluders, sky) as copy:
+    with _bake_scene(obj, occluders, sky, unit_placing(obj)) as copy:
         if bakes_at_vertices(obj, size):
             at_vertices = _bake_vertices(obj, copy, sky)
         else:
@@ -138,11 +138,13 @@ def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.
     mesh is baked once per such pair (``_bake_points``): once per vertex where it is smooth,
     about six corners, and once per vertex and face plane where it is flat, four corners of a
     wall cut into quads, the probe just inside the pair's faces (CORNER_INSET)."""
-    with scratch_scene.rendered(obj) as seen, _bake_scene(obj, occluders, sky) as copy:
+    with scratch_scene.rendered(obj) as seen:
         scratch_scene.check_corners_kept(obj, seen)
-        placed = Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
-        points, normals, corner_point = placed.corner_points(smooth=smooth_at_vertices(obj))
-        return _bake_points(placed, copy, sky, points, normals)[corner_point]
+        placing = placing_for(edges.box_of_faces(seen.mesh), np.array(obj.matrix_world, dtype=np.float64))
+        with _bake_scene(obj, occluders, sky, placing) as copy:
+            placed = Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
+            points, normals, corner_point = placed.corner_points(smooth=smooth_at_vertices(obj))
+            return _bake_points(placed, copy, sky, points, normals)[corner_point]
 
 
 def smooth_at_vertices(obj: bpy.types.Object) -> bool:
@@ -296,9 +298,10 @@ def _bake(copy, margin):
 
 
 @contextmanager
-def _bake_scene(target, occluders, sky):
+def _bake_scene(target, occluders, sky, placing):
     """A temporary Cycles scene holding a copy of ``target`` (own mesh, a white diffuse material,
-    returned) and copies of ``occluders`` (opaque), under ``sky``; all removed afterwards."""
+    returned) and copies of ``occluders`` (opaque), all moved and scaled by ``placing``
+    (``unit_placing`` of ``target``: 4 x 4), under ``sky``; all removed afterwards."""
     if target.type != "MESH":
         raise ValueError(f"{target.name}: a {sky.label.lower()} bake needs a mesh object, not {target.type.lower()}")
     with scratch_scene.Ledger() as made:
@@ -313,7 +316,8 @@ def _bake_scene(target, occluders, sky):
         for occluder in occluders:
             if occluder != target:
                 copies.append(scratch_scene.placed_copy(occluder, scene, surface, ledger=made))
-        _to_unit_size(copies, target)
+        for each in copies:
+            each.matrix_world = Matrix((placing @ np.array(each.matrix_world, dtype=np.float64)).tolist())
         sky.add(scene, made)
         yield copy
 
@@ -341,10 +345,3 @@ def placing_for(box: np.ndarray | None, matrix: np.ndarray) -> np.ndarray:
         placing[:3, :3] /= size
         placing[:3, 3] = -(low + high) / (2 * size)
     return placing
-
-
-def _to_unit_size(copies, target):
-    """Move and scale the ``copies`` together by ``unit_placing(target)``."""
-    placing = unit_placing(target)
-    for copy in copies:
-        copy.matrix_world = Matrix((placing @ np.array(copy.matrix_world, dtype=np.float64)).tolist())

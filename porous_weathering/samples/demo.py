@@ -88,7 +88,9 @@ class Recipe:
     (a key of presets.PRESETS, whose structure the materials have at the default variation:
     docs/model.md §8) and ``environment`` (a key of environments.ENVIRONMENTS), the panel's Stone
     and Environment choices; ``masonry``: if not None, the ``presets.Ashlar`` the stone is laid
-    in (docs/model.md §8.5), a fact of the building; its ``modes``, whose masks read what the
+    in (docs/model.md §8.5), a fact of the building; ``parts``: {object: stone}, the other objects
+    weathered beside them, each as its own stone with the same maps and site and no masonry (the
+    panel's Make run on them with that Stone: the brick wall's mortar); its ``modes``, whose masks read what the
     panel's Make wires (``masks``): each its baked map (baked as colour attributes with the bake's
     defaults, as the command line bakes them), and for a map that is made, not baked, the one
     ``made`` names ("joints": JOINT_MAP, an image on the bricks' UV map), else its fallback map
@@ -115,6 +117,7 @@ class Recipe:
     masonry: presets.Ashlar | None = None
     #: The site's sun (sun.SunSettings fields: its latitude, where north is).
     sun: dict = field(default_factory=dict)
+    parts: dict = field(default_factory=dict)
 
     @property
     def masks(self) -> dict:
@@ -155,11 +158,15 @@ RECIPES = {
         cell=0.1,
         masonry=FACADE_ASHLAR,
     ),
+    # Modelled brick by brick: each brick its own draw of the brick (its loose part, marked by
+    # build_samples.py), the recessed mortar behind them weathering as the lime mortar it is.
     "brick_wall": Recipe(
         ("Bricks",),
         "BRICK",
         (model.SOILING, model.WET, model.EFFLORESCENCE),
         made={efflorescence_map.MAP_NAME: "joints"},
+        masonry=presets.MeshBlocks(),
+        parts={"Mortar": "LIME_MORTAR"},
     ),
     # Vertical rain: the hollows and the undersides of the ridges are the sheltered places.
     "sculpted_stone": Recipe(("Sculpted Stone",), "LIMESTONE", (model.SOILING,), rain={}),
@@ -213,6 +220,7 @@ class Sample:
         if self.recipe.cell:
             for obj in self.objects:
                 refine(obj, self.recipe.cell)
+        self.parts = [self.scene.objects[name] for name in self.recipe.parts]
         self.sources = self._make_maps(bake_samples, map_dir, progress)
         self._materials = {}
         if self.recipe.view:
@@ -244,7 +252,7 @@ class Sample:
                 sun_settings=sun.SunSettings(samples=bake_samples, **self.recipe.sun),
             )
             bar = ProgressBar(f"baking the maps of {self.name}") if progress else None
-            bake.bake_maps(self.objects, options, progress=bar)
+            bake.bake_maps([*self.objects, *self.parts], options, progress=bar)
             if bar:
                 bar.finish()
         if "joints" in used:  # a file, as a user's own location map would be
@@ -252,13 +260,13 @@ class Sample:
             sources["joints"] = efflorescence_map.save_map(efflorescence_map.brick_joint_map(**JOINT_MAP), path)
         return sources
 
-    def inputs(self, mode, **changes):
-        """The weathering inputs ``mode``'s material is given: the panel's values for the
-        recipe's stone and environment (presets.weathering_values) that ``mode`` reads, then
-        the environment's other inputs, updated with ``changes`` (e.g. the paper-exact
-        ``crust=0``); the rest keep the API's defaults."""
+    def inputs(self, mode, stone=None, **changes):
+        """The weathering inputs ``mode``'s material is given: the panel's values for ``stone``
+        (None: the recipe's) and the recipe's environment (presets.weathering_values) that
+        ``mode`` reads, then the environment's other inputs, updated with ``changes`` (e.g. the
+        paper-exact ``crust=0``); the rest keep the API's defaults."""
         used = model.inputs_of(mode)
-        panel = presets.weathering_values(self.recipe.stone, self.recipe.environment)
+        panel = presets.weathering_values(stone or self.recipe.stone, self.recipe.environment)
         site = environments.weathering_inputs(self.recipe.environment, (mode,))
         return {**site, **{name: value for name, value in panel.items() if name in used}, **changes}
 
@@ -268,46 +276,55 @@ class Sample:
         the materials vary about them with the stone's structure)."""
         return presets.PRESETS[self.recipe.stone].material_params()
 
-    def material(self, mode, **changes):
-        """The weathered material of ``mode`` (made once per set of ``changes``: see ``inputs``),
-        on the sample's stone, with its structure at the default variation and laid in the
-        recipe's masonry, and on its maps, as the panel's Make makes it."""
-        key = (mode, tuple(sorted(changes.items())))
+    def material(self, mode, stone=None, **changes):
+        """The weathered material of ``mode`` (made once per stone and set of ``changes``: see
+        ``inputs``) on ``stone`` (None: the recipe's, laid in its masonry; a part's stone takes
+        none), with its structure at the default variation, and on its maps, as the panel's Make
+        makes it."""
+        stone = stone or self.recipe.stone
+        key = (mode, stone, tuple(sorted(changes.items())))
         if key not in self._materials:
             masks = {mask: self.sources[map_name] for mask, map_name in self.recipe.masks[mode].items()}
-            name = f"{self.name} {mode}" + "".join(f" {k}={v}" for k, v in sorted(changes.items()))
+            name = f"{self.name} {mode}" + (f" {stone}" if stone != self.recipe.stone else "")
+            name += "".join(f" {k}={v}" for k, v in sorted(changes.items()))
             self._materials[key] = weathering.make_weathered_material(
                 name,
                 modes=(mode,),
                 key_light=self.sun,
                 environment=self.recipe.environment,
-                stone=self.recipe.stone,
-                masonry=self.recipe.masonry,
-                **self.stone,
+                stone=stone,
+                masonry=self.recipe.masonry if stone == self.recipe.stone else None,
+                **presets.PRESETS[stone].material_params(),
                 **masks,
-                **self.inputs(mode, **changes),
+                **self.inputs(mode, stone, **changes),
             )
         return self._materials[key]
 
+    def _weathered(self, mode, **changes):
+        """(objects, their material) of ``mode``: the recipe's objects, then each part."""
+        yield self.objects, self.material(mode, **changes)
+        for obj in self.parts:
+            yield [obj], self.material(mode, self.recipe.parts[obj.name], **changes)
+
     def show(self, mode, age, **changes):
         """Give the weathered objects ``mode``'s material (``changes``: see ``material``) at age ``age``."""
-        weathered = self.material(mode, **changes)
-        weathering.set_input(weathered.node_tree.nodes[GROUP_NODE], "time", age)
-        for obj in self.objects:
-            studio.assign(obj, weathered)
+        for objects, weathered in self._weathered(mode, **changes):
+            weathering.set_input(weathered.node_tree.nodes[GROUP_NODE], "time", age)
+            for obj in objects:
+                studio.assign(obj, weathered)
 
     def render_years(self, mode, years, path):
         """A picture of ``mode`` after ``years`` in the recipe's site: every clock of its
         material set from the years (``aging.ages_for_years``, docs/model.md §9.4), as the
         condition survey sets them."""
-        weathered = self.material(mode)
-        group = weathered.node_tree.nodes[GROUP_NODE]
         carbon = environments.get(self.recipe.environment).elemental_carbon
-        for clock, value in aging.ages_for_years(years, carbon).items():
-            if socket_name(clock) in group.inputs:
-                weathering.set_input(group, clock, value)
-        for obj in self.objects:
-            studio.assign(obj, weathered)
+        for objects, weathered in self._weathered(mode):
+            group = weathered.node_tree.nodes[GROUP_NODE]
+            for clock, value in aging.ages_for_years(years, carbon).items():
+                if socket_name(clock) in group.inputs:
+                    weathering.set_input(group, clock, value)
+            for obj in objects:
+                studio.assign(obj, weathered)
         return render.render_picture(self.scene, path, view_transform="Standard")
 
     def render(self, mode, age, path, **changes):
