@@ -40,6 +40,7 @@ import scan_generator  # noqa: E402  (sample_blends/scan_generator.py)
 
 from porous_weathering.blender import compat
 from porous_weathering.samples import studio  # noqa: E402
+from porous_weathering.samples.demo import refine  # noqa: E402
 from porous_weathering.shading.material import make_preset_material  # noqa: E402
 from porous_weathering.shading.presets import mark_blocks  # noqa: E402
 
@@ -125,27 +126,6 @@ def apply_modifiers(obj):
     mesh.name = obj.name
     for cutter in cutters:
         bpy.data.meshes.remove(cutter.data)
-
-
-def refine(obj, cell):
-    """Cut the mesh by planes across each axis, no more than ``cell`` apart: every face becomes
-    cells a per-corner map can vary over, and the shape stays exactly the same."""
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    corners = np.array([vertex.co for vertex in bm.verts])
-    for axis, normal in enumerate(np.eye(3)):
-        low, high = corners[:, axis].min(), corners[:, axis].max()
-        count = int(np.ceil((high - low) / cell - 1e-3))  # a float32 0.8 over 0.2 is 4 on every line
-        for k in range(1, count):
-            bmesh.ops.bisect_plane(
-                bm,
-                geom=bm.verts[:] + bm.edges[:] + bm.faces[:],
-                dist=1e-5,
-                plane_co=normal * (low + k * (high - low) / count),
-                plane_no=normal,
-            )
-    bm.to_mesh(obj.data)
-    bm.free()
 
 
 def give(material, *objects):

@@ -365,8 +365,10 @@ def unite(objects, name):
 
 
 def refine(obj, cell):
-    """Cut ``obj``'s mesh by planes across each axis, no more than ``cell`` apart (its shape stays
-    the same), as sample_blends/build_samples.py cuts the façade's faces."""
+    """Cut ``obj``'s mesh by planes across each axis, no more than ``cell`` apart: every face
+    becomes cells a per-corner map can vary over, and the shape stays exactly the same (the
+    main job's ``Recipe.cell``; sample_blends/build_samples.py cuts the façade's faces and the
+    brick wall's mortar with it)."""
     import bmesh
 
     mesh = bmesh.new()
@@ -374,7 +376,7 @@ def refine(obj, cell):
     corners = [vertex.co for vertex in mesh.verts]
     for axis in range(3):
         low, high = min(c[axis] for c in corners), max(c[axis] for c in corners)
-        count = math.ceil((high - low) / cell - 1e-3)
+        count = math.ceil((high - low) / cell - 1e-3)  # a float32 0.8 over 0.2 is 4 on every line
         normal = Vector([float(axis == k) for k in range(3)])
         for k in range(1, count):
             point = normal * (low + k * (high - low) / count)
