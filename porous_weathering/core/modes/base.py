@@ -273,8 +273,9 @@ def local_age(xp, time, receptivity):
 
 
 #: G: the gain that turns the stone's porosity field z_p into its uptake field clamp(G z_p, -1, 1)
-#: (docs/model.md §8.7): beyond |z_p| = 1/G a point takes up wholly faster or slower than the mean.
-UPTAKE_GAIN = 4.0
+#: (docs/model.md §8.7): beyond |z_p| = 1/G a point takes up wholly faster or slower than the mean
+#: (half the limestone at G = 8; a decision measured there against the photographs' texture).
+UPTAKE_GAIN = 8.0
 
 
 def uptake_spread(xp, field, variation):
