@@ -138,6 +138,7 @@ def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.
     mesh is baked once per such pair (``_bake_points``): once per vertex where it is smooth,
     about six corners, and once per vertex and face plane where it is flat, four corners of a
     wall cut into quads, the probe just inside the pair's faces (CORNER_INSET)."""
+    _require_mesh(obj, sky)
     with scratch_scene.rendered(obj) as seen:
         scratch_scene.check_corners_kept(obj, seen)
         placing = placing_for(edges.box_of_faces(seen.mesh), np.array(obj.matrix_world, dtype=np.float64))
@@ -302,8 +303,7 @@ def _bake_scene(target, occluders, sky, placing):
     """A temporary Cycles scene holding a copy of ``target`` (own mesh, a white diffuse material,
     returned) and copies of ``occluders`` (opaque), all moved and scaled by ``placing``
     (``unit_placing`` of ``target``: 4 x 4), under ``sky``; all removed afterwards."""
-    if target.type != "MESH":
-        raise ValueError(f"{target.name}: a {sky.label.lower()} bake needs a mesh object, not {target.type.lower()}")
+    _require_mesh(target, sky)
     with scratch_scene.Ledger() as made:
         scene = scratch_scene.temporary_scene(made, f"PW {sky.label} Bake", samples=sky.samples, seed=sky.seed)
         # direct light only (no bounce, transparent or not): the light reaches a point straight from the sky
@@ -320,6 +320,11 @@ def _bake_scene(target, occluders, sky, placing):
             each.matrix_world = Matrix((placing @ np.array(each.matrix_world, dtype=np.float64)).tolist())
         sky.add(scene, made)
         yield copy
+
+
+def _require_mesh(target, sky):
+    if target.type != "MESH":
+        raise ValueError(f"{target.name}: a {sky.label.lower()} bake needs a mesh object, not {target.type.lower()}")
 
 
 def unit_placing(target: bpy.types.Object) -> np.ndarray:
