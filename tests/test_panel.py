@@ -232,6 +232,47 @@ def test_the_variation_slider_gives_the_stone_its_structure_or_none(registered, 
     assert STONE_NODE not in plane.active_material.node_tree.nodes
 
 
+def test_the_masonry_choice_lays_the_stone_in_blocks(registered, fresh_scene):
+    """Make lays the stone in the panel's Masonry (docs/model.md §8.5): coursed ashlar at the
+    panel's lengths (metres), or the blocks of the mesh's loose parts, which Make writes into its
+    face attribute; a mesh without the face sets asked for is refused in one line, nothing written
+    or made; without a preset no masonry is laid."""
+    settings = fresh_scene.porous_weathering
+    assert settings.masonry == ui_settings.NO_MASONRY
+    plane = studio.add_plane(fresh_scene)
+    bpy.context.view_layer.objects.active = plane
+    settings.masonry, settings.course_height = ui_settings.ASHLAR, 0.4
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    stone = plane.active_material.node_tree.nodes[STONE_NODE]
+    assert stone.node_tree.name.endswith(" Ashlar")
+    assert stone.inputs["Course Height"].default_value == pytest.approx(0.4)
+    assert stone.inputs["Block Length"].default_value == pytest.approx(stones.Ashlar.block_length)
+
+    made = plane.active_material
+    settings.masonry = "FACE_SETS"  # the plane has none
+    with pytest.raises(RuntimeError, match="no face sets"):
+        bpy.ops.porous_weathering.make_material()
+    assert plane.active_material is made and stones.MeshBlocks().attribute not in plane.data.attributes
+
+    settings.masonry = "ISLANDS"
+    second = studio.add_plane(fresh_scene, "Second")
+    second.location.x = 3.0
+    bpy.ops.object.select_all(action="DESELECT")
+    plane.select_set(True)
+    second.select_set(True)
+    bpy.context.view_layer.objects.active = plane
+    bpy.ops.object.join()
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    stone = plane.active_material.node_tree.nodes[STONE_NODE]
+    assert " Blocks" in stone.node_tree.name
+    blocks = np.empty(len(plane.data.polygons), dtype=np.int32)
+    plane.data.attributes[stones.MeshBlocks().attribute].data.foreach_get("value", blocks)
+    assert len(np.unique(blocks)) == 2
+
+    settings.source = ui_settings.FROM_MATERIAL
+    assert settings.masonry_for(plane) is None
+
+
 def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_path):
     """Open the brick wall, save it, pick the stone, tick Wet and Efflorescence, Make (the maps
     are missing), Bake Weathering Maps, Make (the salt reads the run-off: the absorbed water),

@@ -119,6 +119,7 @@ def weathered_material_for(
     environment: str | None = environments.DEFAULT_ENVIRONMENT,
     stone: Mapping[str, Any] | None = None,
     variation: float = stones.DEFAULT_VARIATION,
+    masonry: "stones.Ashlar | stones.MeshBlocks | None" = None,
 ) -> "bpy.types.Material":
     """A new material for ``obj``: porous, weathered by ``modes`` (none: porous only) with the
     weathering input ``values``, every mask input read from the map of ``obj`` that feeds it
@@ -127,7 +128,8 @@ def weathered_material_for(
     roughness images are kept, or its vertex colours (the colour attribute its material's base
     colour reads, else ``scan_colours``). ``environment`` sets the site's inputs ``values`` leave out;
     ``stone`` replaces material keywords (a measured ``base_color``: ``presets.from_colorimetry``).
-    A preset's material has its stone's structure at ``variation`` (docs/model.md §8); an object
+    A preset's material has its stone's structure at ``variation`` (docs/model.md §8), laid in
+    ``masonry`` if not None (§8.5; ignored without a preset: masonry lays a stone); an object
     whose size is implausible at the scene's unit scale gets a PorousInputWarning saying how to
     set the unit (§8.4). ValueError on a bad input (see ``make_weathered_material``)."""
     if preset is None:
@@ -137,7 +139,7 @@ def weathered_material_for(
     else:
         chosen = presets.PRESETS[preset]
         textures = {}
-        params = {**chosen.material_params(), "stone": preset, "variation": variation}
+        params = {**chosen.material_params(), "stone": preset, "variation": variation, "masonry": masonry}
         name = f"{obj.name} {chosen.label}"
     params.update(stone or {})
     if modes:

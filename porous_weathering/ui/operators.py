@@ -192,6 +192,7 @@ class MakeMaterial(NeedsMaterialObject):
         obj = context.active_object
         modes = settings.modes()
         try:
+            masonry = settings.masonry_for(obj)
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", model.PorousInputWarning)
                 new = linking.weathered_material_for(
@@ -203,6 +204,7 @@ class MakeMaterial(NeedsMaterialObject):
                     environment=settings.environment,
                     stone=self.measured_stone(settings),
                     variation=settings.variation,
+                    masonry=masonry,
                 )
         except ValueError as error:
             self.report({"ERROR"}, f"object '{obj.name}': {error}")

@@ -15,6 +15,24 @@ from ..shading import presets
 #: its vertex colours).
 FROM_MATERIAL = "FROM_MATERIAL"
 DEFAULT_SOURCE = "LIMESTONE"
+#: The Masonry choices (docs/model.md §8.5): none, coursed ashlar from the point's place, or blocks
+#: the mesh knows (presets.BLOCK_SOURCES: its loose parts or its sculpt face sets).
+NO_MASONRY, ASHLAR = "NONE", "ASHLAR"
+MASONRY_ITEMS = [
+    (NO_MASONRY, "None", "One stone, no blocks or joints"),
+    (ASHLAR, "Coursed Ashlar", "Blocks in courses with lime-mortar joints, laid out from each point's place in metres"),
+    (
+        "ISLANDS",
+        "Blocks: Loose Parts",
+        "Each loose part of the mesh a block of its own (a wall modelled block by "
+        "block); Make writes each face's block into the face attribute pw_block",
+    ),
+    (
+        "FACE_SETS",
+        "Blocks: Face Sets",
+        "Each sculpt face set a block of its own; Make writes each face's block into the face attribute pw_block",
+    ),
+]
 
 
 def _is_light(_settings, obj):
@@ -71,6 +89,17 @@ class SettingsBase:
         """The stone preset chosen, None for the object's own material."""
         return None if self.source == FROM_MATERIAL else self.source
 
+    def masonry_for(self, obj: "bpy.types.Object") -> "stones.Ashlar | stones.MeshBlocks | None":
+        """The chosen masonry for ``obj`` (None without a preset: masonry lays a stone); blocks the
+        mesh knows are written into its face attribute first (``presets.mark_blocks``). ValueError,
+        before anything is written, for lengths no ashlar has or a mesh without the face sets asked for."""
+        if self.preset() is None or self.masonry == NO_MASONRY:
+            return None
+        if self.masonry == ASHLAR:
+            return stones.Ashlar(self.course_height, self.block_length, self.joint_width)
+        presets.mark_blocks(obj, self.masonry)
+        return stones.MeshBlocks()
+
     def elemental_carbon(self) -> float:
         """The chosen environment's typical elemental-carbon concentration, µg/m³."""
         return environments.get(self.environment).elemental_carbon
@@ -112,6 +141,28 @@ def settings_class() -> type:
             min=0.0,
             max=1.0,
         ),
+        "masonry": bpy.props.EnumProperty(
+            name="Masonry",
+            description="Lay the stone in blocks, each its own draw of the stone's porosity and colour, with "
+            "lime-mortar joints (docs/model.md §8.5)",
+            default=NO_MASONRY,
+            items=MASONRY_ITEMS,
+        ),
+        **{
+            name: bpy.props.FloatProperty(
+                name=label,
+                description=f"{description}, in metres (the scene's unit scale applies)",
+                default=getattr(stones.Ashlar, name),
+                min=1e-4,
+                soft_max=soft_max,
+                precision=3,
+            )
+            for name, label, description, soft_max in (
+                ("course_height", "Course Height", "Height of a course of the ashlar", 2.0),
+                ("block_length", "Block Length", "Length of a block along its course", 4.0),
+                ("joint_width", "Joint Width", "Width of the mortar joints", 0.05),
+            )
+        },
         "environment": bpy.props.EnumProperty(
             name="Environment",
             description="Where the stone stands: sets the site's weathering values (deposit, crust, streaks, salt) "
