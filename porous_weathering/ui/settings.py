@@ -1,6 +1,7 @@
 """The scene's Porous Weathering settings (``Scene.porous_weathering``): what the panel's Make
-button builds. Generated from the registries at registration: the stone, the environment, the key
-light, one switch per weathering mode and one slider per weathering input marked for the panel;
+button builds. Generated from the registries at registration: the stone (its variation and
+masonry), the environment, the key light, one switch per weathering mode and one slider per
+weathering input marked for the panel;
 the age in years; the measured colours of a survey; the material they act on (``active_material``,
 ``time_socket``), which the panel and the operators read."""
 
