@@ -270,7 +270,7 @@ def test_the_masonry_choice_lays_the_stone_in_blocks(registered, fresh_scene):
     assert len(np.unique(blocks)) == 2
 
     settings.source = ui_settings.FROM_MATERIAL
-    assert settings.masonry_for(plane) is None
+    assert settings.mark_masonry(plane) is None
 
 
 def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_path):

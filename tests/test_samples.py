@@ -259,13 +259,14 @@ def test_brick_wall_is_laid_brick_by_brick(tmp_path):
             studio.assign(obj, material)
         return render.render_array(scene)
 
-    position = (shade(studio.position_probe())[..., :3] - 0.5) * 10.0
+    probe = shade(studio.position_probe())
+    position = (probe[..., :3] - 0.5) * 10.0
     alpha = stone_parameters(shade, sample.material(model.SOILING))["alpha"]
     x, z = position[..., 0], position[..., 2]
     pitch, course = build_samples.BRICK.x + build_samples.JOINT, build_samples.BRICK.z + build_samples.JOINT
     rows = np.floor((z - build_samples.JOINT / 2) / course)
     bricks = np.floor((x + build_samples.JOINT / 2 - (rows % 2) * pitch / 2) / pitch)
-    inside = (shade(studio.position_probe())[..., 3] > 0.999) & (distance_to_joint(x, z) > 0.015)
+    inside = (probe[..., 3] > 0.999) & (distance_to_joint(x, z) > 0.015)
     keys = (rows * 100 + bricks)[inside]
     means = [alpha[inside][keys == key].mean() for key in np.unique(keys) if (keys == key).sum() >= 6]
     assert len(means) >= 20, "the picture shows many bricks"

@@ -141,7 +141,7 @@ def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.
     _require_mesh(obj, sky)
     with scratch_scene.rendered(obj) as seen:
         scratch_scene.check_corners_kept(obj, seen)
-        placing = placing_for(edges.box_of_faces(seen.mesh), np.array(obj.matrix_world, dtype=np.float64))
+        placing = rendered_placing(obj, seen)
         with _bake_scene(obj, occluders, sky, placing) as copy:
             placed = Placed(seen.mesh, np.array(copy.matrix_world, dtype=np.float64))
             points, normals, corner_point = placed.corner_points(smooth=smooth_at_vertices(obj))
@@ -334,6 +334,12 @@ def unit_placing(target: bpy.types.Object) -> np.ndarray:
     the same smooth scan in millimetres and in metres, baked per corner, had 3% of its corners
     more than 1e-3 apart at 16 samples; at one size none (docs/scans.md)."""
     return placing_for(edges.surface_box(target), np.array(target.matrix_world, dtype=np.float64))
+
+
+def rendered_placing(obj: bpy.types.Object, seen: "scratch_scene.Rendered") -> np.ndarray:
+    """``unit_placing`` of ``obj`` read from ``seen``, its rendered mesh the caller holds (the
+    object not evaluated once more)."""
+    return placing_for(edges.box_of_faces(seen.mesh), np.array(obj.matrix_world, dtype=np.float64))
 
 
 def placing_for(box: np.ndarray | None, matrix: np.ndarray) -> np.ndarray:

@@ -167,7 +167,7 @@ def bake_sun_corners(
     suns = _Suns.at(settings, scene_of(obj))
     with scratch_scene.rendered(obj) as seen:
         scratch_scene.check_corners_kept(obj, seen)
-        placing = sky_bake.placing_for(edges.box_of_faces(seen.mesh), np.array(obj.matrix_world, dtype=np.float64))
+        placing = sky_bake.rendered_placing(obj, seen)
         placed = sky_bake.Placed(seen.mesh, placing @ seen.matrix_world)
         points, normals, corner_point = placed.corner_points(smooth=sky_bake.smooth_at_vertices(obj))
         shadows = _occluders(seen, occluders, placing)

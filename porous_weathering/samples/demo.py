@@ -88,7 +88,8 @@ class Recipe:
     (a key of presets.PRESETS, whose structure the materials have at the default variation:
     docs/model.md §8) and ``environment`` (a key of environments.ENVIRONMENTS), the panel's Stone
     and Environment choices; ``masonry``: if not None, the ``presets.Ashlar`` the stone is laid
-    in (docs/model.md §8.5), a fact of the building; ``parts``: {object: stone}, the other objects
+    in, or ``presets.MeshBlocks`` for blocks the mesh knows (docs/model.md §8.5), a fact of the
+    building; ``parts``: {object: stone}, the other objects
     weathered beside them, each as its own stone with the same maps and site and no masonry (the
     panel's Make run on them with that Stone: the brick wall's mortar); its ``modes``, whose masks read what the
     panel's Make wires (``masks``): each its baked map (baked as colour attributes with the bake's
@@ -114,7 +115,7 @@ class Recipe:
     view: View | None = None
     unite: str | None = None
     cell: float | None = None
-    masonry: presets.Ashlar | None = None
+    masonry: presets.Ashlar | presets.MeshBlocks | None = None
     #: The site's sun (sun.SunSettings fields: its latitude, where north is).
     sun: dict = field(default_factory=dict)
     parts: dict = field(default_factory=dict)
@@ -281,11 +282,12 @@ class Sample:
         ``inputs``) on ``stone`` (None: the recipe's, laid in its masonry; a part's stone takes
         none), with its structure at the default variation, and on its maps, as the panel's Make
         makes it."""
+        laid = stone is None  # the recipe's own stone, in its masonry
         stone = stone or self.recipe.stone
-        key = (mode, stone, tuple(sorted(changes.items())))
+        key = (mode, stone, laid, tuple(sorted(changes.items())))
         if key not in self._materials:
             masks = {mask: self.sources[map_name] for mask, map_name in self.recipe.masks[mode].items()}
-            name = f"{self.name} {mode}" + (f" {stone}" if stone != self.recipe.stone else "")
+            name = f"{self.name} {mode}" + ("" if laid else f" {stone}")
             name += "".join(f" {k}={v}" for k, v in sorted(changes.items()))
             self._materials[key] = weathering.make_weathered_material(
                 name,
@@ -293,7 +295,7 @@ class Sample:
                 key_light=self.sun,
                 environment=self.recipe.environment,
                 stone=stone,
-                masonry=self.recipe.masonry if stone == self.recipe.stone else None,
+                masonry=self.recipe.masonry if laid else None,
                 **presets.PRESETS[stone].material_params(),
                 **masks,
                 **self.inputs(mode, stone, **changes),

@@ -192,7 +192,7 @@ class MakeMaterial(NeedsMaterialObject):
         obj = context.active_object
         modes = settings.modes()
         try:
-            masonry = settings.masonry_for(obj)
+            masonry = settings.mark_masonry(obj)
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", model.PorousInputWarning)
                 new = linking.weathered_material_for(

@@ -90,7 +90,7 @@ class SettingsBase:
         """The stone preset chosen, None for the object's own material."""
         return None if self.source == FROM_MATERIAL else self.source
 
-    def masonry_for(self, obj: "bpy.types.Object") -> "stones.Ashlar | stones.MeshBlocks | None":
+    def mark_masonry(self, obj: "bpy.types.Object") -> "stones.Ashlar | stones.MeshBlocks | None":
         """The chosen masonry for ``obj`` (None without a preset: masonry lays a stone); blocks the
         mesh knows are written into its face attribute first (``presets.mark_blocks``). ValueError,
         before anything is written, for lengths no ashlar has or a mesh without the face sets asked for."""
