@@ -314,7 +314,7 @@ def test_brick_wall_wets_where_rain_reaches(tmp_path):
 PAPER_EXACT = {model.SOILING: dict(crust=0.0), model.WET: dict(wet_darkening=0.0)}
 
 
-#: The rivulets' spacing (metres) of the pixel-by-pixel check: at the stones' 4 cm a rivulet's flank
+#: The rivulets' spacing (metres) of the pixel-by-pixel check: at the stones' 10 cm a rivulet's flank
 #: turns a read-back place's float32 rounding into more than the check's 1e-4 (docs/model.md §8.8).
 WIDE_RIVULETS = 1.0
 

@@ -32,8 +32,8 @@ from ..core.shader_math import Graph, dot, normalize
 #: build 12 the grains' plane, §8.1, in four nodes, its mirror from the rounded normal, and the
 #: noise's clamp taken before its gain; build 13 the stones' patches in two octaves as strong, a
 #: factor 8 apart, §8.1; build 14 the rivulets' draws from Blender's White Noise, §8.8; build 15
-#: the uptake's gain G = 8, §8.7.)
-BUILD_VERSION = 15
+#: the uptake's gain G = 8, §8.7; build 16 every run-off in rivulets a decimetre apart, §8.8.)
+BUILD_VERSION = 16
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"

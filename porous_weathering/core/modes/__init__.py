@@ -206,10 +206,8 @@ def weathered_point(
         if field is not None:
             point.spread = base.uptake_spread(xp, field, point.variation)
         if rivulets is not None and "runoff_map" in state:
-            runoff = state["runoff_map"]
-            strength = point.variation * base.flow_concentration(xp, state["rain_map"], runoff)
-            excess = base.rivulet_excess(xp, *rivulets, 0.0 if field is None else field, strength)
-            state["runoff_map"] = base.in_rivulets(xp, runoff, *excess)
+            excess = base.rivulet_excess(xp, *rivulets, 0.0 if field is None else field, point.variation)
+            state["runoff_map"] = base.in_rivulets(xp, state["runoff_map"], *excess)
     point.receptivity, point.fields = receptivity, dict(fields or {})
     layers = sorted((layer for name in modes for layer in _REGISTRY[name].layers), key=lambda layer: layer.stage)
     for layer in layers:

@@ -199,12 +199,8 @@ RIVULET_WANDER = 0.25
 #: the sines of 5 and 15 degrees.
 RIVULET_SLOPES = (math.sin(math.radians(5.0)), math.sin(math.radians(15.0)))
 #: The least and the most half-width a cell's rivulet draws, in spacings (its width at half its
-#: peak is 0.58 of the half-width: 2.3 to 9 mm at the stones' 4 cm).
+#: peak is 0.58 of the half-width: 6 mm to 2.3 cm at the stones' 10 cm).
 RIVULET_HALF_WIDTHS = (0.1, 0.4)
-#: l / L of the run-off map's default lengths (docs/model.md §7.1): rain E falling on an open
-#: slope alone gives at most Q = E l, so R = 1 - exp(-(l / L) E); run-off beyond that came from
-#: elsewhere, gathered by a feature above.
-RAIN_ALONE_RATIO = 5.0
 
 
 def fall_line(xp, x, y, normal_x, normal_y):
@@ -222,21 +218,13 @@ def cell_draws(xp, cell):
     return xp.white_noise(cell)
 
 
-def flow_concentration(xp, rain_map, runoff_map):
-    """The share of the run-off R at a point that came from elsewhere (docs/model.md §8.8): 0 where
-    the rain E falling there could give it alone (R <= 1 - exp(-RAIN_ALONE_RATIO E)), towards 1
-    where a feature above gathered it."""
-    rain_alone = 1.0 - xp.power(math.e, -RAIN_ALONE_RATIO * rain_map)
-    return xp.clip((runoff_map - rain_alone) / xp.maximum(runoff_map, porous.EPSILON), 0.0, 1.0)
-
-
 def rivulet_excess(xp, across, horizontal, spacing, field, strength):
     """(w - 1, w_peak - 1): the rivulets' excess of run-off at a point over the map's, and that at
     its cell's rivulet's peak (docs/model.md §8.8).  Across the fall line (``across``, ``spacing`` in
     one unit), moved sideways by the stone's porosity ``field``, each cell of one spacing holds one
     rivulet of its own place, width and share of the water (``cell_draws``; the share the square
     root of a uniform draw: most rivulets strong, some faint), a peak of mean 1 over the cell;
-    ``strength`` (the variation times the flow's concentration) and the face's slope
+    ``strength`` (the stone's variation) and the face's slope
     (``horizontal`` between RIVULET_SLOPES) mix it towards 1.  Of mean 0 over every cell where
     ``strength`` and ``field`` hold across it; w in [0, 17]; 0 exactly at strength 0."""
     x = across / xp.maximum(spacing, porous.EPSILON) + RIVULET_WANDER * field
