@@ -138,7 +138,8 @@ def bake_corners(obj: bpy.types.Object, sky: Sky, occluders: Sequence[bpy.types.
     mesh is baked once per such pair (``_bake_points``): once per vertex where it is smooth,
     about six corners, and once per vertex and face plane where it is flat, four corners of a
     wall cut into quads, the probe just inside the pair's faces (CORNER_INSET)."""
-    _require_mesh(obj, sky)
+    if obj.type != "MESH":
+        raise ValueError(f"{obj.name}: a {sky.label.lower()} bake needs a mesh object, not {obj.type.lower()}")
     with scratch_scene.rendered(obj) as seen:
         scratch_scene.check_corners_kept(obj, seen)
         placing = rendered_placing(obj, seen)
@@ -302,8 +303,8 @@ def _bake(copy, margin):
 def _bake_scene(target, occluders, sky, placing):
     """A temporary Cycles scene holding a copy of ``target`` (own mesh, a white diffuse material,
     returned) and copies of ``occluders`` (opaque), all moved and scaled by ``placing``
-    (``unit_placing`` of ``target``: 4 x 4), under ``sky``; all removed afterwards."""
-    _require_mesh(target, sky)
+    (``unit_placing`` of ``target``: 4 x 4), under ``sky``; all removed afterwards. ``target`` is a
+    mesh object (its callers check it first, each with its own message)."""
     with scratch_scene.Ledger() as made:
         scene = scratch_scene.temporary_scene(made, f"PW {sky.label} Bake", samples=sky.samples, seed=sky.seed)
         # direct light only (no bounce, transparent or not): the light reaches a point straight from the sky
@@ -320,11 +321,6 @@ def _bake_scene(target, occluders, sky, placing):
             each.matrix_world = Matrix((placing @ np.array(each.matrix_world, dtype=np.float64)).tolist())
         sky.add(scene, made)
         yield copy
-
-
-def _require_mesh(target, sky):
-    if target.type != "MESH":
-        raise ValueError(f"{target.name}: a {sky.label.lower()} bake needs a mesh object, not {target.type.lower()}")
 
 
 def unit_placing(target: bpy.types.Object) -> np.ndarray:

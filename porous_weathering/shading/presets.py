@@ -310,8 +310,12 @@ def weathering_values(source: str, environment: str = DEFAULT_ENVIRONMENT) -> di
     return {name: site.get(name, value) for name, value in values.items()}
 
 
-#: Where mark_blocks finds each face's block: its loose part, or its sculpt face set.
-BLOCK_SOURCES = ("ISLANDS", "FACE_SETS")
+#: Where mark_blocks finds each face's block (one record per source: its name and what it takes
+#: as a block, which the panel's Masonry choice shows): its loose part, or its sculpt face set.
+BLOCK_SOURCES = {
+    "ISLANDS": ("Loose Parts", "Each loose part of the mesh a block of its own (a wall modelled block by block)"),
+    "FACE_SETS": ("Face Sets", "Each sculpt face set a block of its own"),
+}
 #: The face attribute Blender keeps the sculpt face sets in.
 FACE_SET_ATTRIBUTE = ".sculpt_face_set"
 

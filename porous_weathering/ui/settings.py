@@ -7,7 +7,7 @@ the age in years; the measured colours of a survey; the material they act on (``
 
 import bpy
 
-from ..contracts import GROUP_NODE, socket_name
+from ..contracts import BLOCK_ATTRIBUTE, GROUP_NODE, socket_name
 from ..core import aging, environments, stones
 from ..core import modes as weathering_modes
 from ..shading import presets
@@ -22,16 +22,9 @@ NO_MASONRY, ASHLAR = "NONE", "ASHLAR"
 MASONRY_ITEMS = [
     (NO_MASONRY, "None", "One stone, no blocks or joints"),
     (ASHLAR, "Coursed Ashlar", "Blocks in courses with lime-mortar joints, laid out from each point's place in metres"),
-    (
-        "ISLANDS",
-        "Blocks: Loose Parts",
-        "Each loose part of the mesh a block of its own (a wall modelled block by "
-        "block); Make writes each face's block into the face attribute pw_block",
-    ),
-    (
-        "FACE_SETS",
-        "Blocks: Face Sets",
-        "Each sculpt face set a block of its own; Make writes each face's block into the face attribute pw_block",
+    *(
+        (source, f"Blocks: {label}", f"{what}; Make writes each face's block into the face attribute {BLOCK_ATTRIBUTE}")
+        for source, (label, what) in presets.BLOCK_SOURCES.items()
     ),
 ]
 
