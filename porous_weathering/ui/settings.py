@@ -27,6 +27,13 @@ MASONRY_ITEMS = [
         for source, (label, what) in presets.BLOCK_SOURCES.items()
     ),
 ]
+#: The Coursed Ashlar's lengths the panel sets (each a field of ``stones.Ashlar``, in metres): its
+#: label, what it is and the slider's soft top.
+ASHLAR_LENGTHS = {
+    "course_height": ("Course Height", "Height of a course of the ashlar", 2.0),
+    "block_length": ("Block Length", "Length of a block along its course", 4.0),
+    "joint_width": ("Joint Width", "Width of the mortar joints", 0.05),
+}
 
 
 def _is_light(_settings, obj):
@@ -90,7 +97,7 @@ class SettingsBase:
         if self.preset() is None or self.masonry == NO_MASONRY:
             return None
         if self.masonry == ASHLAR:
-            return stones.Ashlar(self.course_height, self.block_length, self.joint_width)
+            return stones.Ashlar(**{name: getattr(self, name) for name in ASHLAR_LENGTHS})
         presets.mark_blocks(obj, self.masonry)
         return stones.MeshBlocks()
 
@@ -151,11 +158,7 @@ def settings_class() -> type:
                 soft_max=soft_max,
                 precision=3,
             )
-            for name, label, description, soft_max in (
-                ("course_height", "Course Height", "Height of a course of the ashlar", 2.0),
-                ("block_length", "Block Length", "Length of a block along its course", 4.0),
-                ("joint_width", "Joint Width", "Width of the mortar joints", 0.05),
-            )
+            for name, (label, description, soft_max) in ASHLAR_LENGTHS.items()
         },
         "environment": bpy.props.EnumProperty(
             name="Environment",
