@@ -270,7 +270,26 @@ def test_the_masonry_choice_lays_the_stone_in_blocks(registered, fresh_scene):
     assert len(np.unique(blocks)) == 2
 
     settings.source = ui_settings.FROM_MATERIAL
-    assert settings.mark_masonry(plane) is None
+    assert settings.masonry_for(plane) == (None, None)
+
+
+def test_a_make_that_fails_writes_no_blocks(registered, fresh_scene, monkeypatch):
+    """Make reads the mesh's blocks first and writes them only once its material is made: a
+    material that cannot be made leaves the mesh as it was (no block attribute under CANCELLED)."""
+    plane = studio.add_plane(fresh_scene)
+    bpy.context.view_layer.objects.active = plane
+    fresh_scene.porous_weathering.masonry = "ISLANDS"
+
+    def refuse(*args, **kwargs):
+        raise ValueError("refused")
+
+    monkeypatch.setattr(linking, "weathered_material_for", refuse)
+    with pytest.raises(RuntimeError, match="refused"):
+        bpy.ops.porous_weathering.make_material()
+    assert stones.MeshBlocks().attribute not in plane.data.attributes
+    monkeypatch.undo()
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    assert stones.MeshBlocks().attribute in plane.data.attributes
 
 
 def test_artist_path_makes_and_connects_the_efflorescence_map(registered, tmp_path):

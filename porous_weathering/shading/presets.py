@@ -320,25 +320,36 @@ BLOCK_SOURCES = {
 FACE_SET_ATTRIBUTE = ".sculpt_face_set"
 
 
-def mark_blocks(obj: "bpy.types.Object", source: str = "ISLANDS", attribute: str = MeshBlocks.attribute) -> int:
-    """Write each face's block into the integer face attribute ``attribute`` of ``obj``'s mesh,
-    for ``MeshBlocks`` (docs/model.md §8.5): its loose part ("ISLANDS": a wall modelled block by
-    block) or its sculpt face set ("FACE_SETS"); returns the number of blocks. ValueError before
-    anything is written for an object without a mesh, an unknown source, or a mesh without face
-    sets."""
+def face_blocks(obj: "bpy.types.Object", source: str = "ISLANDS") -> np.ndarray:
+    """Each face's block of ``obj``'s mesh (docs/model.md §8.5), read, not written: its loose part
+    ("ISLANDS": a wall modelled block by block) or its sculpt face set ("FACE_SETS"). ValueError
+    for an object without a mesh, an unknown source, or a mesh without face sets."""
     if getattr(obj, "type", None) != "MESH":
         raise ValueError(f"{getattr(obj, 'name', obj)!r} is not a mesh object: its blocks come from its faces")
     mesh = obj.data
     if choice("source", source, BLOCK_SOURCES) == "FACE_SETS":
         if FACE_SET_ATTRIBUTE not in mesh.attributes:
             raise ValueError(f"{obj.name!r} has no face sets: make them in Sculpt mode, or use source='ISLANDS'")
-        blocks = mesh_arrays.attribute(mesh, FACE_SET_ATTRIBUTE, np.int32)
-    else:
-        blocks = mesh_arrays.face_islands(mesh)
+        return mesh_arrays.attribute(mesh, FACE_SET_ATTRIBUTE, np.int32)
+    return mesh_arrays.face_islands(mesh)
+
+
+def write_blocks(obj: "bpy.types.Object", blocks: np.ndarray, attribute: str = MeshBlocks.attribute) -> int:
+    """Write ``blocks`` (``face_blocks``) into the integer face attribute ``attribute`` of ``obj``'s
+    mesh, for ``MeshBlocks``; returns the number of blocks."""
+    mesh = obj.data
     if attribute in mesh.attributes:
         mesh.attributes.remove(mesh.attributes[attribute])
     mesh.attributes.new(attribute, "INT", "FACE").data.foreach_set("value", blocks)
     return len(np.unique(blocks))
+
+
+def mark_blocks(obj: "bpy.types.Object", source: str = "ISLANDS", attribute: str = MeshBlocks.attribute) -> int:
+    """Write each face's block into the integer face attribute ``attribute`` of ``obj``'s mesh
+    (``face_blocks`` then ``write_blocks``); returns the number of blocks. ValueError before
+    anything is written for an object without a mesh, an unknown source, or a mesh without face
+    sets."""
+    return write_blocks(obj, face_blocks(obj, source), attribute)
 
 
 def from_colorimetry(

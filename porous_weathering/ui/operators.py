@@ -13,7 +13,7 @@ from ..core import model
 from ..maps import efflorescence_map, linking
 from ..maps import registry as maps
 from ..maps.provenance import OverwriteRefused
-from ..shading import material, weathering
+from ..shading import material, presets, weathering
 from . import bake_operator as ops_bake
 from .settings import active_material, clock_sockets, key_light, time_socket
 
@@ -192,7 +192,7 @@ class MakeMaterial(NeedsMaterialObject):
         obj = context.active_object
         modes = settings.modes()
         try:
-            masonry = settings.mark_masonry(obj)
+            masonry, blocks = settings.masonry_for(obj)
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always", model.PorousInputWarning)
                 new = linking.weathered_material_for(
@@ -209,6 +209,8 @@ class MakeMaterial(NeedsMaterialObject):
         except ValueError as error:
             self.report({"ERROR"}, f"object '{obj.name}': {error}")
             return {"CANCELLED"}
+        if blocks is not None:
+            presets.write_blocks(obj, blocks)
         for warning in caught:
             self.report({"WARNING"}, str(warning.message))
         labels = {kind.name: kind.label for kind in linking.known_maps()}

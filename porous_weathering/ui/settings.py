@@ -6,6 +6,7 @@ the age in years; the measured colours of a survey; the material they act on (``
 ``time_socket``), which the panel and the operators read."""
 
 import bpy
+import numpy as np
 
 from ..contracts import BLOCK_ATTRIBUTE, GROUP_NODE, socket_name
 from ..core import aging, environments, stones
@@ -90,16 +91,18 @@ class SettingsBase:
         """The stone preset chosen, None for the object's own material."""
         return None if self.source == FROM_MATERIAL else self.source
 
-    def mark_masonry(self, obj: "bpy.types.Object") -> "stones.Ashlar | stones.MeshBlocks | None":
-        """The chosen masonry for ``obj`` (None without a preset: masonry lays a stone); blocks the
-        mesh knows are written into its face attribute first (``presets.mark_blocks``). ValueError,
-        before anything is written, for lengths no ashlar has or a mesh without the face sets asked for."""
+    def masonry_for(
+        self, obj: "bpy.types.Object"
+    ) -> "tuple[stones.Ashlar | stones.MeshBlocks | None, np.ndarray | None]":
+        """The chosen masonry for ``obj`` (None without a preset: masonry lays a stone) and, for
+        blocks the mesh knows, each face's block (``presets.face_blocks``), for Make to write
+        (``presets.write_blocks``) once its material is made, so that a Make that fails edits
+        nothing. ValueError for lengths no ashlar has or a mesh without the face sets asked for."""
         if self.preset() is None or self.masonry == NO_MASONRY:
-            return None
+            return None, None
         if self.masonry == ASHLAR:
-            return stones.Ashlar(**{name: getattr(self, name) for name in ASHLAR_LENGTHS})
-        presets.mark_blocks(obj, self.masonry)
-        return stones.MeshBlocks()
+            return stones.Ashlar(**{name: getattr(self, name) for name in ASHLAR_LENGTHS}), None
+        return stones.MeshBlocks(), presets.face_blocks(obj, self.masonry)
 
     def elemental_carbon(self) -> float:
         """The chosen environment's typical elemental-carbon concentration, µg/m³."""
