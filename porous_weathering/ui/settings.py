@@ -6,6 +6,7 @@ the age in years; the measured colours of a survey; the material they act on (``
 ``time_socket``), which the panel and the operators read."""
 
 import bpy
+
 import numpy as np
 
 from ..contracts import BLOCK_ATTRIBUTE, GROUP_NODE, socket_name
