@@ -27,7 +27,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent.parent))
 import bench_rain  # noqa: E402  (benchmarks/bench_rain.py: the scene)
 import machine  # noqa: E402  (benchmarks/machine.py)
 
-from porous_weathering.maps import rain, sky_bake, sun  # noqa: E402
+from porous_weathering.maps import neighbours, rain, sun  # noqa: E402
 from porous_weathering.maps.bake import DEFAULT_RESOLUTION  # noqa: E402
 
 SAMPLES = (4, 16, 64, 128, 256)
@@ -105,7 +105,7 @@ def facade(args):
 def corner_bake(obj):
     """bake(kind, samples, seed) -> the rain's or the sun's values at ``obj``'s corners, with the bake's
     defaults and the scene's other objects as occluders."""
-    occluders = sky_bake.default_occluders(obj)
+    occluders = neighbours.default_occluders(obj)
 
     def bake(kind, samples, seed):
         if kind == "rain":

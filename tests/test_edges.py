@@ -6,8 +6,8 @@ import bmesh
 import numpy as np
 import pytest
 
+from porous_weathering.maps import bake, edges
 from porous_weathering.maps import curvature as curvature_maths
-from porous_weathering.maps import edges
 
 
 def link(scene, mesh, name):
@@ -307,3 +307,119 @@ def test_edge_attribute_is_written_whole_or_not_at_all(fresh_scene):
     attribute = obj.data.color_attributes[edges.EDGE_ATTRIBUTE]
     attribute.data.foreach_get("color", colours.ravel())
     assert [a.name for a in obj.data.color_attributes] == [edges.EDGE_ATTRIBUTE] and colours[:, :3].max() == 0
+
+
+# --- (e) where parts meet: the corner no mesh edge carries (contacts) ---------------------------------
+
+#: The slab and the wall standing on it, (low, high) corners: the wall's foot makes a right-angled
+#: inside corner along x = 0 with the slab's top, z = 0.
+SLAB, WALL = ((-2.0, -1.0, -0.5), (2.0, 1.0, 0.0)), ((-2.0, -1.0, 0.0), (0.0, 1.0, 2.0))
+
+
+def boxes(scene, name, corners, cuts=7):
+    """One object of axis-aligned boxes, each a loose part, its faces cut into quads."""
+    bm = bmesh.new()
+    for low, high in corners:
+        verts = bmesh.ops.create_cube(bm, size=1.0)["verts"]
+        bmesh.ops.scale(bm, vec=np.subtract(high, low), verts=verts)
+        bmesh.ops.translate(bm, vec=(np.add(high, low) / 2), verts=verts)
+    bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=cuts, use_grid_fill=True)
+    mesh = bpy.data.meshes.new(name)
+    bm.to_mesh(mesh)
+    bm.free()
+    return link(scene, mesh, name)
+
+
+def step(scene, name):
+    """The slab and the wall as one mesh: an L in section (x, z), extruded along y."""
+    section = [(-2.0, -0.5), (2.0, -0.5), (2.0, 0.0), (0.0, 0.0), (0.0, 2.0), (-2.0, 2.0)]
+    bm = bmesh.new()
+    verts = [bm.verts.new((x, -1.0, z)) for x, z in section]
+    face = bm.faces.new(verts)
+    bmesh.ops.extrude_face_region(bm, geom=[face])
+    for vertex in bm.verts[len(section) :]:
+        vertex.co.y = 1.0
+    bmesh.ops.recalc_face_normals(bm, faces=bm.faces[:])
+    bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=7, use_grid_fill=True)
+    mesh = bpy.data.meshes.new(name)
+    bm.to_mesh(mesh)
+    bm.free()
+    return link(scene, mesh, name)
+
+
+def across_the_corner(obj, radius, beside=()):
+    """H r on the slab's top (z = 0) at x = 0 .. 3 r from the wall's foot, y = 0."""
+    found = edges.surface(obj, radius, beside=beside)
+    distances = np.linspace(0.02, 3.0, 60) * radius
+    points = np.stack([distances, np.zeros_like(distances), np.zeros_like(distances)], axis=1)
+    normals = np.tile([0.0, 0.0, 1.0], (len(points), 1))
+    return distances, edges.smooth_over_radius(found.sources, points, normals, radius) * radius
+
+
+def trapezoid(values, at):
+    """The integral of ``values`` over the points ``at`` by the trapezoidal rule (numpy 1 and 2)."""
+    return float(np.sum((values[1:] + values[:-1]) / 2 * np.diff(at)))
+
+
+def test_a_corner_where_parts_meet_is_as_concave_as_one_mesh_makes_it(fresh_scene):
+    """The slab and the wall on it as one L-shaped mesh, as two loose parts of one object, and as
+    two objects (the wall beside the slab): the inside corner at the wall's foot is concave in
+    all three, and the field across it on the slab's top adds up to the one mesh's to 35% (the
+    parts' corner lies on their faces, not on an edge: docs/maps.md, "Where parts meet"); the
+    slab alone is flat, and its mask at the wall's foot saturates as the one mesh's does."""
+    radius = 0.4
+    one_mesh = step(fresh_scene, "Step")
+    two_parts = boxes(fresh_scene, "Parts", (SLAB, WALL))
+    slab, wall = boxes(fresh_scene, "Slab", (SLAB,)), boxes(fresh_scene, "Wall", (WALL,))
+    distances, edge = across_the_corner(one_mesh, radius)
+    integral = trapezoid(edge, distances) / radius
+    for obj, beside in ((two_parts, ()), (slab, (wall,))):
+        _, met = across_the_corner(obj, radius, beside)
+        assert met[distances < 0.5 * radius].max() < -0.3
+        assert trapezoid(met, distances) / radius == pytest.approx(integral, rel=0.35)
+    _, alone = across_the_corner(slab, radius)
+    assert np.all(alone == 0.0)
+    mask = edges.curvature_mask(edges.curvature(slab, radius, beside=(wall,)), radius)
+    points = world_points(slab)  # the slab's vertices at the wall's foot, away from its ends
+    foot = np.all(np.abs(points[:, [0, 2]]) < 1e-6, axis=1) & (np.abs(points[:, 1]) < 0.6)
+    assert foot.any() and np.all(mask[foot] > 0.8)
+
+
+def test_an_object_alone_keeps_its_mask_and_flush_blocks_read_flat(fresh_scene):
+    """A block whose neighbours are far gets the mask it gets alone, bit for bit; two blocks
+    laid face to face (a wall modelled block by block, without joints) read their seam nearly
+    flat, as their union is, where a lone block reads its edge convex: the faces they hide
+    carry nothing, and each fills the other's ball."""
+    radius = 0.3
+    lone = boxes(fresh_scene, "Lone", (((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)),))
+    far = boxes(fresh_scene, "Far", (((5.0, 0.0, 0.0), (6.0, 1.0, 1.0)),))
+    assert np.array_equal(edges.curvature(lone, radius), edges.curvature(lone, radius, beside=(far,)))
+    flush = boxes(fresh_scene, "Flush", (((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)), ((1.0, 0.0, 0.0), (2.0, 1.0, 1.0))))
+    points = np.array([[1.0 - 0.1 * radius, 0.0, 0.5]])  # on the front face, at the seam
+    normals = np.array([[0.0, -1.0, 0.0]])
+    seam = edges.smooth_over_radius(edges.surface(flush, radius).sources, points, normals, radius)[0]
+    edge = edges.smooth_over_radius(edges.surface(lone, radius).sources, points, normals, radius)[0]
+    assert edge * radius > 0.4 and abs(seam) < 0.25 * edge
+
+
+def test_the_edge_map_bakes_again_when_an_object_it_meets_moves(fresh_scene):
+    """The objects a mask meets are in its input hash (their corners with it are in the mask): the
+    slab's edge map bakes again when the wall on it moves, not when a block far from it does,
+    and the wall's foot darkens the slab's mask only where it stands."""
+    radius = 0.4
+    slab, wall = boxes(fresh_scene, "Slab", (SLAB,)), boxes(fresh_scene, "Wall", (WALL,))
+    far = boxes(fresh_scene, "Far", (((10.0, 0.0, 0.0), (11.0, 1.0, 1.0)),))
+    options = bake.BakeOptions(maps=("edges",), target="attribute", edge_radius=radius)
+    assert [o.status for o in bake.bake_maps([slab], options)] == ["written"]
+    far.location.x += 1.0
+    assert [o.status for o in bake.bake_maps([slab], options)] == ["unchanged"]
+    before = edges.curvature_mask(edges.curvature(slab, radius, beside=(wall,)), radius)
+    wall.location.x -= 1.0
+    bpy.context.view_layer.update()
+    assert [o.status for o in bake.bake_maps([slab], options)] == ["written"]
+    after = edges.curvature_mask(edges.curvature(slab, radius, beside=(wall,)), radius)
+    points = world_points(slab)
+    top = (np.abs(points[:, 2]) < 1e-6) & (np.abs(points[:, 1]) < 0.6)  # away from the slab's ends
+    old_foot, new_foot = top & (np.abs(points[:, 0]) < 1e-6), top & (np.abs(points[:, 0] + 1.0) < 1e-6)
+    assert np.all(before[old_foot] > 0.8) and np.all(after[old_foot] < 0.1)
+    assert np.all(after[new_foot] > 0.8)

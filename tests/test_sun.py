@@ -17,7 +17,7 @@ from mathutils import Matrix
 
 from helpers import run_cli
 from porous_weathering.core import solar
-from porous_weathering.maps import shadow_rays, sky_bake, sun
+from porous_weathering.maps import neighbours, shadow_rays, sun
 
 #: The box's faces: roof, the four walls (scene frame) and the floor, which no sun reaches.
 FACES = {"roof": (0, 0, 1), "+y": (0, 1, 0), "-y": (0, -1, 0), "+x": (1, 0, 0), "-x": (-1, 0, 0), "floor": (0, 0, -1)}
@@ -244,7 +244,7 @@ def corner_points(obj):
 def test_a_wall_in_the_shadow_of_another_bakes_to_the_ray_test(fresh_scene):
     wall = shadowed_wall()
     settings = sun.SunSettings(latitude=50.0, samples=WALL_SAMPLES)
-    baked = sun.bake_sun_corners(wall, settings, sky_bake.default_occluders(wall))
+    baked = sun.bake_sun_corners(wall, settings, neighbours.default_occluders(wall))
     points = corner_points(wall)
     inside = (points[:, 2] > 0.1) & (points[:, 2] < 0.9) & (points[:, 0] > 0.1) & (points[:, 0] < 0.9)
     exact = shadowed_exposure(points, 50.0)
@@ -256,11 +256,11 @@ def test_a_wall_in_the_shadow_of_another_bakes_to_the_ray_test(fresh_scene):
 def test_millimetres_and_metres_bake_the_same(fresh_scene):
     settings = sun.SunSettings(latitude=50.0, samples=16)
     wall = shadowed_wall()
-    metres = sun.bake_sun_corners(wall, settings, sky_bake.default_occluders(wall))
+    metres = sun.bake_sun_corners(wall, settings, neighbours.default_occluders(wall))
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.context.scene.unit_settings.scale_length = 0.001
     wall = shadowed_wall(scale=1000.0)
-    millimetres = sun.bake_sun_corners(wall, settings, sky_bake.default_occluders(wall))
+    millimetres = sun.bake_sun_corners(wall, settings, neighbours.default_occluders(wall))
     assert np.abs(metres - millimetres).max() < 1e-3
 
 

@@ -1,13 +1,14 @@
 """The maps: their registry (``registry``: it finds the ``MAP`` record of each map's module,
-re-exported here as ``porous_weathering.maps``), the one bake pipeline behind the operator, the command line and
-Dask (``bake``) and what a map was made from (``provenance``), the direct-light bake of the rain
-and the points of both sky maps (``sky_bake``), the sun's shadow rays (``shadow_rays``), each
-map's bake (``rain``; ``sun``;
+re-exported here as ``porous_weathering.maps``), the one bake pipeline behind the operator, the
+command line and Dask (``bake``) and what a map was made from (``provenance``), the direct-light
+bake of the rain and the points of both sky maps (``sky_bake``), the objects beside one that its
+maps see (``neighbours``), Embree's rays (``shadow_rays``), each map's bake (``rain``; ``sun``;
 ``runoff`` over its numpy flow, ``runoff_flow``; ``edges``, the bpy side of the edge mask over
-its numpy maths, ``curvature``), the lightmap UVs image maps are baked on (``lightmap``, over
-its check, ``lightmap_check``, and its unwrap, the child process ``lightmap_child``), the checks
-made on scans (``scan_checks``), the efflorescence location maps (``efflorescence_map``) and how
-an object's maps are found and wired into its weathered material (``linking``).
+its numpy maths, ``curvature``, and the corners where parts meet, ``contacts``), the lightmap UVs
+image maps are baked on (``lightmap``, over its check, ``lightmap_check``, and its unwrap, the
+child process ``lightmap_child``), the checks made on scans (``scan_checks``), the efflorescence
+location maps (``efflorescence_map``) and how an object's maps are found and wired into its
+weathered material (``linking``).
 
 ``curvature``, ``runoff_flow``, ``lightmap_check`` and ``lightmap_child`` import no bpy (numpy,
 and xatlas for the unwrap), and neither does importing this package: the registry's names load

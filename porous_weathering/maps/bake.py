@@ -58,8 +58,9 @@ MARGIN = 4
 #: Bumped when a change of the bake itself makes old maps stale (2: the input hash holds every
 #: field of a map's settings, ``MapKind.inputs``; 3: the maps of an inside-out mesh and of an
 #: object far from the world's origin mended, the edge mask's grid on its samples' centre; 4: the
-#: sun map by its own shadow rays, exact where nothing shadows).
-BAKE_VERSION = 4
+#: sun map by its own shadow rays, exact where nothing shadows; 5: the edge mask with the corners
+#: where parts meet, ``contacts``).
+BAKE_VERSION = 5
 
 
 def __getattr__(name):

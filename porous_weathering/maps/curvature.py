@@ -56,6 +56,13 @@ DEFAULT_EDGE_WEIGHT = 0.5
 #: at which C reaches 1.  A sharp 90-degree edge gives about 0.6 (docs/maps.md).
 DEFAULT_SATURATION = 0.45
 
+#: Points of each sample's ball at which ``contacts`` asks whether another part fills it: the
+#: share they give has a spread of about 0.07 at a sample, and the smoothing gathers some fifty
+#: samples or more (docs/maps.md, "Where parts meet").
+BALL_POINTS = 32
+#: The sets of them the samples take turns with.
+BALL_SETS = 256
+
 
 def _too_small(name, radius):
     return ValueError(
@@ -64,18 +71,44 @@ def _too_small(name, radius):
     )
 
 
+# --- where parts meet ---------------------------------------------------------------------------
+
+
+def ball_points(sets: int, seed: int = 0) -> np.ndarray:
+    """(sets, BALL_POINTS, 3) points spread evenly in the unit ball, each set its own (the same
+    for the same ``seed``): samples take turns with them, so that the smoothing averages their
+    errors out."""
+    rng = np.random.default_rng(seed)
+    directions = unit(rng.normal(size=(sets * BALL_POINTS, 3)))
+    lengths = rng.random(sets * BALL_POINTS) ** (1.0 / 3.0)
+    return (directions * lengths[:, None]).reshape(sets, BALL_POINTS, 3)
+
+
+def contact_curvature(filled: np.ndarray, radius: float) -> np.ndarray:
+    """The mean curvature another part adds at a sample of the surface, from the share
+    ``filled`` of the sample's ball of ``radius`` that the other parts fill (and its own part
+    does not): the union of the parts has there a ball that much fuller, and by the volume
+    integral invariant (docs/model.md §5: V = 2 pi r^3 / 3 - pi H r^4 / 4) that much less
+    mean curvature: -(4 / (pi r^4)) V.  Scaled by pi / 4, so that a right-angled corner where two
+    parts meet carries, over both its faces, the integrated curvature of a right-angled mesh
+    edge (theta x length / 2): -V / r^4, V = (4 pi / 3) r^3 x filled."""
+    return -(4.0 * math.pi / 3.0) * np.asarray(filled, dtype=np.float64) / radius
+
+
 # --- samples of the surface ----------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
 class Samples:
     """Points on a surface in world space, each with a unit normal (0 where it has none), the
-    integrated mean curvature it carries and the area around it."""
+    integrated mean curvature it carries, the area around it and a vertex of the mesh's face or
+    edge it lies on (so its loose part: ``contacts``)."""
 
     points: np.ndarray  #: (n, 3) float64
     normals: np.ndarray  #: (n, 3) float64
     curvature: np.ndarray  #: (n,) float64
     area: np.ndarray  #: (n,) float64
+    vertex: np.ndarray  #: (n,) int64
 
     @staticmethod
     def joined(parts):
@@ -148,7 +181,7 @@ def mesh_surface(
     if (_trapezoid_nodes(ratio) - 2).sum() + ((rows - 1) * columns - 2).sum() > MAX_ADDED_SAMPLES:
         raise _too_small(name, radius)
 
-    vertices = Samples(points, normals, np.zeros(len(points)), area)
+    vertices = Samples(points, normals, np.zeros(len(points)), area, np.arange(len(points)))
     added = [_fan_samples(fans, vertices, face_normals, spacing)]
     for block in _blocks(len(manifold)):
         edges = manifold[block]
@@ -251,7 +284,7 @@ def _edge_samples(ends, normals, integrated, ratio, vertices):
     np.add.at(vertices.curvature, ends[owner[at_end], (x[at_end] == 1).astype(int)], share[at_end])
     owner, x, share = owner[~at_end], x[~at_end, None], share[~at_end]
     points = vertices.points[ends[owner, 0]] * (1 - x) + vertices.points[ends[owner, 1]] * x
-    return Samples(points, normals[owner], share, np.zeros(len(share)))
+    return Samples(points, normals[owner], share, np.zeros(len(share)), ends[owner, 0])
 
 
 @dataclass(frozen=True)
@@ -303,7 +336,7 @@ def _fan_samples(fans, vertices, face_normals, spacing):
     np.add.at(vertices.area, fans.corner[small].ravel(), np.repeat(fans.areas[small] / 2, 2))
     large = np.flatnonzero(~small)
     if not len(large):
-        return Samples(*(np.empty((0, 3)),) * 2, *(np.empty(0),) * 2)
+        return Samples(*(np.empty((0, 3)),) * 2, *(np.empty(0),) * 2, np.empty(0, dtype=np.int64))
     s_owner, s, s_weight = _trapezoid(fans.heights[large] / spacing)
     t_owner, t, t_weight = _trapezoid(fans.widths[large] / spacing)
     s_first = np.cumsum(rows[large]) - rows[large]
@@ -323,7 +356,7 @@ def _fan_samples(fans, vertices, face_normals, spacing):
     a, b = fans.corner[fan, 0], fans.corner[fan, 1]
     apex = fans.apex[fan]
     points = apex + s * (vertices.points[a] - apex + t * (vertices.points[b] - vertices.points[a]))
-    return Samples(points, face_normals[fans.face[fan]], np.zeros(len(share)), share)
+    return Samples(points, face_normals[fans.face[fan]], np.zeros(len(share)), share, a)
 
 
 def _blocks(count, size=None):

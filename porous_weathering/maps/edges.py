@@ -19,6 +19,7 @@ the attribute.
 """
 
 import math
+from collections.abc import Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, replace
 
@@ -31,7 +32,7 @@ from ..blender import mesh_arrays, scratch_scene
 from ..common import imageio
 from ..common.options import check, option
 from ..contracts import map_attribute
-from . import lightmap, scan_checks
+from . import contacts, lightmap, neighbours, scan_checks
 from .curvature import (  # noqa: F401  (public: docs/api.md, the ``edges`` module)
     BLOCK,
     CHANNELS,
@@ -188,9 +189,15 @@ def effective_radius(
 # --- samples of the surface ----------------------------------------------------------------------
 
 
-def surface(obj: bpy.types.Object, radius: float, depsgraph: bpy.types.Depsgraph | None = None) -> Surface:
+def surface(
+    obj: bpy.types.Object,
+    radius: float,
+    depsgraph: bpy.types.Depsgraph | None = None,
+    beside: Sequence[bpy.types.Object] = (),
+) -> Surface:
     """The ``Surface`` of ``obj``'s evaluated mesh (``evaluated_mesh``: modifiers applied) for
-    smoothing ``radius``."""
+    smoothing ``radius``, with the corners where its loose parts meet each other or the objects
+    ``beside`` it that it meets (``contacts``, ``neighbours.meeting``)."""
     if not np.isfinite(radius) or radius <= 0:
         raise ValueError(f"curvature radius must be a positive number of scene units, not {radius}")
     if obj.type not in scratch_scene.GEOMETRY_TYPES:
@@ -198,7 +205,16 @@ def surface(obj: bpy.types.Object, radius: float, depsgraph: bpy.types.Depsgraph
     with evaluated_mesh(obj, depsgraph) as (mesh, matrix_world):
         if not mesh.polygons:
             raise ValueError(f"object '{obj.name}' has no faces to measure curvature on")
-        return _surface(mesh, matrix_world, radius, obj.name)
+        found = _surface(mesh, matrix_world, radius, obj.name)
+        own = contacts.Triangles.of(mesh, matrix_world)
+    met = []
+    for other in neighbours.meeting(obj, beside, radius):
+        with evaluated_mesh(other, depsgraph) as (mesh, matrix_world):
+            met.append(contacts.Triangles.of(mesh, matrix_world))
+    if own.part.max(initial=0) == 0 and not met:  # one part alone: no corner the mesh does not have
+        return found
+    sources = contacts.with_contacts(found.sources, own, contacts.Parts.of([own]), contacts.Parts.of(met), radius)
+    return Surface(found.vertices, sources)
 
 
 def _surface(mesh, matrix_world, radius, name):
@@ -218,7 +234,12 @@ def _surface(mesh, matrix_world, radius, name):
 # --- the attribute target ------------------------------------------------------------------------
 
 
-def curvature(obj: bpy.types.Object, radius: float, depsgraph: bpy.types.Depsgraph | None = None) -> np.ndarray:
+def curvature(
+    obj: bpy.types.Object,
+    radius: float,
+    depsgraph: bpy.types.Depsgraph | None = None,
+    beside: Sequence[bpy.types.Object] = (),
+) -> np.ndarray:
     """Signed mean curvature H (1 / scene units) at every vertex of ``obj``'s evaluated mesh
     (modifiers applied) in world space, as float32 (V,): convex > 0, concave < 0, and a
     sphere of radius r gives 1 / r.
@@ -228,9 +249,10 @@ def curvature(obj: bpy.types.Object, radius: float, depsgraph: bpy.types.Depsgra
     it, both summed with weights that fall from 1 at the vertex to 0 at 2 * ``radius``
     (``smooth_over_radius``).  Boundary and non-manifold edges carry none; faces must be
     consistently oriented (a closed mesh turned inside out is read from outside, as renders
-    shade it).
+    shade it). Where its loose parts meet each other, or the objects ``beside`` it, the corner
+    no edge carries is added (``surface``, ``contacts``).
     """
-    found = surface(obj, radius, depsgraph)
+    found = surface(obj, radius, depsgraph, beside)
     return smooth_over_radius(found.sources, found.vertices.points, found.vertices.normals, radius)
 
 
@@ -273,14 +295,16 @@ def write_curvature_attribute(
     *,
     settings: EdgeSettings | None = None,
     depsgraph: bpy.types.Depsgraph | None = None,
+    beside: Sequence[bpy.types.Object] = (),
 ) -> np.ndarray:
     """The mask of ``settings`` (default ``EdgeSettings()``; ``radius``, in scene units,
-    replaces its radius) at every vertex, written to ``pw_edges``; returns the mask."""
+    replaces its radius) at every vertex, with the corners ``obj`` makes with the objects
+    ``beside`` it (``curvature``), written to ``pw_edges``; returns the mask."""
     settings = settings or EdgeSettings()
     if radius is not None:
         settings = replace(settings, radius=radius)
     smoothing = effective_radius(obj, settings, depsgraph)
-    mask = _settings_mask(curvature(obj, smoothing, depsgraph), smoothing, settings)
+    mask = _settings_mask(curvature(obj, smoothing, depsgraph, beside), smoothing, settings)
     write_edge_attribute(obj, mask)
     return mask
 
@@ -289,14 +313,21 @@ def write_curvature_attribute(
 
 
 def edge_mask_image(
-    obj: bpy.types.Object, uv_map_name: str, resolution: int, settings: EdgeSettings | None = None, *, margin: int = 4
+    obj: bpy.types.Object,
+    uv_map_name: str,
+    resolution: int,
+    settings: EdgeSettings | None = None,
+    *,
+    margin: int = 4,
+    beside: Sequence[bpy.types.Object] = (),
 ) -> np.ndarray:
     """C as a float32 (resolution, resolution) array in [0, 1], top row first (v = 1).
 
     Every texel of a UV island gets the mask of the curvature field ``curvature`` gives the
     vertices, read at the texel's own world position (``bake_texel_geometry``), so the
     image and the attribute agree at the same surface points and the texel size does not
-    matter.  On a mesh much finer than the radius (``VERTEX_SPACING``: a scan) the field is
+    matter; with the corners ``obj`` makes with the objects ``beside`` it, as ``curvature``.
+    On a mesh much finer than the radius (``VERTEX_SPACING``: a scan) the field is
     read at the vertices and drawn across the triangles (``scratch_scene.bake_point_values``)
     instead.
 
@@ -316,7 +347,7 @@ def edge_mask_image(
     if uv_map_name not in obj.data.uv_layers:
         raise ValueError(f"object '{obj.name}' has no UV map '{uv_map_name}'")
     radius = effective_radius(obj, settings)
-    found = surface(obj, radius)
+    found = surface(obj, radius, beside=beside)
     if not obj.modifiers and _median_edge(obj) <= VERTEX_SPACING * radius:
         at_vertices = smooth_over_radius(found.sources, found.vertices.points, found.vertices.normals, radius)
         values, islands = scratch_scene.bake_point_values(obj, uv_map_name, resolution, at_vertices)
@@ -419,17 +450,20 @@ def bake_texel_geometry(
 
 
 def _edges_image(obj, uv_map, options, margin):
-    return edge_mask_image(obj, uv_map, options.resolution, options.edge_settings, margin=margin)
+    beside = neighbours.options_occluders(obj, options)
+    return edge_mask_image(obj, uv_map, options.resolution, options.edge_settings, margin=margin, beside=beside)
 
 
 def _edges_attribute(obj, options):
-    write_curvature_attribute(obj, settings=options.edge_settings)
+    write_curvature_attribute(obj, settings=options.edge_settings, beside=neighbours.options_occluders(obj, options))
 
 
 def _edges_hash(obj, options, digests):
     # the radius the mask is smoothed over, given or scale times the object's size: the same
-    # radius given either way is the same map
-    return dict(radius=effective_radius(obj, options.edge_settings), scale=None)
+    # radius given either way is the same map; the objects it meets, whose corners with it count
+    radius = effective_radius(obj, options.edge_settings)
+    met = neighbours.meeting(obj, neighbours.options_occluders(obj, options), radius)
+    return dict(radius=radius, scale=None, meets=sorted((other.name, digests(other)) for other in met))
 
 
 MAP = MapKind(

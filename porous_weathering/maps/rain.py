@@ -24,7 +24,7 @@ from ..blender.scratch_scene import aim_sun
 from ..common.options import check, option
 from ..contracts import map_attribute
 from ..core.shader_math import Graph, dot
-from . import sky_bake
+from . import neighbours, sky_bake
 from .registry import MapKind
 
 #: The colour attribute a rain bake writes (per face corner).
@@ -164,17 +164,17 @@ def _add_sky(scene, settings, made):
 
 
 def _rain_image(obj, uv_map, options, margin):
-    occluders = sky_bake.options_occluders(obj, options)
+    occluders = neighbours.options_occluders(obj, options)
     return bake_rain_image(obj, uv_map, options.resolution, options.rain_settings, occluders, margin=margin)
 
 
 def _rain_attribute(obj, options):
-    values = bake_rain_corners(obj, options.rain_settings, sky_bake.options_occluders(obj, options))
+    values = bake_rain_corners(obj, options.rain_settings, neighbours.options_occluders(obj, options))
     mesh_arrays.write_corner_attribute(obj.data, RAIN_ATTRIBUTE, values)
 
 
 def _rain_hash(obj, options, digests):
-    return dict(occluders=sky_bake.occluders_digest(obj, options, digests))
+    return dict(occluders=neighbours.occluders_digest(obj, options, digests))
 
 
 MAP = MapKind(

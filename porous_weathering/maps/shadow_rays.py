@@ -1,4 +1,5 @@
-"""Shadow rays: whether rays from points towards directions meet a set of triangles, many at once.
+"""Shadow rays: whether rays from points towards directions meet a set of triangles, and which
+they meet first, many at once.
 
 Through Embree (``embreex``, its occlusion query, a thread per core: some 3 M rays a second on
 two cores) where its wheel is installed, else through ``mathutils``' BVH one ray at a time (some six
@@ -50,21 +51,49 @@ class Occluders:
             cast = self._tree.ray_cast
             rays = zip(origins.tolist(), directions.tolist())
             return np.fromiter((cast(origin, towards)[0] is not None for origin, towards in rays), bool, len(origins))
-        origins = np.ascontiguousarray(origins, dtype=np.float32)
-        directions = np.ascontiguousarray(directions, dtype=np.float32)
-        threads = max(1, os.cpu_count() or 1)
         blocked = np.empty(len(origins), dtype=bool)
-        spans = []
-        for start in range(0, len(origins), RAYS_AT_ONCE):
-            stop = min(start + RAYS_AT_ONCE, len(origins))
-            edges = np.linspace(start, stop, threads + 1).astype(np.int64)
-            spans += [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
-        def run(span):
-            a, b = span
-            # the occlusion query gives -1 where the ray meets nothing (the GIL released meanwhile)
-            blocked[a:b] = self._scene.run(origins[a:b], directions[a:b], query="OCCLUDED") != -1
+        def occluded(a, b, starts, towards):
+            # the occlusion query gives -1 where the ray meets nothing
+            blocked[a:b] = self._scene.run(starts, towards, query="OCCLUDED") != -1
 
-        with ThreadPoolExecutor(threads) as pool:
-            list(pool.map(run, spans))
+        _in_threads(origins, directions, occluded)
         return blocked
+
+    def first_hits(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(triangle, distance): the triangle (N,) int32, -1 for none, that the ray from each of
+        ``origins`` (N, 3) towards its unit direction (N, 3) meets first, and how far along it
+        (N,) float32, inf for none."""
+        triangle = np.full(len(origins), -1, dtype=np.int32)
+        distance = np.full(len(origins), np.inf, dtype=np.float32)
+        if self._empty or not len(origins):
+            return triangle, distance
+        if rtcore_scene is None:
+            for i, (origin, towards) in enumerate(zip(origins.tolist(), directions.tolist())):
+                _, _, index, length = self._tree.ray_cast(origin, towards)
+                if index is not None:
+                    triangle[i], distance[i] = index, length
+            return triangle, distance
+
+        def intersected(a, b, starts, towards):
+            found = self._scene.run(starts, towards, query="INTERSECT", output=1)
+            triangle[a:b] = found["primID"]
+            distance[a:b] = np.where(found["primID"] >= 0, found["tfar"], np.inf)
+
+        _in_threads(origins, directions, intersected)
+        return triangle, distance
+
+
+def _in_threads(origins, directions, query):
+    """Run ``query(a, b, origins[a:b], directions[a:b])`` over spans of the rays, a thread per
+    core (Embree releases the GIL), at most RAYS_AT_ONCE rays a call."""
+    origins = np.ascontiguousarray(origins, dtype=np.float32)
+    directions = np.ascontiguousarray(directions, dtype=np.float32)
+    threads = max(1, os.cpu_count() or 1)
+    spans = []
+    for start in range(0, len(origins), RAYS_AT_ONCE):
+        stop = min(start + RAYS_AT_ONCE, len(origins))
+        edges = np.linspace(start, stop, threads + 1).astype(np.int64)
+        spans += [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+    with ThreadPoolExecutor(threads) as pool:
+        list(pool.map(lambda span: query(*span, origins[span[0] : span[1]], directions[span[0] : span[1]]), spans))

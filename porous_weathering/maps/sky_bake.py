@@ -57,31 +57,6 @@ class Sky:
     reaches: Callable[[np.ndarray], np.ndarray]
 
 
-def default_occluders(
-    target: bpy.types.Object, collection: bpy.types.Collection | None = None
-) -> list[bpy.types.Object]:
-    """The objects that can shelter ``target``: every renderable geometry object of its scenes,
-    or only those of ``collection`` (a bpy Collection, children included)."""
-    if collection is not None:
-        candidates = collection.all_objects
-    else:
-        candidates = {o for scene in target.users_scene for o in scene.objects}
-    geometry = scratch_scene.GEOMETRY_TYPES
-    return [o for o in candidates if o.type in geometry and not o.hide_render and o != target]
-
-
-def options_occluders(obj: bpy.types.Object, options) -> list[bpy.types.Object]:
-    """``default_occluders`` of ``obj`` under a bake's ``options`` (``bake.BakeOptions``: its
-    occluder collection, if it names one), as the rain and sun records read them."""
-    return default_occluders(obj, options.occluder_collection())
-
-
-def occluders_digest(obj: bpy.types.Object, options, digests) -> list[tuple[str, str]]:
-    """(name, ``digests(occluder)``) of each of ``options_occluders``, sorted: the part of a sky
-    map's input hash that re-bakes it when an occluder changes."""
-    return sorted((o.name, digests(o)) for o in options_occluders(obj, options))
-
-
 def bake_image(
     obj: bpy.types.Object,
     uv_map: str,

@@ -32,7 +32,7 @@ from ..blender import mesh_arrays, scratch_scene
 from ..common.options import check, option
 from ..contracts import map_attribute
 from ..core import solar
-from . import edges, shadow_rays, sky_bake
+from . import edges, neighbours, shadow_rays, sky_bake
 from .registry import MapKind
 
 #: The colour attribute a sun bake writes (per face corner).
@@ -252,19 +252,19 @@ class _Suns:
 
 
 def _sun_image(obj, uv_map, options, margin):
-    occluders = sky_bake.options_occluders(obj, options)
+    occluders = neighbours.options_occluders(obj, options)
     return bake_sun_image(obj, uv_map, options.resolution, options.sun_settings, occluders, margin=margin)
 
 
 def _sun_attribute(obj, options):
-    values = bake_sun_corners(obj, options.sun_settings, sky_bake.options_occluders(obj, options))
+    values = bake_sun_corners(obj, options.sun_settings, neighbours.options_occluders(obj, options))
     mesh_arrays.write_corner_attribute(obj.data, SUN_ATTRIBUTE, values)
 
 
 def _sun_hash(obj, options, digests):
     # the occluders, and the site as the bake takes it: unset, the scene's Sun Position (a change of it bakes again)
     latitude, north_angle = site(options.sun_settings, scene_of(obj))
-    occluders = sky_bake.occluders_digest(obj, options, digests)
+    occluders = neighbours.occluders_digest(obj, options, digests)
     return dict(occluders=occluders, latitude=latitude, north_angle=north_angle)
 
 

@@ -1,0 +1,189 @@
+"""Where parts meet (docs/maps.md, "Where parts meet"; docs/model.md §5): the corner between
+two objects (a wall's recessed mortar and its bricks, a statue on its plinth), or between two
+loose parts of one (a façade's sills on its wall), has no mesh edge, so the edge mask's curvature
+(``curvature.mesh_surface``) does not see it. ``with_contacts`` adds it: at each sample of the
+surface within a smoothing radius of another part, the curvature of the parts' union there, from
+how much of the sample's ball the other parts fill (``curvature.contact_curvature``); the samples
+another part covers are dropped, as no one sees them.
+
+Which part a point lies in is read with rays (``shadow_rays``): the part whose face the ray from
+it leaves through first (a back face). The parts are taken as closed meshes; of an open one, what
+lies just behind its faces counts as inside.
+"""
+
+from dataclasses import dataclass
+
+import bpy
+
+import numpy as np
+
+from ..blender import mesh_arrays
+from .curvature import BALL_POINTS, BALL_SETS, Samples, ball_points, contact_curvature, unit
+from .lightmap import Geometry
+from .shadow_rays import Occluders
+
+#: How far off its face a sample's rays start, in smoothing radii: clear of the face in single
+#: precision, well below anything the radius resolves.
+LIFT = 1e-3
+#: Points over each sample's area at which ``with_contacts`` asks whether another part covers
+#: it: an even spread over the unit disc (Vogel's spiral).
+COVER_POINTS = 16
+COVER_DISC = np.stack(
+    [
+        np.sqrt((np.arange(COVER_POINTS) + 0.5) / COVER_POINTS)
+        * np.cos(np.arange(COVER_POINTS) * np.pi * (3 - np.sqrt(5))),
+        np.sqrt((np.arange(COVER_POINTS) + 0.5) / COVER_POINTS)
+        * np.sin(np.arange(COVER_POINTS) * np.pi * (3 - np.sqrt(5))),
+    ],
+    axis=1,
+)
+#: Samples whose balls are asked about at once (a bounded number of rays in memory).
+BALLS_AT_ONCE = 1 << 14
+#: Sources whose boxes are tested against every part's at once (bounded memory for many parts).
+TESTED_AT_ONCE = 1 << 22
+
+
+@dataclass(frozen=True)
+class Triangles:
+    """One mesh's triangles in world space: its ``points`` (V, 3), each triangle's ``corners``
+    (T, 3) into them, turned to face out of the object as renders shade it, its loose ``part``
+    (T,), numbered from 0, and each vertex's (V,), -1 for a vertex of no part."""
+
+    points: np.ndarray
+    corners: np.ndarray
+    part: np.ndarray
+    vertex_part: np.ndarray
+
+    @classmethod
+    def of(cls, mesh: bpy.types.Mesh, matrix_world: np.ndarray) -> "Triangles":
+        geometry = Geometry.of(mesh)
+        matrix_world = np.asarray(matrix_world, dtype=np.float64)
+        points = geometry.positions.astype(np.float64) @ matrix_world[:3, :3].T + matrix_world[:3, 3]
+        outward = not mesh_arrays.winding_reversed(matrix_world, mesh_arrays.is_inside_out(mesh))
+        corners = geometry.vertices if outward else geometry.vertices[:, ::-1]
+        part = mesh_arrays.face_islands(mesh)[geometry.polygons]
+        # A part that encloses negative volume about its own centre is the inner wall of a hollow
+        # in the part around it (a vessel's inside, a box with walls), not a solid of its own:
+        # left out, so that the solid is the part around it.
+        centres = np.zeros((int(part.max(initial=-1)) + 1, 3))
+        np.add.at(centres, part, points[corners].mean(axis=1))
+        centres /= np.maximum(np.bincount(part, minlength=len(centres)), 1)[:, None]
+        a, b, c = (points[corners[:, k]] - centres[part] for k in range(3))
+        volume = np.bincount(part, np.einsum("ij,ij->i", a, np.cross(b, c)), minlength=len(centres))
+        solid = volume[part] >= 0.0
+        kept = np.unique(part[solid], return_inverse=True)[1].astype(np.int64).reshape(-1)
+        vertex_part = np.full(len(points), -1, dtype=np.int64)
+        vertex_part[corners[solid]] = kept[:, None]
+        return cls(points, corners[solid], kept, vertex_part)
+
+
+@dataclass(frozen=True)
+class Parts:
+    """The loose parts of some meshes, ready for rays: their triangles about ``origin`` (single
+    precision), each triangle's part and unit normal out of it, and each part's box (low, high)."""
+
+    rays: Occluders
+    origin: np.ndarray  #: (3,)
+    part: np.ndarray  #: (T,)
+    normals: np.ndarray  #: (T, 3)
+    boxes: np.ndarray  #: (parts, 2, 3), world space
+
+    @classmethod
+    def of(cls, meshes: list[Triangles]) -> "Parts | None":
+        """The parts of ``meshes``, each loose part of each its own; None for no triangle."""
+        meshes = [mesh for mesh in meshes if len(mesh.corners)]
+        if not meshes:
+            return None
+        offsets = np.cumsum([0] + [len(mesh.points) for mesh in meshes])
+        first_parts = np.cumsum([0] + [int(mesh.part.max()) + 1 for mesh in meshes])
+        points = np.concatenate([mesh.points for mesh in meshes])
+        corners = np.concatenate([mesh.corners + offset for mesh, offset in zip(meshes, offsets)])
+        part = np.concatenate([mesh.part + first for mesh, first in zip(meshes, first_parts)])
+        corner_points = points[corners]
+        normals = unit(np.cross(corner_points[:, 1] - corner_points[:, 0], corner_points[:, 2] - corner_points[:, 0]))
+        low = np.full((first_parts[-1], 3), np.inf)
+        high = np.full((first_parts[-1], 3), -np.inf)
+        np.minimum.at(low, part, corner_points.min(axis=1))
+        np.maximum.at(high, part, corner_points.max(axis=1))
+        origin = (points.min(axis=0) + points.max(axis=0)) / 2.0
+        return cls(Occluders(points - origin, corners), origin, part, normals, np.stack([low, high], axis=1))
+
+    def inside(self, points: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """(N,) the part each of ``points`` (world space) lies inside, -1 for none: the part whose
+        face the ray towards its unit direction leaves through first."""
+        triangle, _ = self.rays.first_hits(points - self.origin, directions)
+        met = triangle >= 0
+        leaving = np.zeros(len(points), dtype=bool)
+        leaving[met] = (self.normals[triangle[met]] * directions[met]).sum(axis=1) > 0.0
+        return np.where(leaving, self.part[np.maximum(triangle, 0)], -1)
+
+    def near(self, points: np.ndarray, radius: float) -> np.ndarray:
+        """(N,) how many of the parts' boxes, grown by ``radius``, hold each of ``points``."""
+        count = np.zeros(len(points), dtype=np.int64)
+        step = max(1, TESTED_AT_ONCE // len(self.boxes))
+        low, high = self.boxes[:, 0] - radius, self.boxes[:, 1] + radius
+        for start in range(0, len(points), step):
+            block = points[start : start + step, None, :]
+            count[start : start + step] = ((block >= low) & (block <= high)).all(axis=2).sum(axis=1)
+        return count
+
+
+def with_contacts(
+    sources: Samples, mesh: Triangles, own: Parts, beside: Parts | None, radius: float, seed: int = 0
+) -> Samples:
+    """``sources`` (an object's samples of curvature and area, ``curvature.Surface.sources``, of
+    its ``mesh``) with the corners where its loose parts (``own``: ``Parts.of([mesh])``) meet
+    each other or the parts of the objects
+    ``beside`` it: each sample within ``radius`` of another part's box carries, over its area,
+    ``contact_curvature`` of the share of the ball about its open area that the other parts
+    fill (and its own does not); what another part covers of a sample's area (``COVER_DISC``)
+    carries nothing. Sources near no other part are returned as
+    they are (an object of one part alone: all of them)."""
+    near = own.near(sources.points, radius) + (beside.near(sources.points, radius) if beside else 0) >= 2
+    near &= np.linalg.norm(sources.normals, axis=1) > 0.5  # a sample without a normal faces nowhere
+    chosen = np.flatnonzero(near)
+    if not len(chosen):
+        return sources
+    points, normals, area = sources.points[chosen], sources.normals[chosen], sources.area[chosen]
+    part = np.repeat(mesh.vertex_part[sources.vertex[chosen]], COVER_POINTS)
+    # what of each sample's area the other parts cover: points over a disc of its area in its
+    # plane, just off its face (a vertex on the line where a part meets it is half covered)
+    tangent = unit(np.cross(normals, np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])))
+    across = np.cross(normals, tangent)
+    disc = np.sqrt(area / np.pi)[:, None, None] * (
+        COVER_DISC[None, :, :1] * tangent[:, None, :] + COVER_DISC[None, :, 1:] * across[:, None, :]
+    )
+    on_face = (points[:, None, :] + disc).reshape(-1, 3)
+    # off the normal by a little, so that no ray runs along an axis-aligned mesh's edges
+    up = np.repeat(unit(normals + 0.1 * (0.6 * tangent + 0.8 * across)), COVER_POINTS, axis=0)
+    lifted = on_face + LIFT * radius * np.repeat(normals, COVER_POINTS, axis=0)
+    in_own = own.inside(lifted, up)
+    covered = (in_own >= 0) & (in_own != part) | (part < 0)
+    if beside is not None:
+        covered |= beside.inside(lifted, up) >= 0
+    covered = covered.reshape(len(chosen), COVER_POINTS)
+    open_share = 1.0 - covered.mean(axis=1)
+    # the ball about what is left open of each sample's area
+    seen = np.flatnonzero(open_share > 0.0)
+    centres = (np.where(covered[seen, :, None], 0.0, on_face.reshape(-1, COVER_POINTS, 3)[seen])).sum(axis=1)
+    centres /= (COVER_POINTS - covered[seen].sum(axis=1))[:, None]
+    balls = radius * ball_points(BALL_SETS, seed).astype(np.float32)
+    towards = unit(np.random.default_rng(seed).normal(size=(BALL_SETS * BALL_POINTS, 3))).astype(np.float32)
+    towards = towards.reshape(BALL_SETS, BALL_POINTS, 3)
+    filled = np.zeros(len(seen))
+    for block in range(0, len(seen), BALLS_AT_ONCE):  # a bounded number of rays at once
+        at = seen[block : block + BALLS_AT_ONCE]
+        turn = np.arange(block, block + len(at)) % BALL_SETS
+        reach = (centres[block : block + len(at), None, :] + balls[turn]).reshape(-1, 3)
+        rays = towards[turn].reshape(-1, 3)
+        in_own = own.inside(reach, rays)
+        inside = (in_own >= 0) & (in_own != np.repeat(part[::COVER_POINTS][at], BALL_POINTS))
+        if beside is not None:
+            inside |= (in_own < 0) & (beside.inside(reach, rays) >= 0)
+        filled[block : block + len(at)] = inside.reshape(len(at), BALL_POINTS).mean(axis=1)
+    added = np.zeros(len(chosen))
+    added[seen] = contact_curvature(filled, radius) * area[seen]
+    curvature, areas = sources.curvature.copy(), sources.area.copy()
+    curvature[chosen] = (curvature[chosen] + added) * open_share
+    areas[chosen] = area * open_share
+    return Samples(sources.points, sources.normals, curvature, areas, sources.vertex)
