@@ -164,7 +164,7 @@ def with_contacts(
     covered = covered.reshape(len(chosen), COVER_POINTS)
     open_share = 1.0 - covered.mean(axis=1)
     # the ball about what is left open of each sample's area
-    seen = np.flatnonzero(open_share > 0.0)
+    seen = np.flatnonzero((open_share > 0.0) & (area > 0.0))  # a sample of no area adds nothing
     centres = (np.where(covered[seen, :, None], 0.0, on_face.reshape(-1, COVER_POINTS, 3)[seen])).sum(axis=1)
     centres /= (COVER_POINTS - covered[seen].sum(axis=1))[:, None]
     balls = radius * ball_points(BALL_SETS, seed).astype(np.float32)
