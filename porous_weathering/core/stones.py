@@ -263,6 +263,26 @@ class Ashlar:
 
 
 @dataclass(frozen=True)
+class AshlarLength:
+    """One of ``Ashlar``'s lengths (a field, metres): its name on the masonry group's socket and
+    the panel's slider, what it is, the socket's least value and the slider's soft top."""
+
+    label: str
+    description: str
+    least: float
+    soft_max: float
+
+
+#: ``Ashlar``'s lengths, by field: the masonry group's sockets, Make's wiring of them and the
+#: panel's sliders are made from this record.
+ASHLAR_LENGTHS = {
+    "course_height": AshlarLength("Course Height", "Height of a course", 1e-6, 2.0),
+    "block_length": AshlarLength("Block Length", "Length of a block", 1e-6, 4.0),
+    "joint_width": AshlarLength("Joint Width", "Width of the mortar joints", 0.0, 0.05),
+}
+
+
+@dataclass(frozen=True)
 class MeshBlocks:
     """Blocks the mesh knows (docs/model.md §8.5): each face's block is the whole number in its
     integer face attribute ``attribute`` (``presets.mark_blocks`` writes it from the mesh's loose

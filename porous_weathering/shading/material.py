@@ -167,9 +167,8 @@ def connect_stone(graph, group_node, key, structure, variation, masonry, base_co
     node.inputs["Variation"].default_value = variation
     node.inputs["Metres Per Unit"].default_value = metres_per_unit()
     if isinstance(masonry, stones.Ashlar):
-        node.inputs["Course Height"].default_value = masonry.course_height
-        node.inputs["Block Length"].default_value = masonry.block_length
-        node.inputs["Joint Width"].default_value = masonry.joint_width
+        for name, length in stones.ASHLAR_LENGTHS.items():
+            node.inputs[length.label].default_value = getattr(masonry, name)
         mortar = PRESETS[masonry.mortar]
         values = (mortar.linear_base_color(), mortar.porosity, mortar.pore_depth_ratio, mortar.roughness)
         for socket, value in zip(nodes.MORTAR_SOCKETS, values):

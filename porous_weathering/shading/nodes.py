@@ -518,9 +518,16 @@ def stone_body(graph, inputs, stone, block_draw_at=None):
 
 #: The masonry group's inputs beyond the stone group's: the ashlar's lengths and the mortar's values.
 MASONRY_INPUTS = {
-    "Course Height": ("NodeSocketFloat", stones.Ashlar.course_height, 1e-6, 1e6, "Height of a course, metres"),
-    "Block Length": ("NodeSocketFloat", stones.Ashlar.block_length, 1e-6, 1e6, "Length of a block, metres"),
-    "Joint Width": ("NodeSocketFloat", stones.Ashlar.joint_width, 0.0, 1e6, "Width of the mortar joints, metres"),
+    **{
+        length.label: (
+            "NodeSocketFloat",
+            getattr(stones.Ashlar, name),
+            length.least,
+            1e6,
+            f"{length.description}, metres",
+        )
+        for name, length in stones.ASHLAR_LENGTHS.items()
+    },
     "Mortar Color": PORE_INPUTS["Base Color"][:4] + ("Diffuse albedo k_d of the mortar",),
     "Mortar Porosity": PORE_INPUTS["Porosity"][:4] + ("Porosity alpha of the mortar",),
     "Mortar Pore Depth Ratio": PORE_INPUTS["Pore Depth Ratio"][:4] + ("Pore depth ratio s_p of the mortar",),
@@ -556,9 +563,8 @@ def masonry_body(graph, inputs, stone):
     def ashlar_draw(graph, metres):
         axes = graph.node("ShaderNodeSeparateXYZ", {"Vector": metres})
         x, y, z = (graph.wrap(axes.outputs[axis]) for axis in "XYZ")
-        course, block, layout["joint"] = stones.ashlar(
-            NODE_OPS, x, y, z, inputs["Course Height"], inputs["Block Length"], inputs["Joint Width"]
-        )
+        lengths = {name: inputs[length.label] for name, length in stones.ASHLAR_LENGTHS.items()}
+        course, block, layout["joint"] = stones.ashlar(NODE_OPS, x, y, z, **lengths)
         return block_draw(graph, course, block)
 
     outputs = stone_body(graph, inputs, stone, ashlar_draw)

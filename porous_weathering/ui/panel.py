@@ -6,7 +6,7 @@ listed and the Make-map buttons are derived from the map registry (``linking.kno
 
 import bpy
 
-from ..core import aging
+from ..core import aging, stones
 from ..core import modes as weathering_modes
 from ..maps import registry as maps
 from ..maps.linking import discover_maps, known_maps, missing_maps
@@ -14,7 +14,7 @@ from . import bake_operator as ops_bake
 from . import export_operator as ops_export
 from . import operators
 from . import survey_operator as ops_survey
-from .settings import ASHLAR, ASHLAR_LENGTHS, active_material, scene_sun, time_socket
+from .settings import ASHLAR, active_material, scene_sun, time_socket
 
 
 def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> None:
@@ -29,7 +29,7 @@ def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> No
         col.prop(settings, "variation", slider=True)
         col.prop(settings, "masonry")
         if settings.masonry == ASHLAR:
-            for name in ASHLAR_LENGTHS:
+            for name in stones.ASHLAR_LENGTHS:
                 col.prop(settings, name)
     col.prop(settings, "environment")
     col.prop(settings, "key_light")

@@ -29,13 +29,6 @@ MASONRY_ITEMS = [
         for source, (label, what) in presets.BLOCK_SOURCES.items()
     ),
 ]
-#: The Coursed Ashlar's lengths the panel sets (each a field of ``stones.Ashlar``, in metres): its
-#: label, what it is and the slider's soft top.
-ASHLAR_LENGTHS = {
-    "course_height": ("Course Height", "Height of a course of the ashlar", 2.0),
-    "block_length": ("Block Length", "Length of a block along its course", 4.0),
-    "joint_width": ("Joint Width", "Width of the mortar joints", 0.05),
-}
 
 
 def _is_light(_settings, obj):
@@ -102,7 +95,7 @@ class SettingsBase:
         if self.preset() is None or self.masonry == NO_MASONRY:
             return None, None
         if self.masonry == ASHLAR:
-            return stones.Ashlar(**{name: getattr(self, name) for name in ASHLAR_LENGTHS}), None
+            return stones.Ashlar(**{name: getattr(self, name) for name in stones.ASHLAR_LENGTHS}), None
         return stones.MeshBlocks(), presets.face_blocks(obj, self.masonry)
 
     def elemental_carbon(self) -> float:
@@ -155,14 +148,14 @@ def settings_class() -> type:
         ),
         **{
             name: bpy.props.FloatProperty(
-                name=label,
-                description=f"{description}, in metres (the scene's unit scale applies)",
+                name=length.label,
+                description=f"{length.description} of the ashlar, in metres (the scene's unit scale applies)",
                 default=getattr(stones.Ashlar, name),
                 min=1e-4,
-                soft_max=soft_max,
+                soft_max=length.soft_max,
                 precision=3,
             )
-            for name, (label, description, soft_max) in ASHLAR_LENGTHS.items()
+            for name, length in stones.ASHLAR_LENGTHS.items()
         },
         "environment": bpy.props.EnumProperty(
             name="Environment",
