@@ -39,8 +39,6 @@ COVER_DISC = np.stack(
 )
 #: Samples whose balls are asked about at once (a bounded number of rays in memory).
 BALLS_AT_ONCE = 1 << 14
-#: Sources whose boxes are tested against every part's at once (bounded memory for many parts).
-TESTED_AT_ONCE = 1 << 22
 
 
 @dataclass(frozen=True)
@@ -79,18 +77,20 @@ class Triangles:
 
 @dataclass(frozen=True)
 class Parts:
-    """The loose parts of some meshes, ready for rays: their triangles about ``origin`` (single
-    precision), each triangle's part and unit normal out of it, and each part's box (low, high)."""
+    """The loose parts of some meshes, ready for rays: their triangles about ``origin`` (in
+    single precision, which the points asked about share), each triangle's part and unit normal
+    out of it, and each part's box (low, high) in world space."""
 
     rays: Occluders
     origin: np.ndarray  #: (3,)
     part: np.ndarray  #: (T,)
     normals: np.ndarray  #: (T, 3)
-    boxes: np.ndarray  #: (parts, 2, 3), world space
+    boxes: np.ndarray  #: (parts, 2, 3)
 
     @classmethod
-    def of(cls, meshes: list[Triangles]) -> "Parts | None":
-        """The parts of ``meshes``, each loose part of each its own; None for no triangle."""
+    def of(cls, meshes: list[Triangles], origin: np.ndarray) -> "Parts | None":
+        """The parts of ``meshes``, each loose part of each its own, about ``origin`` (the
+        world point the rays' single precision is centred on); None for no triangle."""
         meshes = [mesh for mesh in meshes if len(mesh.corners)]
         if not meshes:
             return None
@@ -105,27 +105,36 @@ class Parts:
         high = np.full((first_parts[-1], 3), -np.inf)
         np.minimum.at(low, part, corner_points.min(axis=1))
         np.maximum.at(high, part, corner_points.max(axis=1))
-        origin = (points.min(axis=0) + points.max(axis=0)) / 2.0
-        return cls(Occluders(points - origin, corners), origin, part, normals, np.stack([low, high], axis=1))
+        rays = Occluders(points - origin, corners)
+        return cls(rays, origin, part, normals.astype(np.float32), np.stack([low, high], axis=1))
 
     def inside(self, points: np.ndarray, directions: np.ndarray) -> np.ndarray:
-        """(N,) the part each of ``points`` (world space) lies inside, -1 for none: the part whose
-        face the ray towards its unit direction leaves through first."""
-        triangle, _ = self.rays.first_hits(points - self.origin, directions)
-        met = triangle >= 0
-        leaving = np.zeros(len(points), dtype=bool)
-        leaving[met] = (self.normals[triangle[met]] * directions[met]).sum(axis=1) > 0.0
-        return np.where(leaving, self.part[np.maximum(triangle, 0)], -1)
+        """(N,) the part each of ``points`` (float32, about ``origin``) lies inside, -1 for none:
+        the part whose face the ray towards its unit direction (float32) leaves through first."""
+        triangle, _ = self.rays.first_hits(points, directions)
+        hit = np.maximum(triangle, 0)
+        leaving = (triangle >= 0) & (np.einsum("ij,ij->i", self.normals[hit], directions) > 0.0)
+        return np.where(leaving, self.part[hit], -1)
 
-    def near(self, points: np.ndarray, radius: float) -> np.ndarray:
-        """(N,) how many of the parts' boxes, grown by ``radius``, hold each of ``points``."""
-        count = np.zeros(len(points), dtype=np.int64)
-        step = max(1, TESTED_AT_ONCE // len(self.boxes))
-        low, high = self.boxes[:, 0] - radius, self.boxes[:, 1] + radius
-        for start in range(0, len(points), step):
-            block = points[start : start + step, None, :]
-            count[start : start + step] = ((block >= low) & (block <= high)).all(axis=2).sum(axis=1)
-        return count
+
+def near_another(points: np.ndarray, part: np.ndarray, own: Parts, beside: Parts | None, radius: float) -> np.ndarray:
+    """(N,) whether each of ``points``, on the part ``part`` of ``own`` (-1: none), lies within
+    ``radius`` of another part's box, own or ``beside``: each part's points are asked only about
+    the boxes that come within ``radius`` of its own."""
+    boxes = own.boxes if beside is None else np.concatenate([own.boxes, beside.boxes])
+    low, high = boxes[:, 0] - radius, boxes[:, 1] + radius
+    near = np.zeros(len(points), dtype=bool)
+    order = np.argsort(part, kind="stable")
+    bounds = np.searchsorted(part[order], np.arange(len(own.boxes) + 1))
+    for index in range(len(own.boxes)):
+        members = order[bounds[index] : bounds[index + 1]]
+        meeting = np.all((low <= own.boxes[index, 1] + radius) & (high >= own.boxes[index, 0] - radius), axis=1)
+        meeting[index] = False
+        if not len(members) or not meeting.any():
+            continue
+        held = points[members, None, :]
+        near[members] = np.any(np.all((held >= low[meeting]) & (held <= high[meeting]), axis=2), axis=1)
+    return near
 
 
 def with_contacts(
@@ -133,19 +142,32 @@ def with_contacts(
 ) -> Samples:
     """``sources`` (an object's samples of curvature and area, ``curvature.Surface.sources``, of
     its ``mesh``) with the corners where its loose parts (``own``: ``Parts.of([mesh])``) meet
-    each other or the parts of the objects
-    ``beside`` it: each sample within ``radius`` of another part's box carries, over its area,
-    ``contact_curvature`` of the share of the ball about its open area that the other parts
-    fill (and its own does not); what another part covers of a sample's area (``COVER_DISC``)
-    carries nothing. Sources near no other part are returned as
-    they are (an object of one part alone: all of them)."""
-    near = own.near(sources.points, radius) + (beside.near(sources.points, radius) if beside else 0) >= 2
+    each other or the parts of the objects ``beside`` it (about the same origin): each sample
+    within ``radius`` of another part's box carries, over its area, ``contact_curvature`` of the
+    share of the ball about its open area that the other parts fill (and its own does not); what
+    another part covers of a sample's area (``COVER_DISC``) carries nothing. Sources near no
+    other part are returned as they are (an object of one part alone: all of them)."""
+    sample_part = mesh.vertex_part[sources.vertex]
+    near = near_another(sources.points, sample_part, own, beside, radius)
     near &= np.linalg.norm(sources.normals, axis=1) > 0.5  # a sample without a normal faces nowhere
     chosen = np.flatnonzero(near)
     if not len(chosen):
         return sources
-    points, normals, area = sources.points[chosen], sources.normals[chosen], sources.area[chosen]
-    part = np.repeat(mesh.vertex_part[sources.vertex[chosen]], COVER_POINTS)
+    part, normals, area = sample_part[chosen], sources.normals[chosen], sources.area[chosen]
+    points = (sources.points[chosen] - own.origin).astype(np.float32)
+
+    def filled_by_others(at, ask, towards):
+        """(len(at), k) whether each sample's points ``ask`` (its k of them, about the origin)
+        lie in another part than its own: another of ``own``'s, or one of ``beside``'s."""
+        shape = ask.shape[:2]
+        ask, towards = ask.reshape(-1, 3), np.ascontiguousarray(np.broadcast_to(towards, ask.shape).reshape(-1, 3))
+        in_own = own.inside(ask, towards).reshape(shape)
+        filled = (in_own >= 0) & (in_own != part[at, None])
+        if beside is not None:
+            rest = np.flatnonzero((in_own < 0).ravel())
+            filled.ravel()[rest] = beside.inside(ask[rest], towards[rest]) >= 0
+        return filled
+
     # what of each sample's area the other parts cover: points over a disc of its area in its
     # plane, just off its face (a vertex on the line where a part meets it is half covered)
     tangent = unit(np.cross(normals, np.where(np.abs(normals[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])))
@@ -153,19 +175,15 @@ def with_contacts(
     disc = np.sqrt(area / np.pi)[:, None, None] * (
         COVER_DISC[None, :, :1] * tangent[:, None, :] + COVER_DISC[None, :, 1:] * across[:, None, :]
     )
-    on_face = (points[:, None, :] + disc).reshape(-1, 3)
+    on_face = points[:, None, :] + disc.astype(np.float32)
+    lifted = on_face + (LIFT * radius * normals[:, None, :]).astype(np.float32)
     # off the normal by a little, so that no ray runs along an axis-aligned mesh's edges
-    up = np.repeat(unit(normals + 0.1 * (0.6 * tangent + 0.8 * across)), COVER_POINTS, axis=0)
-    lifted = on_face + LIFT * radius * np.repeat(normals, COVER_POINTS, axis=0)
-    in_own = own.inside(lifted, up)
-    covered = (in_own >= 0) & (in_own != part) | (part < 0)
-    if beside is not None:
-        covered |= beside.inside(lifted, up) >= 0
-    covered = covered.reshape(len(chosen), COVER_POINTS)
+    up = unit(normals + 0.1 * (0.6 * tangent + 0.8 * across)).astype(np.float32)[:, None, :]
+    covered = filled_by_others(np.arange(len(chosen)), lifted, up) | (part < 0)[:, None]
     open_share = 1.0 - covered.mean(axis=1)
     # the ball about what is left open of each sample's area
     seen = np.flatnonzero((open_share > 0.0) & (area > 0.0))  # a sample of no area adds nothing
-    centres = (np.where(covered[seen, :, None], 0.0, on_face.reshape(-1, COVER_POINTS, 3)[seen])).sum(axis=1)
+    centres = np.where(covered[seen, :, None], 0.0, on_face[seen]).sum(axis=1)
     centres /= (COVER_POINTS - covered[seen].sum(axis=1))[:, None]
     balls = radius * ball_points(BALL_SETS, seed).astype(np.float32)
     towards = unit(np.random.default_rng(seed).normal(size=(BALL_SETS * BALL_POINTS, 3))).astype(np.float32)
@@ -173,14 +191,9 @@ def with_contacts(
     filled = np.zeros(len(seen))
     for block in range(0, len(seen), BALLS_AT_ONCE):  # a bounded number of rays at once
         at = seen[block : block + BALLS_AT_ONCE]
-        turn = np.arange(block, block + len(at)) % BALL_SETS
-        reach = (centres[block : block + len(at), None, :] + balls[turn]).reshape(-1, 3)
-        rays = towards[turn].reshape(-1, 3)
-        in_own = own.inside(reach, rays)
-        inside = (in_own >= 0) & (in_own != np.repeat(part[::COVER_POINTS][at], BALL_POINTS))
-        if beside is not None:
-            inside |= (in_own < 0) & (beside.inside(reach, rays) >= 0)
-        filled[block : block + len(at)] = inside.reshape(len(at), BALL_POINTS).mean(axis=1)
+        turn = chosen[at] % BALL_SETS  # each sample its set, whichever others are asked
+        reach = centres[block : block + len(at), None, :].astype(np.float32) + balls[turn]
+        filled[block : block + len(at)] = filled_by_others(at, reach, towards[turn]).mean(axis=1)
     added = np.zeros(len(chosen))
     added[seen] = contact_curvature(filled, radius) * area[seen]
     curvature, areas = sources.curvature.copy(), sources.area.copy()

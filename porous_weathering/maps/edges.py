@@ -213,7 +213,9 @@ def surface(
             met.append(contacts.Triangles.of(mesh, matrix_world))
     if own.part.max(initial=0) == 0 and not met:  # one part alone: no corner the mesh does not have
         return found
-    sources = contacts.with_contacts(found.sources, own, contacts.Parts.of([own]), contacts.Parts.of(met), radius)
+    origin = (own.points.min(axis=0) + own.points.max(axis=0)) / 2.0  # the rays' single precision about it
+    own_parts, met_parts = contacts.Parts.of([own], origin), contacts.Parts.of(met, origin)
+    sources = contacts.with_contacts(found.sources, own, own_parts, met_parts, radius)
     return Surface(found.vertices, sources)
 
 
