@@ -53,13 +53,15 @@ class Triangles:
     vertex_part: np.ndarray
 
     @classmethod
-    def of(cls, mesh: bpy.types.Mesh, matrix_world: np.ndarray) -> "Triangles":
+    def of(cls, mesh: bpy.types.Mesh, matrix_world: np.ndarray, islands: np.ndarray) -> "Triangles":
+        """The triangles of ``mesh`` placed by ``matrix_world``, each face's loose part
+        ``islands`` (``mesh_arrays.face_islands``, which the caller has read)."""
         geometry = Geometry.of(mesh)
         matrix_world = np.asarray(matrix_world, dtype=np.float64)
         points = geometry.positions.astype(np.float64) @ matrix_world[:3, :3].T + matrix_world[:3, 3]
         outward = not mesh_arrays.winding_reversed(matrix_world, mesh_arrays.is_inside_out(mesh))
         corners = geometry.vertices if outward else geometry.vertices[:, ::-1]
-        part = mesh_arrays.face_islands(mesh)[geometry.polygons]
+        part = islands[geometry.polygons]
         # A part that encloses negative volume about its own centre is the inner wall of a hollow
         # in the part around it (a vessel's inside, a box with walls), not a solid of its own:
         # left out, so that the solid is the part around it.

@@ -202,16 +202,20 @@ def surface(
         raise ValueError(f"curvature radius must be a positive number of scene units, not {radius}")
     if obj.type not in scratch_scene.GEOMETRY_TYPES:
         raise ValueError(f"object '{obj.name}' has no faces to measure curvature on")
+    meeting = neighbours.meeting(obj, beside, radius)
     with evaluated_mesh(obj, depsgraph) as (mesh, matrix_world):
         if not mesh.polygons:
             raise ValueError(f"object '{obj.name}' has no faces to measure curvature on")
         found = _surface(mesh, matrix_world, radius, obj.name)
-        own = contacts.Triangles.of(mesh, matrix_world)
+        islands = mesh_arrays.face_islands(mesh)
+        if islands.max(initial=0) == 0 and not meeting:  # one part alone: no corner its mesh does not have
+            return found
+        own = contacts.Triangles.of(mesh, matrix_world, islands)
     met = []
-    for other in neighbours.meeting(obj, beside, radius):
+    for other in meeting:
         with evaluated_mesh(other, depsgraph) as (mesh, matrix_world):
-            met.append(contacts.Triangles.of(mesh, matrix_world))
-    if own.part.max(initial=0) == 0 and not met:  # one part alone: no corner the mesh does not have
+            met.append(contacts.Triangles.of(mesh, matrix_world, mesh_arrays.face_islands(mesh)))
+    if own.part.max(initial=0) == 0 and not met:  # a hollow's inner wall is not a part of its own
         return found
     origin = (own.points.min(axis=0) + own.points.max(axis=0)) / 2.0  # the rays' single precision about it
     own_parts, met_parts = contacts.Parts.of([own], origin), contacts.Parts.of(met, origin)
