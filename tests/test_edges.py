@@ -423,3 +423,22 @@ def test_the_edge_map_bakes_again_when_an_object_it_meets_moves(fresh_scene):
     old_foot, new_foot = top & (np.abs(points[:, 0]) < 1e-6), top & (np.abs(points[:, 0] + 1.0) < 1e-6)
     assert np.all(before[old_foot] > 0.8) and np.all(after[old_foot] < 0.1)
     assert np.all(after[new_foot] > 0.8)
+
+
+def test_a_ground_plane_is_as_solid_as_a_slab_where_a_wall_stands_on_it(fresh_scene):
+    """A wall on an open ground plane (one face, no thickness: the usual scene's ground) gets the
+    corner at its foot that a closed slab gives it: all that lies behind an open part's faces is
+    inside it, whichever way a ray from a point goes."""
+    radius = 0.4
+    wall, slab = boxes(fresh_scene, "Wall", (WALL,)), boxes(fresh_scene, "Slab", (SLAB,))
+    bpy.ops.mesh.primitive_plane_add(size=6.0)
+    ground = bpy.context.active_object
+    heights = np.linspace(0.02, 3.0, 60) * radius
+    points = np.stack([np.zeros_like(heights), np.zeros_like(heights), heights], axis=1)
+    normals = np.tile([1.0, 0.0, 0.0], (len(points), 1))
+    up_the_wall = {
+        name: edges.smooth_over_radius(edges.surface(wall, radius, beside=(below,)).sources, points, normals, radius)
+        for name, below in (("slab", slab), ("ground", ground))
+    }
+    on_slab, on_ground = (trapezoid(up_the_wall[name], heights) for name in ("slab", "ground"))
+    assert on_slab < -0.25 and on_ground == pytest.approx(on_slab, rel=0.15)

@@ -7,8 +7,8 @@ how much of the sample's ball the other parts fill (``curvature.contact_curvatur
 another part covers are dropped, as no one sees them.
 
 Which part a point lies in is read with rays (``shadow_rays``): the part whose face the ray from
-it leaves through first (a back face). The parts are taken as closed meshes; of an open one, what
-lies just behind its faces counts as inside.
+it leaves through first (a back face). Of an open mesh (a ground plane), what lies behind its
+faces counts as inside.
 """
 
 from dataclasses import dataclass
@@ -51,6 +51,7 @@ class Triangles:
     corners: np.ndarray
     part: np.ndarray
     vertex_part: np.ndarray
+    closed: bool  #: every edge between two faces (no open border: a ground plane has one)
 
     @classmethod
     def of(cls, mesh: bpy.types.Mesh, matrix_world: np.ndarray, islands: np.ndarray) -> "Triangles":
@@ -74,7 +75,8 @@ class Triangles:
         kept = np.unique(part[solid], return_inverse=True)[1].astype(np.int64).reshape(-1)
         vertex_part = np.full(len(points), -1, dtype=np.int64)
         vertex_part[corners[solid]] = kept[:, None]
-        return cls(points, corners[solid], kept, vertex_part)
+        edge_uses = np.bincount(mesh_arrays.attribute(mesh, ".corner_edge", np.int32), minlength=len(mesh.edges))
+        return cls(points, corners[solid], kept, vertex_part, bool(np.all(edge_uses == 2)))
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,7 @@ class Parts:
     part: np.ndarray  #: (T,)
     normals: np.ndarray  #: (T, 3)
     boxes: np.ndarray  #: (parts, 2, 3)
+    closed: bool  #: every mesh closed (else a ray that meets nothing is cast the other way too)
 
     @classmethod
     def of(cls, meshes: list[Triangles], origin: np.ndarray) -> "Parts | None":
@@ -108,14 +111,23 @@ class Parts:
         np.minimum.at(low, part, corner_points.min(axis=1))
         np.maximum.at(high, part, corner_points.max(axis=1))
         rays = Occluders(points - origin, corners)
-        return cls(rays, origin, part, normals.astype(np.float32), np.stack([low, high], axis=1))
+        closed = all(mesh.closed for mesh in meshes)
+        return cls(rays, origin, part, normals.astype(np.float32), np.stack([low, high], axis=1), closed)
 
     def inside(self, points: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """(N,) the part each of ``points`` (float32, about ``origin``) lies inside, -1 for none:
-        the part whose face the ray towards its unit direction (float32) leaves through first."""
+        the part whose face the ray towards its unit direction (float32) leaves through first.
+        Among open meshes (a ground plane) a ray that meets nothing is cast the other way, so
+        that all that lies behind an open part's faces is inside it, whichever way a ray goes."""
         triangle, _ = self.rays.first_hits(points, directions)
+        towards = directions
+        if not self.closed:
+            missed = np.flatnonzero(triangle < 0)
+            towards = directions.copy()
+            towards[missed] *= -1.0
+            triangle[missed] = self.rays.first_hits(points[missed], towards[missed])[0]
         hit = np.maximum(triangle, 0)
-        leaving = (triangle >= 0) & (np.einsum("ij,ij->i", self.normals[hit], directions) > 0.0)
+        leaving = (triangle >= 0) & (np.einsum("ij,ij->i", self.normals[hit], towards) > 0.0)
         return np.where(leaving, self.part[hit], -1)
 
 
