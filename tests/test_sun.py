@@ -149,6 +149,20 @@ def test_shadow_rays_meet_what_stands_in_their_way_with_or_without_embree(monkey
     assert shadow_rays.Occluders(np.zeros((0, 3)), np.zeros((0, 3))).blocked(origins, towards).tolist() == [False] * 4
 
 
+def test_first_hits_name_the_triangle_a_ray_meets_first_with_or_without_embree(monkeypatch):
+    """Two squares at z = 1 and z = 2, two triangles each: a ray up from below meets the lower
+    square's triangle on its side of the diagonal, one from between them the upper's, one past
+    them or away from them none; the same through mathutils' BVH."""
+    points = np.array([[[0, 0, z], [1, 0, z], [1, 1, z], [0, 1, z]] for z in (1.0, 2.0)]).reshape(-1, 3)
+    triangles = [[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]]
+    origins = np.array([[0.7, 0.3, 0.0], [0.2, 0.7, 0.0], [0.2, 0.7, 1.5], [2.0, 0.5, 0.0], [0.7, 0.3, 0.0]])
+    towards = np.array([[0, 0, 1.0], [0, 0, 1.0], [0, 0, 1.0], [0, 0, 1.0], [0, 0, -1.0]])
+    expected = [0, 1, 3, -1, -1]
+    assert shadow_rays.Occluders(points, triangles).first_hits(origins, towards).tolist() == expected
+    monkeypatch.setattr(shadow_rays, "rtcore_scene", None)
+    assert shadow_rays.Occluders(points, triangles).first_hits(origins, towards).tolist() == expected
+
+
 # --- the bake -------------------------------------------------------------------------------------------
 
 

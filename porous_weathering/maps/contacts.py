@@ -119,13 +119,13 @@ class Parts:
         the part whose face the ray towards its unit direction (float32) leaves through first.
         Among open meshes (a ground plane) a ray that meets nothing is cast the other way, so
         that all that lies behind an open part's faces is inside it, whichever way a ray goes."""
-        triangle, _ = self.rays.first_hits(points, directions)
+        triangle = self.rays.first_hits(points, directions)
         towards = directions
         if not self.closed:
             missed = np.flatnonzero(triangle < 0)
             towards = directions.copy()
             towards[missed] *= -1.0
-            triangle[missed] = self.rays.first_hits(points[missed], towards[missed])[0]
+            triangle[missed] = self.rays.first_hits(points[missed], towards[missed])
         hit = np.maximum(triangle, 0)
         leaving = (triangle >= 0) & (np.einsum("ij,ij->i", self.normals[hit], towards) > 0.0)
         return np.where(leaving, self.part[hit], -1)

@@ -60,28 +60,24 @@ class Occluders:
         _in_threads(origins, directions, occluded)
         return blocked
 
-    def first_hits(self, origins: np.ndarray, directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(triangle, distance): the triangle (N,) int32, -1 for none, that the ray from each of
-        ``origins`` (N, 3) towards its unit direction (N, 3) meets first, and how far along it
-        (N,) float32, inf for none."""
+    def first_hits(self, origins: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """(N,) int32: the triangle that the ray from each of ``origins`` (N, 3) towards its unit
+        direction (N, 3) meets first, -1 for none."""
         triangle = np.full(len(origins), -1, dtype=np.int32)
-        distance = np.full(len(origins), np.inf, dtype=np.float32)
         if self._empty or not len(origins):
-            return triangle, distance
+            return triangle
         if rtcore_scene is None:
             for i, (origin, towards) in enumerate(zip(origins.tolist(), directions.tolist())):
-                _, _, index, length = self._tree.ray_cast(origin, towards)
+                index = self._tree.ray_cast(origin, towards)[2]
                 if index is not None:
-                    triangle[i], distance[i] = index, length
-            return triangle, distance
+                    triangle[i] = index
+            return triangle
 
         def intersected(a, b, starts, towards):
-            found = self._scene.run(starts, towards, query="INTERSECT", output=1)
-            triangle[a:b] = found["primID"]
-            distance[a:b] = np.where(found["primID"] >= 0, found["tfar"], np.inf)
+            triangle[a:b] = self._scene.run(starts, towards, query="INTERSECT")  # -1 where it meets nothing
 
         _in_threads(origins, directions, intersected)
-        return triangle, distance
+        return triangle
 
 
 def _in_threads(origins, directions, query):
