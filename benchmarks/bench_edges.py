@@ -1,6 +1,6 @@
 """Edge/cavity mask: timings, and the measurements behind its defaults (docs/maps.md, "Edge/cavity mask").
 
-    python benchmarks/bench_edges.py [--max-vertices N] [--rounds N] [--no-image] [--study]
+    python benchmarks/bench_edges.py [--max-vertices N] [--rounds N] [--no-image] [--crumbs] [--study]
 
 1. The attribute mask (``edges.write_curvature_attribute`` with the default settings:
    evaluate, sample, smooth, map, write ``pw_edges``) on the scan-like bust
@@ -14,7 +14,10 @@
 2. The image mask (``edges.edge_mask_image``: two Cycles EMIT bakes of the texels' positions
    and normals, then the same smoothing at every texel) of a 20k-vertex torus at 256 to 2048
    texels square.
-3. With ``--study``: how the defaults were chosen. (a) The bust with and without its scan
+3. With ``--crumbs``: the 400k-triangle bust with 0 to 30 000 loose crumbs about its surface
+   (a photogrammetry scan's floaters: 1 mm octahedra within 3 mm of it), each crumb a loose
+   part, so the mask reads where parts meet (``contacts``): the time against the crumbs'.
+4. With ``--study``: how the defaults were chosen. (a) The bust with and without its scan
    noise at edge scales 0.25% to 4% of its size: how far the noise moves the mask, and how
    much of the surface the mask lights. (b) The bundled samples at the same scales, with the
    cavity and edge weights (1, 1) and (1, 0.5). (c) The same bust in millimetres, metres and
@@ -67,6 +70,35 @@ def bust(name, triangles, factor=1.0, scan_noise=True):
     finally:
         scan_generator._fourier_noise = generator_noise
     return scan_generator.add_to_scene(name, vertices * factor, faces)
+
+
+def with_crumbs(vertices, faces, count, seed=0):
+    """The mesh with ``count`` loose octahedra 1 mm across whose centres lie within 3 mm of
+    its vertices, off the surface or in it (a scan's floaters)."""
+    rng = np.random.default_rng(seed)
+    octahedron = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], np.float32) * 0.5
+    eight = np.array([[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]])
+    centres = vertices[rng.integers(len(vertices), size=count)] + rng.uniform(-3.0, 3.0, size=(count, 3))
+    crumbs = (centres[:, None, :] + octahedron).reshape(-1, 3)
+    crumb_faces = (eight[None] + len(vertices) + 6 * np.arange(count)[:, None, None]).reshape(-1, 3)
+    return np.concatenate([vertices, crumbs]), np.concatenate([faces, crumb_faces])
+
+
+def crumb_timings(rounds, triangles=400_000, counts=(0, 300, 3_000, 30_000)):
+    """The attribute mask of the bust with loose crumbs, best of ``rounds`` for each count."""
+    vertices, faces = scan_generator.bust_mesh(triangles, seed=0)
+    print(f"{machine.describe(bpy.app.version_string)}")
+    print(f"\n| loose crumbs ({triangles:,}-triangle bust) | wall (s) | CPU (s) | × without crumbs |")
+    print("|---:|---:|---:|---:|")
+    first = None
+    for count in counts:
+        obj = scan_generator.add_to_scene(f"Bust with {count} crumbs", *with_crumbs(vertices, faces, count))
+        wall, cpu = min(
+            timing.wall_and_cpu_seconds(lambda obj=obj: edges.write_curvature_attribute(obj)) for _ in range(rounds)
+        )
+        first = first or wall
+        print(f"| {count:,} | {wall:.2f} | {cpu:.2f} | {wall / first:.2f} |", flush=True)
+        bpy.data.meshes.remove(obj.data)
 
 
 def torus(segments, radius=1.0):
@@ -262,11 +294,15 @@ def main():
     parser.add_argument("--max-vertices", type=int, default=1_100_000)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--no-image", action="store_true", help="time the attribute mask only")
+    parser.add_argument("--crumbs", action="store_true", help="the bust with loose crumbs, not the timings")
     parser.add_argument("--study", action="store_true", help="the measurements behind the defaults, not the timings")
     args = parser.parse_args()
     bpy.ops.wm.read_factory_settings(use_empty=True)
     if args.study:
         study()
+        return
+    if args.crumbs:
+        crumb_timings(args.rounds)
         return
     timings(args)
     if not args.no_image:

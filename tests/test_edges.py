@@ -402,6 +402,31 @@ def test_an_object_alone_keeps_its_mask_and_flush_blocks_read_flat(fresh_scene):
     assert edge * radius > 0.4 and abs(seam) < 0.25 * edge
 
 
+def test_only_points_within_the_radius_of_another_parts_box_are_asked():
+    """``contacts.near_another``: a point is near when it lies within the radius of a box
+    other than its own part's, of its own object or of one beside it; a point of no part
+    (-1) never is."""
+    from types import SimpleNamespace
+
+    from porous_weathering.maps import contacts
+
+    own = SimpleNamespace(boxes=np.array([[[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]], [[1.5, 0.0, 0.0], [2.5, 1.0, 1.0]]]))
+    beside = SimpleNamespace(boxes=np.array([[[0.0, 0.0, -1.0], [2.5, 1.0, -0.6]]]))
+    points = np.array(
+        [
+            [0.95, 0.5, 0.5],  # part 0, 0.55 from part 1's box: within 0.6
+            [0.5, 0.5, 0.5],  # part 0, 1.0 from part 1's box and 1.1 below it from the beside box
+            [0.5, 0.5, 0.1],  # part 0, 0.7 above the beside box: not within 0.6
+            [2.0, 0.5, 0.0],  # part 1, 0.6 above the beside box: on the margin
+            [0.95, 0.5, 0.5],  # no part
+        ]
+    )
+    part = np.array([0, 0, 0, 1, -1])
+    assert contacts.near_another(points, part, own, None, 0.6).tolist() == [True, False, False, False, False]
+    assert contacts.near_another(points, part, own, beside, 0.6).tolist() == [True, False, False, True, False]
+    assert not contacts.near_another(points, part, own, beside, 0.5).any()
+
+
 def test_the_edge_map_bakes_again_when_an_object_it_meets_moves(fresh_scene):
     """The objects a mask meets are in its input hash (their corners with it are in the mask): the
     slab's edge map bakes again when the wall on it moves, not when a block far from it does,

@@ -33,6 +33,11 @@ def corner_faces(mesh):
     return np.repeat(np.arange(len(starts), dtype=np.int32), np.diff(np.append(starts, len(mesh.loops))))
 
 
+def edge_uses(mesh):
+    """How many face corners use each of ``mesh``'s edges (edges,): 2 on a closed surface."""
+    return np.bincount(attribute(mesh, ".corner_edge", np.int32), minlength=len(mesh.edges))
+
+
 def encloses_negative_volume(edge_uses, face_points, area_vectors):
     """True when the faces close a volume (every edge between exactly two of them, by its
     count ``edge_uses``) whose signed volume, (1/3) Σ face point · area vector, is negative:
@@ -46,13 +51,12 @@ def is_inside_out(mesh):
     starts = loop_starts(mesh)
     if not len(starts):
         return False
-    loop_edge = attribute(mesh, ".corner_edge", np.int32)
     points = attribute(mesh, "position", np.float32, 3).astype(np.float64)
     corners = points[attribute(mesh, ".corner_vert", np.int32)]
     following = np.arange(1, len(corners) + 1)  # the next corner around the face
     following[np.append(starts[1:], len(corners)) - 1] = starts
     area_vectors = np.add.reduceat(cross(corners, corners[following]), starts) / 2.0  # Newell
-    return encloses_negative_volume(np.bincount(loop_edge, minlength=len(mesh.edges)), corners[starts], area_vectors)
+    return encloses_negative_volume(edge_uses(mesh), corners[starts], area_vectors)
 
 
 def winding_reversed(matrix_world, inside_out):

@@ -75,8 +75,7 @@ class Triangles:
         kept = np.unique(part[solid], return_inverse=True)[1].astype(np.int64).reshape(-1)
         vertex_part = np.full(len(points), -1, dtype=np.int64)
         vertex_part[corners[solid]] = kept[:, None]
-        edge_uses = np.bincount(mesh_arrays.attribute(mesh, ".corner_edge", np.int32), minlength=len(mesh.edges))
-        return cls(points, corners[solid], kept, vertex_part, bool(np.all(edge_uses == 2)))
+        return cls(points, corners[solid], kept, vertex_part, bool(np.all(mesh_arrays.edge_uses(mesh) == 2)))
 
 
 @dataclass(frozen=True)
@@ -133,21 +132,20 @@ class Parts:
 
 def near_another(points: np.ndarray, part: np.ndarray, own: Parts, beside: Parts | None, radius: float) -> np.ndarray:
     """(N,) whether each of ``points``, on the part ``part`` of ``own`` (-1: none), lies within
-    ``radius`` of another part's box, own or ``beside``: each part's points are asked only about
-    the boxes that come within ``radius`` of its own."""
+    ``radius`` of another part's box, own or ``beside``. Each box asks only the points in its
+    slab along X (the points sorted once), so that a scan's thousands of loose crumbs cost
+    their slabs, not every point times every box."""
     boxes = own.boxes if beside is None else np.concatenate([own.boxes, beside.boxes])
     low, high = boxes[:, 0] - radius, boxes[:, 1] + radius
     near = np.zeros(len(points), dtype=bool)
-    order = np.argsort(part, kind="stable")
-    bounds = np.searchsorted(part[order], np.arange(len(own.boxes) + 1))
-    for index in range(len(own.boxes)):
-        members = order[bounds[index] : bounds[index + 1]]
-        meeting = np.all((low <= own.boxes[index, 1] + radius) & (high >= own.boxes[index, 0] - radius), axis=1)
-        meeting[index] = False
-        if not len(members) or not meeting.any():
-            continue
-        held = points[members, None, :]
-        near[members] = np.any(np.all((held >= low[meeting]) & (held <= high[meeting]), axis=2), axis=1)
+    order = np.argsort(points[:, 0], kind="stable")
+    along = points[order, 0]
+    starts, ends = np.searchsorted(along, low[:, 0], side="left"), np.searchsorted(along, high[:, 0], side="right")
+    for box in range(len(boxes)):
+        held = order[starts[box] : ends[box]]
+        held = held[~near[held] & (part[held] >= 0) & (part[held] != box)]  # own boxes are numbered as own parts
+        across = points[held, 1:]
+        near[held[np.all((across >= low[box, 1:]) & (across <= high[box, 1:]), axis=1)]] = True
     return near
 
 
