@@ -402,6 +402,18 @@ def test_an_object_alone_keeps_its_mask_and_flush_blocks_read_flat(fresh_scene):
     assert edge * radius > 0.4 and abs(seam) < 0.25 * edge
 
 
+def test_geometry_duplicated_in_place_reads_as_the_part_alone(fresh_scene):
+    """A box and its copy in place, as Shift+D in Edit Mode leaves them when the move is
+    cancelled: which of two coincident faces a ray leaves through first is chance, so without
+    the copy's faces left out (``contacts.repeats_another_part``) half of each box's inside
+    would read as the other's, and the whole box as a cavity. Each copy reads as the box alone."""
+    radius = 0.3
+    one = edges.curvature(boxes(fresh_scene, "One", (((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)),)), radius)
+    twice = edges.curvature(boxes(fresh_scene, "Twice", (((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)),) * 2), radius)
+    assert one.max() * radius > 0.4
+    np.testing.assert_allclose(np.sort(twice), np.sort(np.repeat(one, 2)), rtol=1e-4, atol=1e-4 / radius)
+
+
 def test_only_points_within_the_radius_of_another_parts_box_are_asked():
     """``contacts.near_another``: a point is near when it lies within the radius of a box
     other than its own part's, of its own object or of one beside it; a point of no part

@@ -63,6 +63,8 @@ class Triangles:
         outward = not mesh_arrays.winding_reversed(matrix_world, mesh_arrays.is_inside_out(mesh))
         corners = geometry.vertices if outward else geometry.vertices[:, ::-1]
         part = islands[geometry.polygons]
+        repeated = repeats_another_part(points, corners, part)
+        corners, part = corners[~repeated], part[~repeated]
         # A part that encloses negative volume about its own centre is the inner wall of a hollow
         # in the part around it (a vessel's inside, a box with walls), not a solid of its own:
         # left out, so that the solid is the part around it.
@@ -76,6 +78,19 @@ class Triangles:
         vertex_part = np.full(len(points), -1, dtype=np.int64)
         vertex_part[corners[solid]] = kept[:, None]
         return cls(points, corners[solid], kept, vertex_part, bool(np.all(mesh_arrays.edge_uses(mesh) == 2)))
+
+
+def repeats_another_part(points: np.ndarray, corners: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """(T,) whether each triangle repeats, corner for corner, one of a part numbered lower: the
+    geometry duplicated in place (Shift+D in Edit Mode, cancelled; a mesh joined with its copy).
+    The union of a part and its copy is the part, but which of two coincident faces a ray leaves
+    through first is chance, so half of the part's inside would read as its copy's: a copy's
+    faces are left out."""
+    place = np.unique(points, axis=0, return_inverse=True)[1].reshape(-1)
+    faces = np.unique(np.sort(place[corners], axis=1), axis=0, return_inverse=True)[1].reshape(-1)
+    lowest = np.full(faces.max(initial=-1) + 1, np.iinfo(np.int64).max)
+    np.minimum.at(lowest, faces, part)
+    return part > lowest[faces]
 
 
 @dataclass(frozen=True)
