@@ -6,6 +6,7 @@ import bmesh
 import numpy as np
 import pytest
 
+from porous_weathering.blender import mesh_arrays
 from porous_weathering.maps import bake, edges
 from porous_weathering.maps import curvature as curvature_maths
 
@@ -412,6 +413,26 @@ def test_geometry_duplicated_in_place_reads_as_the_part_alone(fresh_scene):
     twice = edges.curvature(boxes(fresh_scene, "Twice", (((0.0, 0.0, 0.0), (1.0, 1.0, 1.0)),) * 2), radius)
     assert one.max() * radius > 0.4
     np.testing.assert_allclose(np.sort(twice), np.sort(np.repeat(one, 2)), rtol=1e-4, atol=1e-4 / radius)
+
+
+def test_a_surface_split_along_its_seams_reads_as_one(fresh_scene):
+    """A sphere cut along a meridian into two open halves, each a loose part (as importers leave
+    a glTF split at its UV seams): its open borders lie on each other, so it is one part
+    (``mesh_arrays.face_islands(joined_at_borders=True)``), no corner where they meet, and its
+    seam as convex as the sphere elsewhere, not a cavity."""
+    radius = 0.1
+    bm = bmesh.new()
+    bmesh.ops.create_uvsphere(bm, u_segments=64, v_segments=32, radius=1.0)
+    bmesh.ops.split_edges(bm, edges=[e for e in bm.edges if all(abs(v.co.x) < 1e-6 for v in e.verts)])
+    mesh = bpy.data.meshes.new("Halves")
+    bm.to_mesh(mesh)
+    bm.free()
+    halves = link(fresh_scene, mesh, "Halves")
+    assert mesh_arrays.face_islands(mesh).max() == 1 and not mesh_arrays.face_islands(mesh, True).any()
+    across = np.abs(world_points(halves)[:, 0])
+    h = edges.curvature(halves, radius)
+    seam, far = across < 1e-6, across > 2.0 * radius  # the sphere's 1 / radius, beyond the smoothing's reach
+    assert seam.sum() >= 60 and np.all(h[seam] > 0.5) and np.all(np.abs(h[far] - 1.0) < 0.05)
 
 
 def test_only_points_within_the_radius_of_another_parts_box_are_asked():

@@ -84,15 +84,35 @@ def write_corner_attribute(mesh, name, values):
     mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", colours)
 
 
-def face_islands(mesh):
+def border_places(mesh):
+    """Each vertex's number, the same for the vertices of open borders (edges of one face) at the
+    same place bit for bit: the least of them; every other vertex its own index (vertices,)."""
+    place = np.arange(len(mesh.vertices))
+    border = np.unique(attribute(mesh, ".edge_verts", np.int32, 2)[edge_uses(mesh) == 1])
+    if len(border):
+        positions = np.ascontiguousarray(attribute(mesh, "position", np.float32, 3)[border])
+        _, first, same = np.unique(
+            positions.view(np.dtype((np.void, 12))).ravel(), return_index=True, return_inverse=True
+        )
+        place[border] = border[first][same.reshape(-1)]
+    return place
+
+
+def face_islands(mesh, joined_at_borders=False):
     """Each face's loose part (faces joined through shared vertices), numbered 0, 1, ... in the
-    order of their first faces, as int32 (faces,). Labels spread along the corners to the least
-    of each part, with pointer jumping, so a part of any shape takes a few dozen passes."""
+    order of their first faces, as int32 (faces,). With ``joined_at_borders``, open borders that
+    lie on each other join too: the vertices of edges of one face only, at the same place bit
+    for bit, count as one (a surface split along its UV seams, as importers leave a glTF's; tiles
+    laid edge to edge), while closed parts that touch stay apart. Labels spread along the corners
+    to the least of each part, with pointer jumping, so a part of any shape takes a few dozen
+    passes."""
     starts = loop_starts(mesh)
     if not len(starts):
         return np.zeros(0, dtype=np.int32)
     corner_face = corner_faces(mesh)
     corner_vertex = attribute(mesh, ".corner_vert", np.int32)
+    if joined_at_borders:
+        corner_vertex = border_places(mesh)[corner_vertex]
     label = np.arange(len(mesh.vertices))
     while True:
         face_least = np.full(len(starts), len(label))

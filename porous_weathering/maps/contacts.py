@@ -56,7 +56,7 @@ class Triangles:
     @classmethod
     def of(cls, mesh: bpy.types.Mesh, matrix_world: np.ndarray, islands: np.ndarray) -> "Triangles":
         """The triangles of ``mesh`` placed by ``matrix_world``, each face's loose part
-        ``islands`` (``mesh_arrays.face_islands``, which the caller has read)."""
+        ``islands`` (``mesh_arrays.face_islands`` joined at borders, which the caller has read)."""
         geometry = Geometry.of(mesh)
         matrix_world = np.asarray(matrix_world, dtype=np.float64)
         points = geometry.positions.astype(np.float64) @ matrix_world[:3, :3].T + matrix_world[:3, 3]

@@ -207,14 +207,16 @@ def surface(
         if not mesh.polygons:
             raise ValueError(f"object '{obj.name}' has no faces to measure curvature on")
         found = _surface(mesh, matrix_world, radius, obj.name)
-        islands = mesh_arrays.face_islands(mesh)
+        islands = mesh_arrays.face_islands(mesh, joined_at_borders=True)  # a surface split at its seams is one
         if islands.max(initial=0) == 0 and not meeting:  # one part alone: no corner its mesh does not have
             return found
         own = contacts.Triangles.of(mesh, matrix_world, islands)
     met = []
     for other in meeting:
         with evaluated_mesh(other, depsgraph) as (mesh, matrix_world):
-            met.append(contacts.Triangles.of(mesh, matrix_world, mesh_arrays.face_islands(mesh)))
+            met.append(
+                contacts.Triangles.of(mesh, matrix_world, mesh_arrays.face_islands(mesh, joined_at_borders=True))
+            )
     if own.part.max(initial=0) == 0 and not met:  # a hollow's inner wall is not a part of its own
         return found
     origin = (own.points.min(axis=0) + own.points.max(axis=0)) / 2.0  # the rays' single precision about it
