@@ -435,6 +435,30 @@ def test_a_surface_split_along_its_seams_reads_as_one(fresh_scene):
     assert seam.sum() >= 60 and np.all(h[seam] > 0.5) and np.all(np.abs(h[far] - 1.0) < 0.05)
 
 
+def test_a_cube_split_at_its_hard_edges_reads_as_the_cube(fresh_scene):
+    """Importers leave a glTF's faces split at its hard edges (and UV seams): every edge of a
+    flat-shaded cube is then two borders lying on each other, no edge between two faces. Read
+    across its seams (``edges._surface``), it carries the cube's curvature, where before its
+    mask was 0 everywhere."""
+    radius = 0.1
+    fields = []
+    for name, split in (("Welded", False), ("Split", True)):
+        bm = bmesh.new()
+        bmesh.ops.create_cube(bm, size=1.0)
+        bmesh.ops.subdivide_edges(bm, edges=bm.edges[:], cuts=7, use_grid_fill=True)
+        if split:
+            bmesh.ops.split_edges(bm, edges=[e for e in bm.edges if e.calc_face_angle(0.0) > 0.1])
+        mesh = bpy.data.meshes.new(name)
+        bm.to_mesh(mesh)
+        bm.free()
+        cube = link(fresh_scene, mesh, name)
+        at = {tuple(np.round(p, 4)): h for p, h in zip(world_points(cube), edges.curvature(cube, radius))}
+        fields.append(at)
+    welded, split = fields
+    assert len(mesh.vertices) > len(welded) and max(welded.values()) * radius > 1.0
+    assert max(abs(split[key] - welded[key]) for key in split) < 0.02 * max(welded.values())
+
+
 def test_only_points_within_the_radius_of_another_parts_box_are_asked():
     """``contacts.near_another``: a point is near when it lies within the radius of a box
     other than its own part's, of its own object or of one beside it; a point of no part

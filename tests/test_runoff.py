@@ -114,6 +114,28 @@ def test_one_quad_and_a_fine_grid_and_every_unit_give_the_same_attribute_map(fre
         assert max(abs(reference[key] - at_corners[key]) for key in shared) < 0.02, (n, scale)
 
 
+def test_a_seam_where_the_surface_is_split_is_no_border(fresh_scene):
+    """A level roof drains to its nearest open edges. Split down its middle into two loose
+    halves (as importers leave a glTF at its UV seams), its seam lies on itself: no edge water
+    leaves by (``mesh_arrays.open_edges``), so the roof gets the map it gets whole; read as a
+    border, the seam drained the middle (R 0.89 lower there)."""
+    options = bake.BakeOptions(maps=("runoff",), target="attribute")
+    maps = []
+    halves = (quad((0, 0, 0), (0.5, 0, 0), (0, 1, 0), (4, 8)), quad((0.5, 0, 0), (0.5, 0, 0), (0, 1, 0), (4, 8)))
+    for name, (vertices, triangles) in (("Whole", quad((0, 0, 0), (1, 0, 0), (0, 1, 0), 8)), ("Split", merge(*halves))):
+        mesh = bpy.data.meshes.new(name)
+        mesh.from_pydata(vertices.tolist(), [], triangles.tolist())  # not welded
+        roof = bpy.data.objects.new(name, mesh)
+        fresh_scene.collection.objects.link(roof)
+        vertical_rain(roof)
+        bake.bake_maps([roof], options)
+        maps.append(dict(zip(corner_faces(roof), corner_values(roof, runoff.RUNOFF_ATTRIBUTE))))
+    whole, split = maps
+    assert mesh_arrays.open_edges(mesh).sum() == 32 and (mesh_arrays.edge_uses(mesh) == 1).sum() == 48
+    shared = [key for key in whole if key in split]
+    assert len(shared) == 81 and max(abs(whole[key] - split[key]) for key in shared) < 1e-6
+
+
 def test_image_maps_of_one_quad_and_a_fine_grid_agree(fresh_scene, tmp_path):
     images = []
     for n in (1, 32):

@@ -84,6 +84,19 @@ def write_corner_attribute(mesh, name, values):
     mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", colours)
 
 
+def open_edges(mesh):
+    """Whether each of ``mesh``'s edges is an open border (edges,): of one face, and not lying on
+    another such edge end to end (``border_places``: a seam where the surface is split, as
+    importers leave a glTF's at its UV seams, is not open)."""
+    uses = edge_uses(mesh)
+    single = np.flatnonzero(uses == 1)
+    ends = np.sort(border_places(mesh)[attribute(mesh, ".edge_verts", np.int32, 2)[single]], axis=1)
+    _, same, counts = np.unique(ends, axis=0, return_inverse=True, return_counts=True)
+    found = np.zeros(len(uses), dtype=bool)
+    found[single] = counts[same.reshape(-1)] == 1
+    return found
+
+
 def border_places(mesh):
     """Each vertex's number, the same for the vertices of open borders (edges of one face) at the
     same place bit for bit: the least of them; every other vertex its own index (vertices,)."""

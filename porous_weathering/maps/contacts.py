@@ -51,7 +51,7 @@ class Triangles:
     corners: np.ndarray
     part: np.ndarray
     vertex_part: np.ndarray
-    closed: bool  #: every edge between two faces (no open border: a ground plane has one)
+    closed: bool  #: every edge between two faces or on a seam (no open border: a ground plane has one)
 
     @classmethod
     def of(cls, mesh: bpy.types.Mesh, matrix_world: np.ndarray, islands: np.ndarray) -> "Triangles":
@@ -77,7 +77,9 @@ class Triangles:
         kept = np.unique(part[solid], return_inverse=True)[1].astype(np.int64).reshape(-1)
         vertex_part = np.full(len(points), -1, dtype=np.int64)
         vertex_part[corners[solid]] = kept[:, None]
-        return cls(points, corners[solid], kept, vertex_part, bool(np.all(mesh_arrays.edge_uses(mesh) == 2)))
+        uses = mesh_arrays.edge_uses(mesh)  # closed: each edge between two faces, or a seam's
+        closed = bool(np.all((uses == 2) | ((uses == 1) & ~mesh_arrays.open_edges(mesh))))
+        return cls(points, corners[solid], kept, vertex_part, closed)
 
 
 def repeats_another_part(points: np.ndarray, corners: np.ndarray, part: np.ndarray) -> np.ndarray:

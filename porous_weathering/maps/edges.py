@@ -226,17 +226,35 @@ def surface(
 
 
 def _surface(mesh, matrix_world, radius, name):
-    """``mesh_surface`` of a bpy mesh, its arrays read through its attributes."""
-    return mesh_surface(
+    """``mesh_surface`` of a bpy mesh, its arrays read through its attributes, read across the
+    seams where its surface is split (``mesh_arrays.border_places``: importers leave a glTF split
+    at its UV seams and hard edges): the border vertices at one place are one vertex, the border
+    edges on each other one edge between their two faces, so a seam carries its dihedral angle."""
+    corner_verts = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
+    corner_edges = mesh_arrays.attribute(mesh, ".corner_edge", np.int32)
+    edge_verts = mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2)
+    place = mesh_arrays.border_places(mesh)
+    joined = np.flatnonzero(place != np.arange(len(place)))
+    if len(joined):
+        corner_verts = place[corner_verts].astype(np.int32)
+        edge_verts, edge_of = np.unique(np.sort(place[edge_verts], axis=1), axis=0, return_inverse=True)
+        corner_edges = edge_of.reshape(-1)[corner_edges].astype(np.int32)
+    found = mesh_surface(
         mesh_arrays.attribute(mesh, "position", np.float32, 3),
         matrix_world,
-        mesh_arrays.attribute(mesh, ".corner_vert", np.int32),
-        mesh_arrays.attribute(mesh, ".corner_edge", np.int32),
-        mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2),
+        corner_verts,
+        corner_edges,
+        edge_verts,
         mesh_arrays.loop_starts(mesh),
         radius,
         name,
     )
+    if not len(joined):
+        return found
+    vertices = found.vertices
+    normals = vertices.normals.copy()
+    normals[joined] = normals[place[joined]]  # a joined vertex faces as the one it is joined to
+    return Surface(Samples(vertices.points, normals, vertices.curvature, vertices.area, vertices.vertex), found.sources)
 
 
 # --- the attribute target ------------------------------------------------------------------------

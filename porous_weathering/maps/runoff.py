@@ -121,10 +121,11 @@ def _triangles_of(mesh, matrix, uv_map=None):
     mesh.loop_triangles.foreach_get("loops", corners)
     points = mesh_arrays.attribute(mesh, "position", np.float32, 3).astype(np.float64)
     vertices = points @ matrix[:3, :3].T + matrix[:3, 3]
-    # an edge of one face only is on the border: the triangles' edges that are polygon edges
-    # (a triangle's inner edges are not) by the polygon edge of each triangle corner
+    # an open edge (of one face, not a seam where the surface is split) is on the border: the
+    # triangles' edges that are polygon edges (a triangle's inner edges are not) by the polygon
+    # edge of each triangle corner
     loop_edges = mesh_arrays.attribute(mesh, ".corner_edge", np.int32)
-    uses = np.bincount(loop_edges, minlength=len(mesh.edges))
+    open_edges = mesh_arrays.open_edges(mesh)
     loop_vertices = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
     ends = mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2)
     corners = corners.reshape(-1, 3)
@@ -138,7 +139,7 @@ def _triangles_of(mesh, matrix, uv_map=None):
         follows = ((along[:, 0] == loop_vertices[start]) & (along[:, 1] == triangles[:, (k + 2) % 3])) | (
             (along[:, 1] == loop_vertices[start]) & (along[:, 0] == triangles[:, (k + 2) % 3])
         )
-        border[:, k] = follows & (uses[edge] == 1)
+        border[:, k] = follows & open_edges[edge]
     # read from outside, as renders shade it: swap two corners (and the edges facing them)
     inside_out = mesh_arrays.is_inside_out(mesh)
     if mesh_arrays.winding_reversed(matrix, inside_out):
