@@ -59,8 +59,9 @@ MARGIN = 4
 #: field of a map's settings, ``MapKind.inputs``; 3: the maps of an inside-out mesh and of an
 #: object far from the world's origin mended, the edge mask's grid on its samples' centre; 4: the
 #: sun map by its own shadow rays, exact where nothing shadows; 5: the edge mask with the corners
-#: where parts meet, ``contacts``; 6: geometry duplicated in place read as the part alone,
-#: ``contacts.repeats_another_part``).
+#: where parts meet, ``contacts``; 6: a surface split at its seams read whole, by the edge mask
+#: and the run-off (``mesh_arrays.border_places``, ``open_edges``), and geometry duplicated in
+#: place read as the part alone, ``contacts.repeats_another_part``).
 BAKE_VERSION = 6
 
 
