@@ -418,7 +418,7 @@ def test_geometry_duplicated_in_place_reads_as_the_part_alone(fresh_scene):
 def test_a_surface_split_along_its_seams_reads_as_one(fresh_scene):
     """A sphere cut along a meridian into two open halves, each a loose part (as importers leave
     a glTF split at its UV seams): its open borders lie on each other, so it is one part
-    (``mesh_arrays.face_islands(joined_at_borders=True)``), no corner where they meet, and its
+    (``mesh_arrays.face_islands(mesh, border_places(mesh))``), no corner where they meet, and its
     seam as convex as the sphere elsewhere, not a cavity."""
     radius = 0.1
     bm = bmesh.new()
@@ -428,7 +428,10 @@ def test_a_surface_split_along_its_seams_reads_as_one(fresh_scene):
     bm.to_mesh(mesh)
     bm.free()
     halves = link(fresh_scene, mesh, "Halves")
-    assert mesh_arrays.face_islands(mesh).max() == 1 and not mesh_arrays.face_islands(mesh, True).any()
+    assert (
+        mesh_arrays.face_islands(mesh).max() == 1
+        and not mesh_arrays.face_islands(mesh, mesh_arrays.border_places(mesh)).any()
+    )
     across = np.abs(world_points(halves)[:, 0])
     h = edges.curvature(halves, radius)
     seam, far = across < 1e-6, across > 2.0 * radius  # the sphere's 1 / radius, beyond the smoothing's reach

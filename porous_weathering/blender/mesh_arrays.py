@@ -90,8 +90,8 @@ def open_edges(mesh):
     importers leave a glTF's at its UV seams, is not open)."""
     uses = edge_uses(mesh)
     single = np.flatnonzero(uses == 1)
-    ends = np.sort(border_places(mesh)[attribute(mesh, ".edge_verts", np.int32, 2)[single]], axis=1)
-    _, same, counts = np.unique(ends, axis=0, return_inverse=True, return_counts=True)
+    ends = np.sort(border_places(mesh)[attribute(mesh, ".edge_verts", np.int32, 2)[single]], axis=1).astype(np.int64)
+    _, same, counts = np.unique(ends[:, 0] * len(mesh.vertices) + ends[:, 1], return_inverse=True, return_counts=True)
     found = np.zeros(len(uses), dtype=bool)
     found[single] = counts[same.reshape(-1)] == 1
     return found
@@ -111,21 +111,20 @@ def border_places(mesh):
     return place
 
 
-def face_islands(mesh, joined_at_borders=False):
+def face_islands(mesh, places=None):
     """Each face's loose part (faces joined through shared vertices), numbered 0, 1, ... in the
-    order of their first faces, as int32 (faces,). With ``joined_at_borders``, open borders that
-    lie on each other join too: the vertices of edges of one face only, at the same place bit
-    for bit, count as one (a surface split along its UV seams, as importers leave a glTF's; tiles
-    laid edge to edge), while closed parts that touch stay apart. Labels spread along the corners
-    to the least of each part, with pointer jumping, so a part of any shape takes a few dozen
-    passes."""
+    order of their first faces, as int32 (faces,). With ``places`` (each vertex's number,
+    ``border_places``), vertices of one number are one: open borders that lie on each other join
+    (a surface split along its UV seams, as importers leave a glTF's; tiles laid edge to edge),
+    while closed parts that touch stay apart. Labels spread along the corners to the least of
+    each part, with pointer jumping, so a part of any shape takes a few dozen passes."""
     starts = loop_starts(mesh)
     if not len(starts):
         return np.zeros(0, dtype=np.int32)
     corner_face = corner_faces(mesh)
     corner_vertex = attribute(mesh, ".corner_vert", np.int32)
-    if joined_at_borders:
-        corner_vertex = border_places(mesh)[corner_vertex]
+    if places is not None:
+        corner_vertex = places[corner_vertex]
     label = np.arange(len(mesh.vertices))
     while True:
         face_least = np.full(len(starts), len(label))

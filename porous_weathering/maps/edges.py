@@ -206,8 +206,9 @@ def surface(
     with evaluated_mesh(obj, depsgraph) as (mesh, matrix_world):
         if not mesh.polygons:
             raise ValueError(f"object '{obj.name}' has no faces to measure curvature on")
-        found = _surface(mesh, matrix_world, radius, obj.name)
-        islands = mesh_arrays.face_islands(mesh, joined_at_borders=True)  # a surface split at its seams is one
+        places = mesh_arrays.border_places(mesh)  # a surface split at its seams is one
+        found = _surface(mesh, matrix_world, radius, obj.name, places)
+        islands = mesh_arrays.face_islands(mesh, places)
         if islands.max(initial=0) == 0 and not meeting:  # one part alone: no corner its mesh does not have
             return found
         own = contacts.Triangles.of(mesh, matrix_world, islands)
@@ -215,7 +216,9 @@ def surface(
     for other in meeting:
         with evaluated_mesh(other, depsgraph) as (mesh, matrix_world):
             met.append(
-                contacts.Triangles.of(mesh, matrix_world, mesh_arrays.face_islands(mesh, joined_at_borders=True))
+                contacts.Triangles.of(
+                    mesh, matrix_world, mesh_arrays.face_islands(mesh, mesh_arrays.border_places(mesh))
+                )
             )
     if own.part.max(initial=0) == 0 and not met:  # a hollow's inner wall is not a part of its own
         return found
@@ -225,19 +228,21 @@ def surface(
     return Surface(found.vertices, sources)
 
 
-def _surface(mesh, matrix_world, radius, name):
+def _surface(mesh, matrix_world, radius, name, places):
     """``mesh_surface`` of a bpy mesh, its arrays read through its attributes, read across the
-    seams where its surface is split (``mesh_arrays.border_places``: importers leave a glTF split
-    at its UV seams and hard edges): the border vertices at one place are one vertex, the border
-    edges on each other one edge between their two faces, so a seam carries its dihedral angle."""
+    seams where its surface is split (``places``: ``mesh_arrays.border_places``; importers leave
+    a glTF split at its UV seams and hard edges): the border vertices at one place are one vertex,
+    the border edges on each other one edge between their two faces, so a seam carries its
+    dihedral angle."""
     corner_verts = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
     corner_edges = mesh_arrays.attribute(mesh, ".corner_edge", np.int32)
     edge_verts = mesh_arrays.attribute(mesh, ".edge_verts", np.int32, 2)
-    place = mesh_arrays.border_places(mesh)
-    joined = np.flatnonzero(place != np.arange(len(place)))
+    joined = np.flatnonzero(places != np.arange(len(places)))
     if len(joined):
-        corner_verts = place[corner_verts].astype(np.int32)
-        edge_verts, edge_of = np.unique(np.sort(place[edge_verts], axis=1), axis=0, return_inverse=True)
+        corner_verts = places[corner_verts].astype(np.int32)
+        ends = np.sort(places[edge_verts], axis=1).astype(np.int64)
+        keys, edge_of = np.unique(ends[:, 0] * len(places) + ends[:, 1], return_inverse=True)  # one int a pair
+        edge_verts = np.stack([keys // len(places), keys % len(places)], axis=1).astype(np.int32)
         corner_edges = edge_of.reshape(-1)[corner_edges].astype(np.int32)
     found = mesh_surface(
         mesh_arrays.attribute(mesh, "position", np.float32, 3),
@@ -253,7 +258,7 @@ def _surface(mesh, matrix_world, radius, name):
         return found
     vertices = found.vertices
     normals = vertices.normals.copy()
-    normals[joined] = normals[place[joined]]  # a joined vertex faces as the one it is joined to
+    normals[joined] = normals[places[joined]]  # a joined vertex faces as the one it is joined to
     return Surface(Samples(vertices.points, normals, vertices.curvature, vertices.area, vertices.vertex), found.sources)
 
 
