@@ -1,6 +1,6 @@
 """Scans as they come (docs/scans.md, "What the bake checks"): the bake warns, one line naming
-the object, when a scan's up axis looks wrong for rain or when it is flat-shaded as a scan saved
-without normals is; objects set up right, the sample scenes' included, get no warning. A smooth scan's
+the object, when a scan's up axis looks wrong for rain, when it is flat-shaded as a scan saved
+without normals is, or when stray floaters set its size; objects set up right, the sample scenes' included, get no warning. A smooth scan's
 rain attribute is baked per vertex, as its corners would be."""
 
 import math
@@ -11,6 +11,7 @@ import warnings
 
 import bpy
 
+import mathutils
 import numpy as np
 import pytest
 
@@ -55,6 +56,34 @@ def test_the_sample_scenes_get_no_warning(sample):
     for obj in bpy.context.scene.objects:
         if obj.type == "MESH":
             assert scan_checks.problems(obj) == [], obj.name
+
+
+def with_crumb(obj, centre, radius):
+    """``obj`` with a loose icosphere of ``radius`` about ``centre`` (its own space) added."""
+    import bmesh  # noqa: PLC0415
+
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.create_icosphere(bm, subdivisions=1, radius=radius, matrix=mathutils.Matrix.Translation(centre))
+    bm.to_mesh(obj.data)
+    bm.free()
+    return obj
+
+
+def test_a_scans_stray_floater_is_warned_about_and_crumbs_on_it_are_not(bust):
+    """A loose crumb far from the body (a scan's floater) sets the object's size, from which the
+    edge radius and the run-off's lengths are taken: warned about, with what it does. Crumbs on
+    the surface, or a surface split at its seams, change no size: no warning."""
+    obj = bust()
+    points = np.array([v.co[:] for v in obj.data.vertices])
+    high, size = points.max(axis=0), np.linalg.norm(np.ptp(points, axis=0))
+    for k in range(20):  # on the surface: within 1% of the size of a vertex
+        with_crumb(obj, obj.data.vertices[k * 500].co, 0.005 * size)
+    assert scan_checks.problems(obj) == []
+    with_crumb(obj, mathutils.Vector((0.0, 0.0, float(high[2]) + size)), 0.005 * size)
+    [message] = scan_checks.problems(obj)
+    assert message.startswith("object 'Bust' has 1 loose part holding under 0.1% of its surface outside its body")
+    assert "its size 1.9 times the body's" in message and "\n" not in message
 
 
 def test_a_flat_shaded_scan_without_normals_is_warned_about(bust):

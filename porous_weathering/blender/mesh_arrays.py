@@ -53,10 +53,15 @@ def is_inside_out(mesh):
         return False
     points = attribute(mesh, "position", np.float32, 3).astype(np.float64)
     corners = points[attribute(mesh, ".corner_vert", np.int32)]
+    return encloses_negative_volume(edge_uses(mesh), corners[starts], area_vectors(corners, starts))
+
+
+def area_vectors(corners, starts):
+    """Each face's area vector (faces, 3), its normal times its area, by Newell's sum over its
+    corners' points ``corners`` (corners, 3), its first corner at ``starts``."""
     following = np.arange(1, len(corners) + 1)  # the next corner around the face
     following[np.append(starts[1:], len(corners)) - 1] = starts
-    area_vectors = np.add.reduceat(cross(corners, corners[following]), starts) / 2.0  # Newell
-    return encloses_negative_volume(edge_uses(mesh), corners[starts], area_vectors)
+    return np.add.reduceat(cross(corners, corners[following]), starts) / 2.0
 
 
 def winding_reversed(matrix_world, inside_out):

@@ -9,6 +9,11 @@ normals is. The checks are heuristics: they warn, the bake goes on.
   with the wrong up axis, the base faces sideways.
 - **Faces the ground**: more than half of its area faces more than 30° below the horizon
   (an open scan, a relief or a façade's front, turned over): the rain reaches little of it.
+- **Stray parts**: loose parts (a surface split at its seams counts as one) that hold under 1%
+  of its area between them lie outside the rest, its body (beyond its box by 5% of its size),
+  and make the object's size
+  (``edges.object_size``, from which the edge radius and the run-off's lengths are taken) over
+  1.25 times the body's: a scan's floaters.
 - **Faceted**: every face is flat-shaded, the mesh has no custom normals, and most of the
   edges between two faces bend by 1°-20°, as a curved surface shown by flat facets does: the
   renders and the rain see every facet, the edge mask takes smooth normals for it (edges.py)
@@ -41,6 +46,12 @@ BASE_NONE = 0.001
 DOWNWARD_Z = -0.5
 #: ... and an object does when more than this fraction of its area does.
 DOWNWARD_AREA = 0.5
+#: The smallest loose parts holding this share of the area between them are strays...
+STRAY_AREA = 0.01
+#: ... worth a warning when the object's size with them is over this many times the body's;
+#: the warning counts those beyond the body's box by this fraction of its size.
+STRAY_SIZE = 1.25
+STRAY_REACH = 0.05
 #: Edges between two faces that bend between these angles (degrees) are facet edges...
 FACET_DEGREES = (1.0, 20.0)
 #: ... and a flat-shaded mesh with more than this fraction of them is faceted.
@@ -54,6 +65,7 @@ def problems(obj, rain: bool = True) -> list[str]:
     found = [message for message in (unit_problem(obj),) if message]
     if rain:
         found += [message for message in (_up_axis(obj),) if message]
+    found += [message for message in (_stray_parts(obj),) if message]
     if looks_faceted(obj.data):
         found.append(
             f"object '{obj.name}' is flat-shaded with no custom normals, as a scan saved without "
@@ -116,6 +128,44 @@ def _up_axis(obj):
             "import (docs/scans.md)"
         )
     return None
+
+
+def _stray_parts(obj):
+    mesh = obj.data
+    if not len(mesh.polygons):
+        return None
+    islands = mesh_arrays.face_islands(mesh, mesh_arrays.border_places(mesh))
+    if not islands.max(initial=0):
+        return None
+    matrix = np.array(obj.matrix_world, dtype=np.float64)
+    points = mesh_arrays.attribute(mesh, "position", np.float32, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+    corners = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
+    starts = mesh_arrays.loop_starts(mesh)
+    faces = mesh_arrays.corner_faces(mesh)
+    areas = np.linalg.norm(mesh_arrays.area_vectors(points[corners], starts), axis=1)
+    part_area = np.bincount(islands, areas, minlength=islands.max() + 1)
+    by_area = np.argsort(part_area)  # the smallest first: the strays are those under STRAY_AREA between them
+    stray = np.zeros(len(part_area), dtype=bool)
+    stray[by_area[np.cumsum(part_area[by_area]) < STRAY_AREA * part_area.sum()]] = True
+    on_surface = areas[faces] > 0  # corners of faces of some area (a stray point plays no part)
+    in_body = on_surface & ~stray[islands[faces]]
+    if not stray.any() or not in_body.any():
+        return None
+    body, every = points[corners[in_body]], points[corners[on_surface]]
+    ratio = np.linalg.norm(np.ptp(every, axis=0)) / max(np.linalg.norm(np.ptp(body, axis=0)), 1e-300)
+    if ratio <= STRAY_SIZE:
+        return None
+    reach = STRAY_REACH * np.linalg.norm(np.ptp(body, axis=0))  # a crumb on the body's rim is on it
+    low, high = body.min(axis=0) - reach, body.max(axis=0) + reach
+    beyond = on_surface & np.any((points[corners] < low) | (points[corners] > high), axis=1)
+    outside = np.unique(islands[faces[beyond]])
+    count, share = len(outside), part_area[outside].sum() / part_area.sum()
+    return (
+        f"object '{obj.name}' has {count} loose part{'s' if count > 1 else ''} holding "
+        f"{f'{share:.1%}' if share >= 0.001 else 'under 0.1%'} of its surface outside its body, which make "
+        f"its size {ratio:.1f} times the body's (its edge radius and run-off lengths scale with it): delete "
+        "them if they are a scan's floaters (docs/scans.md)"
+    )
 
 
 def looks_faceted(mesh) -> bool:
