@@ -1,6 +1,6 @@
 """Scans as they come (docs/scans.md): the bake warns, one line naming the object, when an
-object's up axis looks wrong for rain, or when it is flat-shaded as a scan saved without
-normals is. The checks are heuristics: they warn, the bake goes on.
+object's up axis looks wrong for rain, when stray floaters set its size, or when it is
+flat-shaded as a scan saved without normals is. The checks are heuristics: they warn, the bake goes on.
 
 - **Lies on its side**: its bounding box is longest across (along X or Y), it has a flat
   base on a side and none underneath. A base is the faces within 11° of facing out of one side
