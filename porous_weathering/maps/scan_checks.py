@@ -1,6 +1,7 @@
 """Scans as they come (docs/scans.md): the bake warns, one line naming the object, when an
 object's up axis looks wrong for rain, when stray floaters set its size, or when it is
-flat-shaded as a scan saved without normals is. The checks are heuristics: they warn, the bake goes on.
+flat-shaded as a scan saved without normals is. The checks are heuristics: they warn, the bake
+goes on.
 
 - **Lies on its side**: its bounding box is longest across (along X or Y), it has a flat
   base on a side and none underneath. A base is the faces within 11° of facing out of one side
@@ -10,10 +11,9 @@ flat-shaded as a scan saved without normals is. The checks are heuristics: they 
 - **Faces the ground**: more than half of its area faces more than 30° below the horizon
   (an open scan, a relief or a façade's front, turned over): the rain reaches little of it.
 - **Stray parts**: loose parts (a surface split at its seams counts as one) that hold under 1%
-  of its area between them lie outside the rest, its body (beyond its box by 5% of its size),
-  and make the object's size
-  (``edges.object_size``, from which the edge radius and the run-off's lengths are taken) over
-  1.25 times the body's: a scan's floaters.
+  of its area between them make the object's size (``edges.object_size``, from which the edge
+  radius and the run-off's lengths are taken) over 1.25 times the size of the rest, its body: a
+  scan's floaters. The warning counts those beyond the body's box by 5% of its size.
 - **Faceted**: every face is flat-shaded, the mesh has no custom normals, and most of the
   edges between two faces bend by 1°-20°, as a curved surface shown by flat facets does: the
   renders and the rain see every facet, the edge mask takes smooth normals for it (edges.py)
