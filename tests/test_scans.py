@@ -1,7 +1,8 @@
 """Scans as they come (docs/scans.md, "What the bake checks"): the bake warns, one line naming
 the object, when a scan's up axis looks wrong for rain, when it is flat-shaded as a scan saved
-without normals is, or when stray floaters set its size; objects set up right, the sample scenes' included, get no warning. A smooth scan's
-rain attribute is baked per vertex, as its corners would be."""
+without normals is, or when stray floaters set its size; objects set up right, the sample
+scenes' included, get no warning. A smooth scan's rain attribute is baked per vertex, as its
+corners would be."""
 
 import math
 import pathlib
