@@ -88,8 +88,8 @@ def repeats_another_part(points: np.ndarray, corners: np.ndarray, part: np.ndarr
     The union of a part and its copy is the part, but which of two coincident faces a ray leaves
     through first is chance, so half of the part's inside would read as its copy's: a copy's
     faces are left out."""
-    place = np.unique(points, axis=0, return_inverse=True)[1].reshape(-1)
-    faces = np.unique(np.sort(place[corners], axis=1), axis=0, return_inverse=True)[1].reshape(-1)
+    place = mesh_arrays.row_groups(points)[1]
+    faces = mesh_arrays.row_groups(np.sort(place[corners], axis=1))[1]
     lowest = np.full(faces.max(initial=-1) + 1, np.iinfo(np.int64).max)
     np.minimum.at(lowest, faces, part)
     return part > lowest[faces]
