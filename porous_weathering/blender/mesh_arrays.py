@@ -89,17 +89,25 @@ def write_corner_attribute(mesh, name, values):
     mesh.color_attributes.new(name, "FLOAT_COLOR", "CORNER").data.foreach_set("color", colours)
 
 
-def open_edges(mesh):
+def open_edges(mesh, places=None):
     """Whether each of ``mesh``'s edges is an open border (edges,): of one face, and not lying on
-    another such edge end to end (``border_places``: a seam where the surface is split, as
-    importers leave a glTF's at its UV seams, is not open)."""
+    another such edge end to end (``places``, its ``border_places`` if the caller has them: a seam
+    where the surface is split, as importers leave a glTF's at its UV seams, is not open)."""
     uses = edge_uses(mesh)
     single = np.flatnonzero(uses == 1)
-    ends = np.sort(border_places(mesh)[attribute(mesh, ".edge_verts", np.int32, 2)[single]], axis=1).astype(np.int64)
-    _, same, counts = np.unique(ends[:, 0] * len(mesh.vertices) + ends[:, 1], return_inverse=True, return_counts=True)
+    places = border_places(mesh) if places is None else places
+    keys = edge_keys(attribute(mesh, ".edge_verts", np.int32, 2)[single], places)
+    _, same, counts = np.unique(keys, return_inverse=True, return_counts=True)
     found = np.zeros(len(uses), dtype=bool)
     found[single] = counts[same.reshape(-1)] == 1
     return found
+
+
+def edge_keys(ends, places):
+    """One int64 for each edge of ``ends`` (E, 2), the same for edges whose two ends have the same
+    ``places`` (``border_places``), either way round."""
+    ends = np.sort(places[ends], axis=1).astype(np.int64)
+    return ends[:, 0] * len(places) + ends[:, 1]
 
 
 def border_places(mesh):

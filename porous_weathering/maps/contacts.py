@@ -54,9 +54,10 @@ class Triangles:
     closed: bool  #: every edge between two faces or on a seam (no open border: a ground plane has one)
 
     @classmethod
-    def of(cls, mesh: bpy.types.Mesh, matrix_world: np.ndarray, islands: np.ndarray) -> "Triangles":
+    def of(cls, mesh: bpy.types.Mesh, matrix_world: np.ndarray, places: np.ndarray, islands: np.ndarray) -> "Triangles":
         """The triangles of ``mesh`` placed by ``matrix_world``, each face's loose part
-        ``islands`` (``mesh_arrays.face_islands`` joined at borders, which the caller has read)."""
+        ``islands`` (``mesh_arrays.face_islands`` joined at the borders that lie on each other,
+        ``places``: ``mesh_arrays.border_places``; the caller has read both)."""
         geometry = Geometry.of(mesh)
         matrix_world = np.asarray(matrix_world, dtype=np.float64)
         points = geometry.positions.astype(np.float64) @ matrix_world[:3, :3].T + matrix_world[:3, 3]
@@ -78,7 +79,7 @@ class Triangles:
         vertex_part = np.full(len(points), -1, dtype=np.int64)
         vertex_part[corners[solid]] = kept[:, None]
         uses = mesh_arrays.edge_uses(mesh)  # closed: each edge between two faces, or a seam's
-        closed = bool(np.all((uses == 2) | ((uses == 1) & ~mesh_arrays.open_edges(mesh))))
+        closed = bool(np.all((uses == 2) | ((uses == 1) & ~mesh_arrays.open_edges(mesh, places))))
         return cls(points, corners[solid], kept, vertex_part, closed)
 
 

@@ -211,15 +211,12 @@ def surface(
         islands = mesh_arrays.face_islands(mesh, places)
         if islands.max(initial=0) == 0 and not meeting:  # one part alone: no corner its mesh does not have
             return found
-        own = contacts.Triangles.of(mesh, matrix_world, islands)
+        own = contacts.Triangles.of(mesh, matrix_world, places, islands)
     met = []
     for other in meeting:
         with evaluated_mesh(other, depsgraph) as (mesh, matrix_world):
-            met.append(
-                contacts.Triangles.of(
-                    mesh, matrix_world, mesh_arrays.face_islands(mesh, mesh_arrays.border_places(mesh))
-                )
-            )
+            seams = mesh_arrays.border_places(mesh)
+            met.append(contacts.Triangles.of(mesh, matrix_world, seams, mesh_arrays.face_islands(mesh, seams)))
     if own.part.max(initial=0) == 0 and not met:  # a hollow's inner wall is not a part of its own
         return found
     origin = (own.points.min(axis=0) + own.points.max(axis=0)) / 2.0  # the rays' single precision about it
@@ -240,8 +237,7 @@ def _surface(mesh, matrix_world, radius, name, places):
     joined = np.flatnonzero(places != np.arange(len(places)))
     if len(joined):
         corner_verts = places[corner_verts].astype(np.int32)
-        ends = np.sort(places[edge_verts], axis=1).astype(np.int64)
-        keys, edge_of = np.unique(ends[:, 0] * len(places) + ends[:, 1], return_inverse=True)  # one int a pair
+        keys, edge_of = np.unique(mesh_arrays.edge_keys(edge_verts, places), return_inverse=True)
         edge_verts = np.stack([keys // len(places), keys % len(places)], axis=1).astype(np.int32)
         corner_edges = edge_of.reshape(-1)[corner_edges].astype(np.int32)
     found = mesh_surface(

@@ -151,11 +151,12 @@ def _stray_parts(obj):
     in_body = on_surface & ~stray[islands[faces]]
     if not stray.any() or not in_body.any():
         return None
-    body, every = points[corners[in_body]], points[corners[on_surface]]
-    ratio = np.linalg.norm(np.ptp(every, axis=0)) / max(np.linalg.norm(np.ptp(body, axis=0)), 1e-300)
+    body = points[corners[in_body]]
+    body_size = np.linalg.norm(np.ptp(body, axis=0))
+    ratio = np.linalg.norm(np.ptp(points[corners[on_surface]], axis=0)) / max(body_size, 1e-300)
     if ratio <= STRAY_SIZE:
         return None
-    reach = STRAY_REACH * np.linalg.norm(np.ptp(body, axis=0))  # a crumb on the body's rim is on it
+    reach = STRAY_REACH * body_size  # a crumb on the body's rim is on it
     low, high = body.min(axis=0) - reach, body.max(axis=0) + reach
     beyond = on_surface & np.any((points[corners] < low) | (points[corners] > high), axis=1)
     outside = np.unique(islands[faces[beyond]])
