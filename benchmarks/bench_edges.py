@@ -1,6 +1,6 @@
 """Edge/cavity mask: timings, and the measurements behind its defaults (docs/maps.md, "Edge/cavity mask").
 
-    python benchmarks/bench_edges.py [--max-vertices N] [--rounds N] [--no-image] [--crumbs] [--study]
+    python benchmarks/bench_edges.py [--max-vertices N] [--rounds N] [--no-image] [--crumbs] [--gltf] [--study]
 
 1. The attribute mask (``edges.write_curvature_attribute`` with the default settings:
    evaluate, sample, smooth, map, write ``pw_edges``) on the scan-like bust
@@ -17,7 +17,11 @@
 3. With ``--crumbs``: the 400k-triangle bust with 0 to 30 000 loose crumbs about its surface
    (a photogrammetry scan's floaters: 1 mm octahedra within 3 mm of it), each crumb a loose
    part, so the mask reads where parts meet (``contacts``): the time against the crumbs'.
-4. With ``--study``: how the defaults were chosen. (a) The bust with and without its scan
+4. With ``--gltf``: the bust of 100k and 1M triangles (metres, Smart UV Project) through
+   Blender's glTF exporter and importer, which leave it split at its UV seams: its islands, its
+   mask's mean and largest difference from the welded bust's at the same places, the mask's
+   time welded and through glTF (best of the rounds), and the scan checks' time.
+5. With ``--study``: how the defaults were chosen. (a) The bust with and without its scan
    noise at edge scales 0.25% to 4% of its size: how far the noise moves the mask, and how
    much of the surface the mask lights. (b) The bundled samples at the same scales, with the
    cavity and edge weights (1, 1) and (1, 0.5). (c) The same bust in millimetres, metres and
@@ -27,6 +31,7 @@
 import argparse
 import pathlib
 import sys
+import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
@@ -43,7 +48,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import scan_generator  # noqa: E402  (sample_blends/scan_generator.py)
 import timing  # noqa: E402  (benchmarks/timing.py)
 
-from porous_weathering.maps import edges  # noqa: E402
+from porous_weathering.blender import mesh_arrays  # noqa: E402
+from porous_weathering.maps import edges, scan_checks  # noqa: E402
 
 IMAGES = ROOT / "docs" / "img"
 TRIANGLES = (20_000, 40_000, 80_000, 200_000, 400_000, 1_000_000, 2_000_000)  # about half as many vertices
@@ -99,6 +105,62 @@ def crumb_timings(rounds, triangles=400_000, counts=(0, 300, 3_000, 30_000)):
         first = first or wall
         print(f"| {count:,} | {wall:.2f} | {cpu:.2f} | {wall / first:.2f} |", flush=True)
         bpy.data.meshes.remove(obj.data)
+
+
+def gltf_comparison(rounds, sizes=(100_000, 1_000_000)):
+    """The bust welded against the same bust through glTF (split at its UV seams), per size."""
+    print(f"{machine.describe(bpy.app.version_string)}")
+    print(
+        "\n| triangles | vertices welded / through glTF | islands | mask mean welded / glTF | largest difference "
+        "| mask s welded / glTF | scan checks s (glTF) |"
+    )
+    print("|---:|---:|---:|---:|---:|---:|---:|")
+    for triangles in sizes:
+        print(gltf_row(triangles, rounds), flush=True)
+
+
+def gltf_row(triangles, rounds):
+    """gltf_comparison's row for the bust of ``triangles``."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    vertices, faces = scan_generator.bust_mesh(triangles, seed=0)
+    welded = scan_generator.add_to_scene("Bust", vertices * 0.001, faces)
+    bpy.context.view_layer.objects.active = welded
+    welded.select_set(True)
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    welded_time, welded_mask = best_mask(welded, rounds)
+    with tempfile.TemporaryDirectory() as folder:
+        path = str(pathlib.Path(folder) / "bust.glb")
+        bpy.ops.export_scene.gltf(filepath=path, use_selection=True)
+        bpy.ops.import_scene.gltf(filepath=path)
+    (split,) = [obj for obj in bpy.context.scene.objects if obj.type == "MESH" and obj is not welded]
+    split_time, mask = best_mask(split, rounds)
+    at = dict(zip(world_places(welded), welded_mask))
+    there = np.array([at[key] for key in world_places(split)])  # the welded mask at the split's vertices
+    checks = timing.wall_and_cpu_seconds(lambda: scan_checks.problems(split))[0]
+    return (
+        f"| {triangles:,} | {len(welded.data.vertices):,} / {len(split.data.vertices):,} "
+        f"| {mesh_arrays.face_islands(split.data).max() + 1:,} | {there.mean():.3f} / {mask.mean():.3f} "
+        f"| {np.abs(mask - there).max():.2e} | {welded_time:.2f} / {split_time:.2f} | {checks:.2f} |"
+    )
+
+
+def best_mask(obj, rounds):
+    """(best wall seconds, mask) of ``edges.write_curvature_attribute`` on ``obj`` over ``rounds``,
+    the mask read back from the attribute it writes."""
+    seconds = min(timing.wall_and_cpu_seconds(lambda: edges.write_curvature_attribute(obj))[0] for _ in range(rounds))
+    colours = np.empty(len(obj.data.vertices) * 4, np.float32)
+    obj.data.color_attributes[edges.EDGE_ATTRIBUTE].data.foreach_get("color", colours)
+    return seconds, colours[0::4]
+
+
+def world_places(obj):
+    """Each vertex's world position as a tuple of float32, a key."""
+    matrix = np.array(obj.matrix_world)
+    local = mesh_arrays.attribute(obj.data, "position", np.float32, 3)
+    return map(tuple, (local @ matrix[:3, :3].T + matrix[:3, 3]).astype(np.float32))
 
 
 def torus(segments, radius=1.0):
@@ -295,6 +357,7 @@ def main():
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--no-image", action="store_true", help="time the attribute mask only")
     parser.add_argument("--crumbs", action="store_true", help="the bust with loose crumbs, not the timings")
+    parser.add_argument("--gltf", action="store_true", help="the bust welded and through glTF, not the timings")
     parser.add_argument("--study", action="store_true", help="the measurements behind the defaults, not the timings")
     args = parser.parse_args()
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -303,6 +366,9 @@ def main():
         return
     if args.crumbs:
         crumb_timings(args.rounds)
+        return
+    if args.gltf:
+        gltf_comparison(args.rounds)
         return
     timings(args)
     if not args.no_image:
