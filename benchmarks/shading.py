@@ -40,8 +40,10 @@ FRAME = 2.0
 PIXEL_FILTER = 1.5
 BASELINE = "Diffuse+Glossy"
 #: Masks as constants at t = 0.7, chosen so that every fill lies strictly between 0 and 1
-#: (checked by fills()): at 0 or 1 Cycles would fold part of a mode's live nodes away.
-WEATHERING = dict(time=0.7, rain_map=0.4, edge_map=0.45, efflorescence_map=0.42)
+#: (checked by fills()): at 0 or 1 Cycles would fold part of a mode's live nodes away.  The
+#: fronts are front_width (0.1) wide and the washing threshold another 0.4 above them, so the
+#: threshold is set where one rain value falls inside both.
+WEATHERING = dict(time=0.7, rain_map=0.35, edge_map=0.35, efflorescence_map=0.32, rain_threshold=0.4)
 
 
 def fills():

@@ -14,12 +14,13 @@ parameters, the lime mortar in the joints.
 
 import bpy
 
+import bmesh
 import numpy as np
 import pytest
 
 import porous_weathering as pw
 from helpers import assert_matches, presets_row, stone_glossy_lobe, stone_parameters, stone_probe, stone_shifted
-from porous_weathering.blender import render
+from porous_weathering.blender import mesh_arrays, render
 from porous_weathering.contracts import STONE_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.core.backends import NumpyOps
@@ -400,6 +401,29 @@ def test_mark_blocks_writes_each_faces_block(fresh_scene):
         presets.mark_blocks(obj, "VERTEX_GROUPS")
     with pytest.raises(ValueError, match="not a mesh"):
         presets.mark_blocks(fresh_scene.camera or bpy.data.objects.new("Empty", None))
+
+
+def test_a_block_split_along_its_seams_is_one_block(fresh_scene):
+    """Blender's glTF importer splits a mesh at its UV seams and hard edges: a wall of three
+    flat-shaded blocks, each split at every edge, is 18 loose faces, yet each block's faces are
+    one block. Two blocks that touch face to face stay two (where four borders meet, nothing is
+    joined: the two hidden faces between them are blocks of their own, which no view shows)."""
+    bm = bmesh.new()
+    for x in (0.0, 0.5, 1.02):  # the first two touch; a 2 cm joint before the third
+        made = bmesh.ops.create_cube(bm, size=0.5)
+        bmesh.ops.translate(bm, vec=(x, 0.0, 0.0), verts=made["verts"])
+    bmesh.ops.split_edges(bm, edges=bm.edges[:])
+    mesh = bpy.data.meshes.new("Split blocks")
+    bm.to_mesh(mesh)
+    bm.free()
+    obj = studio.link(fresh_scene, bpy.data.objects.new("Split blocks", mesh))
+    assert len(np.unique(mesh_arrays.face_islands(mesh))) == 18  # one per face
+    blocks = presets.face_blocks(obj)
+    centres = np.array([face.center for face in mesh.polygons])
+    seen = np.abs(centres[:, 0] - 0.25) > 1e-6  # not the two faces where the blocks touch
+    per_block = [np.unique(blocks[k : k + 6][seen[k : k + 6]]) for k in (0, 6, 12)]
+    assert [len(found) for found in per_block] == [1, 1, 1]
+    assert len(np.unique(np.concatenate(per_block))) == 3
 
 
 def test_blocks_the_mesh_knows_each_take_their_own_draw(fresh_scene):

@@ -60,3 +60,9 @@ def test_the_folding_check_renders_its_baseline():
     (base, folded), sun = render_each((shading.BASELINE, shading.FOLDED), samples=2)
     assert np.abs(base - folded).max() < 1e-6
     assert shading.FOLDED not in shading.materials(sun)
+
+
+def test_the_constant_masks_put_every_fill_inside_its_front():
+    """shading.py refuses to run when a fill of its constant masks is 0 or 1 (Cycles would fold
+    that mode's nodes away): the masks must stay inside the defaults' fronts."""
+    assert all(0.0 < value < 1.0 for value in shading.fills().values()), shading.fills()

@@ -111,14 +111,44 @@ def edge_keys(ends, places):
 
 
 def border_places(mesh):
-    """Each vertex's number, the same for the vertices of open borders (edges of one face) at the
-    same place bit for bit: the least of them; every other vertex its own index (vertices,)."""
+    """Each vertex's number (vertices,), the same for the vertices a seam joins: two open borders
+    (edges of one face) that lie on each other end to end bit for bit, and no third, are a seam
+    where the surface was split (as importers leave a glTF's at its UV seams and hard edges); its
+    ends are one place, numbered by the least vertex of all it joins. Borders where more meet
+    (split blocks touching face to face) join nothing; every other vertex is its own number."""
     place = np.arange(len(mesh.vertices))
-    border = np.unique(attribute(mesh, ".edge_verts", np.int32, 2)[edge_uses(mesh) == 1])
-    if len(border):
-        first, same = row_groups(attribute(mesh, "position", np.float32, 3)[border])
-        place[border] = border[first][same]
-    return place
+    ends = attribute(mesh, ".edge_verts", np.int32, 2)[edge_uses(mesh) == 1]
+    border = np.unique(ends)
+    if not len(border):
+        return place
+    first, same = row_groups(attribute(mesh, "position", np.float32, 3)[border])
+    at = place.copy()
+    at[border] = border[first][same]  # each border vertex by its position
+    _, edge_group, counts = np.unique(edge_keys(ends, at), return_inverse=True, return_counts=True)
+    seam = np.flatnonzero(counts[edge_group.reshape(-1)] == 2)
+    pair = seam[np.argsort(edge_group.reshape(-1)[seam], kind="stable")].reshape(-1, 2)
+    one, other = ends[pair[:, 0]], ends[pair[:, 1]]
+    crossed = at[one[:, 0]] != at[other[:, 0]]  # the other edge runs the other way
+    other[crossed] = other[crossed, ::-1]
+    return components(place, np.concatenate([one, other]).reshape(2, -1).T)
+
+
+def components(label, links):
+    """Each of ``label``'s items (a range's numbers, each its own at first) numbered by the least
+    item it is joined to through ``links`` (L, 2): each pass takes the least label among an
+    item's links (grouped once, as ``np.minimum.at`` is many times slower), then jumps pointers."""
+    if not len(links):
+        return label
+    ends = np.concatenate([links, links[:, ::-1]])
+    ends = ends[np.argsort(ends[:, 0], kind="stable")]
+    items, starts = np.unique(ends[:, 0], return_index=True)
+    while True:
+        spread = label.copy()
+        spread[items] = np.minimum(label[items], np.minimum.reduceat(label[ends[:, 1]], starts))
+        spread = spread[spread[spread]]  # pointer jumping, twice: fewer passes
+        if np.array_equal(spread, label):
+            return label
+        label = spread
 
 
 def row_groups(rows):
@@ -134,10 +164,10 @@ def row_groups(rows):
 def face_islands(mesh, places=None):
     """Each face's loose part (faces joined through shared vertices), numbered 0, 1, ... in the
     order of their first faces, as int32 (faces,). With ``places`` (each vertex's number,
-    ``border_places``), vertices of one number are one: open borders that lie on each other join
-    (a surface split along its UV seams, as importers leave a glTF's; tiles laid edge to edge),
-    while closed parts that touch stay apart. Labels spread along the corners to the least of
-    each part, with pointer jumping, so a part of any shape takes a few dozen passes."""
+    ``border_places``), vertices of one number are one: a surface split along its seams is one
+    part (as importers leave a glTF's; tiles laid edge to edge), while closed parts that touch,
+    and split ones that touch face to face, stay apart. Labels spread along the corners to the
+    least of each part, with pointer jumping, so a part of any shape takes a few dozen passes."""
     starts = loop_starts(mesh)
     if not len(starts):
         return np.zeros(0, dtype=np.int32)

@@ -61,8 +61,9 @@ MARGIN = 4
 #: sun map by its own shadow rays, exact where nothing shadows; 5: the edge mask with the corners
 #: where parts meet, ``contacts``; 6: a surface split at its seams read whole, by the edge mask
 #: and the run-off (``mesh_arrays.border_places``, ``open_edges``), and geometry duplicated in
-#: place read as the part alone, ``contacts.repeats_another_part``).
-BAKE_VERSION = 6
+#: place read as the part alone, ``contacts.repeats_another_part``; 7: only two borders on one
+#: edge are a seam, so split blocks that touch face to face stay apart).
+BAKE_VERSION = 7
 
 
 def __getattr__(name):

@@ -322,7 +322,8 @@ FACE_SET_ATTRIBUTE = ".sculpt_face_set"
 
 def face_blocks(obj: "bpy.types.Object", source: str = "ISLANDS") -> np.ndarray:
     """Each face's block of ``obj``'s mesh (docs/model.md §8.5), read, not written: its loose part
-    ("ISLANDS": a wall modelled block by block) or its sculpt face set ("FACE_SETS"). ValueError
+    ("ISLANDS": a wall modelled block by block; a block split along its seams, as importers leave
+    a glTF's, is one part) or its sculpt face set ("FACE_SETS"). ValueError
     for an object without a mesh, an unknown source, or a mesh without face sets."""
     if getattr(obj, "type", None) != "MESH":
         raise ValueError(f"{getattr(obj, 'name', obj)!r} is not a mesh object: its blocks come from its faces")
@@ -331,7 +332,7 @@ def face_blocks(obj: "bpy.types.Object", source: str = "ISLANDS") -> np.ndarray:
         if FACE_SET_ATTRIBUTE not in mesh.attributes:
             raise ValueError(f"{obj.name!r} has no face sets: make them in Sculpt mode, or use source='ISLANDS'")
         return mesh_arrays.attribute(mesh, FACE_SET_ATTRIBUTE, np.int32)
-    return mesh_arrays.face_islands(mesh)
+    return mesh_arrays.face_islands(mesh, mesh_arrays.border_places(mesh))
 
 
 def write_blocks(obj: "bpy.types.Object", blocks: np.ndarray, attribute: str = MeshBlocks.attribute) -> int:
