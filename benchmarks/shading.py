@@ -39,29 +39,6 @@ FRAME = 2.0
 #: Blender's default pixel filter (render.use_cycles' default samples pixel centres only).
 PIXEL_FILTER = 1.5
 BASELINE = "Diffuse+Glossy"
-#: Masks as constants at t = 0.7, chosen so that every fill lies strictly between 0 and 1
-#: (checked by fills()): at 0 or 1 Cycles would fold part of a mode's live nodes away.  The
-#: fronts are front_width (0.1) wide and the washing threshold another 0.4 above them, so the
-#: threshold is set where one rain value falls inside both.
-WEATHERING = dict(time=0.7, rain_map=0.35, edge_map=0.35, efflorescence_map=0.32, rain_threshold=0.4)
-
-
-def fills():
-    """The weathering fractions that WEATHERING gives, by the model: each must be in (0, 1)."""
-    s = model.weathering_state(model.MODES, WEATHERING)
-
-    def front(mask, level):
-        return float(model.pore_fill(s[mask], s["time"], s[level], s["front_width"]))
-
-    # soiling's sheltered fraction rises linearly from 0 at the rain threshold over the front width
-    return {
-        "sheltered": (s["rain_threshold"] - s["rain_map"]) / s["front_width"],
-        "carbon front": front("edge_map", "soiling_level"),
-        "water": front("rain_map", "wet_level"),
-        "salt": front("efflorescence_map", "efflorescence_level"),
-    }
-
-
 #: The sphere's colour attribute that stands for baked maps: a mask that changes from point to
 #: point, as every map a user bakes does (a constant mask lets Cycles fold part of the maths).
 MAP_ATTRIBUTE = "pw_bench_map"
@@ -73,7 +50,7 @@ def weathered(modes, key_light, maps=(), stone=None):
     """The material of ``modes``; ``maps``: the mask inputs read from MAP_ATTRIBUTE (BAKED_MAPS,
     EVERY_MAP); ``stone``: a preset key whose structure the material takes (docs/model.md §8)."""
     masks = {name: MAP_ATTRIBUTE for name in maps}
-    state = {name: value for name, value in {**WEATHERING, **masks}.items() if name in model.inputs_of(modes)}
+    state = {name: value for name, value in {**speed.WEATHERING, **masks}.items() if name in model.inputs_of(modes)}
     name = "+".join(modes) + (f" {stone}" if stone else "")
     return pw.make_weathered_material(name, modes=modes, key_light=key_light, stone=stone, **speed.stone(), **state)
 
@@ -96,7 +73,8 @@ FOLDED_CHAIN = 20
 FOLDED = f"Diffuse+Glossy, {FOLDED_CHAIN} Math nodes behind a Map Range of constants"
 #: The weathered material with a stone's structure (docs/model.md §8), against the same without it.
 STRUCTURED_STONE = "LIMESTONE"
-STRUCTURED = f"all three modes, key light, baked maps, the {STRUCTURED_STONE.lower()}'s structure"
+UNSTRUCTURED = "all three modes, key light, baked maps"
+STRUCTURED = f"{UNSTRUCTURED}, the {STRUCTURED_STONE.lower()}'s structure"
 #: The masks "baked maps" reads from MAP_ATTRIBUTE (the rest keep their defaults: no run-off, damp
 #: or shade, which Cycles folds), and every mask the modes have (the run-off map brings the
 #: rivulets, docs/model.md §8.8).
@@ -107,6 +85,8 @@ STRUCTURED_ON_EVERY_MAP = f"{ON_EVERY_MAP}, the {STRUCTURED_STONE.lower()}'s str
 #: Materials shading_instructions.py can count but the timings leave out: designs measured, not
 #: shipped, a check of what Cycles folds, and the weathered material on every map.
 EXPERIMENTS = ("porous key light, lookup texture", FOLDED, ON_EVERY_MAP, STRUCTURED_ON_EVERY_MAP)
+#: (without, with) the stone's structure: what it adds per sample (issue 32, item 5).
+STRUCTURE_PAIRS = ((UNSTRUCTURED, STRUCTURED), (ON_EVERY_MAP, STRUCTURED_ON_EVERY_MAP))
 
 
 def folded_chain_material():
@@ -192,7 +172,7 @@ def material_makers(sun):
         FOLDED: folded_chain_material,
         "all three modes, key light": lambda: weathered(model.MODES, sun),
         "all three modes, ambient": lambda: weathered(model.MODES, None),
-        "all three modes, key light, baked maps": lambda: weathered(model.MODES, sun, BAKED_MAPS),
+        UNSTRUCTURED: lambda: weathered(model.MODES, sun, BAKED_MAPS),
         STRUCTURED: lambda: weathered(model.MODES, sun, BAKED_MAPS, stone=STRUCTURED_STONE),
         ON_EVERY_MAP: lambda: weathered(model.MODES, sun, EVERY_MAP),
         STRUCTURED_ON_EVERY_MAP: lambda: weathered(model.MODES, sun, EVERY_MAP, stone=STRUCTURED_STONE),
@@ -200,8 +180,11 @@ def material_makers(sun):
     }
 
 
-def materials(sun):
-    return {name: make() for name, make in material_makers(sun).items() if name not in EXPERIMENTS}
+def materials(sun, names=None):
+    """name -> material: ``names`` (the baseline always with them), else every one but EXPERIMENTS."""
+    makers = material_makers(sun)
+    chosen = [BASELINE, *(name for name in names if name != BASELINE)] if names else makers
+    return {name: makers[name]() for name in chosen if names or name not in EXPERIMENTS}
 
 
 def scene_filling_the_frame(size, threads=0):
@@ -250,16 +233,17 @@ def slope_cell(times, name):
     return f"{1000 * median:.1f} ({min(slopes) / median - 1:+.0%}..{max(slopes) / median - 1:+.0%})"
 
 
-def best_ratio(times, name):
-    """The slope between the fastest render at each sample count, against the baseline's: a
-    shared machine only ever slows a render down, so the best of the rounds is the estimate the
-    other jobs disturb least (as timeit reports its minimum)."""
+def best_slope(times, name):
+    """The slope between the fastest render at each sample count: a shared machine only ever
+    slows a render down, so the best of the rounds is the estimate the other jobs disturb least
+    (as timeit reports its minimum)."""
     low, high = SAMPLES
+    return (min(times[name, high]) - min(times[name, low])) / (high - low)
 
-    def slope(material):
-        return (min(times[material, high]) - min(times[material, low])) / (high - low)
 
-    return f"{slope(name) / slope(BASELINE):.3f}"
+def best_ratio(times, name):
+    """``best_slope`` against the baseline's."""
+    return f"{best_slope(times, name) / best_slope(times, BASELINE):.3f}"
 
 
 def busy_threads(wall, cpu):
@@ -268,11 +252,29 @@ def busy_threads(wall, cpu):
     return statistics.median(c / w for key in wall if key[1] == SAMPLES[-1] for w, c in zip(wall[key], cpu[key]))
 
 
-def report(size, rounds, threads=0):
+def structure_lines(wall, cpu):
+    """What the stone's structure adds per sample, for each pair of STRUCTURE_PAIRS timed: the
+    per-round ratio of the two materials' slopes (median, range), wall and CPU, and the CPU's best
+    of rounds."""
+    lines = []
+    for without, structured in STRUCTURE_PAIRS:
+        if (structured, SAMPLES[0]) not in wall or (without, SAMPLES[0]) not in wall:
+            continue
+        by_wall, by_cpu = (timing.costs(times, [structured], SAMPLES, without)[structured] for times in (wall, cpu))
+        best = best_slope(cpu, structured) / best_slope(cpu, without)
+        lines.append(
+            f'- **The {STRUCTURED_STONE.lower()}\'s structure** on "{without}": × {timing.ratio_cell(by_wall)} '
+            f"wall, × {timing.ratio_cell(by_cpu)} CPU, × {best:.3f} CPU best of rounds (per-round ratios of the "
+            f"two materials' costs of one sample)."
+        )
+    return "\n\n" + "\n".join(lines) if lines else ""
+
+
+def report(size, rounds, threads=0, names=None):
     load_start = os.getloadavg()
     where = machine.describe(bpy.app.version_string)
     scene, obj, sun, coverage = scene_filling_the_frame(size, threads)
-    candidates = materials(sun)
+    candidates = materials(sun, names)
     wall, cpu, loads = rotating_rounds(scene, obj, candidates, rounds)
     load_end = os.getloadavg()
     by_wall, by_cpu = (timing.costs(times, candidates, SAMPLES, BASELINE) for times in (wall, cpu))
@@ -297,7 +299,7 @@ def report(size, rounds, threads=0):
         "× Diffuse+Glossy, CPU (range)",
         "× Diffuse+Glossy, CPU, best of rounds",
     ]
-    state = ", ".join(f"{name} {value:.2f}" for name, value in fills().items())
+    state = ", ".join(f"{name} {value:.2f}" for name, value in speed.fills().items())
 
     def loadavg(values):
         return " / ".join(f"{value:.2f}" for value in values)
@@ -314,10 +316,11 @@ def report(size, rounds, threads=0):
         f"per wall s while rendering {SAMPLES[1]} samples with {threads or os.cpu_count()} render threads on "
         f"{os.cpu_count()} cores). "
         f"Weathered materials: masks as constants, "
-        f"{', '.join(f'{k} {v}' for k, v in WEATHERING.items())} (by the model: {state}); "
+        f"{', '.join(f'{k} {v}' for k, v in speed.WEATHERING.items())} (by the model: {state}); "
         f"with baked maps, every mask from a colour attribute rising with height from {MAP_RANGE[0]} to "
         f"{MAP_RANGE[1]}.\n\n"
         + scenes.markdown_table(header, rows)
+        + structure_lines(wall, cpu)
         + f"\n\nLoad average (1 / 5 / 15 min): {loadavg(load_start)} at the start, {loadavg(load_end)} at the end; "
         f"1-min after each round: {loadavg(loads)} (this benchmark's own render threads add up to "
         f"{threads or os.cpu_count()}: above that, other jobs shared the cores)."
@@ -335,12 +338,17 @@ def main():
         help="render threads (default: one per core); 1 leaves a core to the rest of a shared machine",
     )
     parser.add_argument("--quick", action="store_true", help="2 rounds: a smoke check, not a measurement")
+    parser.add_argument(
+        "--materials",
+        nargs="+",
+        choices=list(material_makers(None)),
+        metavar="NAME",
+        help="time these (and the baseline) only; EXPERIMENTS may be named too",
+    )
     parser.add_argument("--out", type=pathlib.Path, help="write the markdown here instead of printing it")
     args = parser.parse_args()
-    outside = {name: value for name, value in fills().items() if not 0.0 < value < 1.0}
-    if outside:
-        parser.error(f"WEATHERING puts {outside} at a bound, where Cycles folds nodes away")
-    scenes.print_or_write(report(args.size, 2 if args.quick else args.rounds, args.threads), args.out)
+    speed.check_fills(parser)
+    scenes.print_or_write(report(args.size, 2 if args.quick else args.rounds, args.threads, args.materials), args.out)
 
 
 if __name__ == "__main__":

@@ -34,12 +34,38 @@ SAMPLES = {"CYCLES": (16, 64), "EEVEE": (1, 4)}
 BASELINE = "Diffuse+Glossy"
 #: The target (docs/benchmarks.md) for the porous material's overhead over Diffuse + Glossy at equal samples.
 TARGET = 1.15
-#: Mask values that put every mode mid-way through its weathering (all three fills active).
-WEATHERING = dict(time=0.6, rain_map=0.4, edge_map=0.7, efflorescence_map=0.6)
+#: Masks as constants at t = 0.7 that put every mode mid-way through its weathering: every fill
+#: strictly between 0 and 1 (``fills``), where Cycles would fold part of a mode's live nodes away.
+#: The fronts are front_width (0.1) wide and the washing threshold another 0.4 above them, so the
+#: threshold is set where one rain value falls inside both.
+WEATHERING = dict(time=0.7, rain_map=0.35, edge_map=0.35, efflorescence_map=0.32, rain_threshold=0.4)
 REFERENCE_SAMPLES = 4096
 #: Errors are measured on every 4th pixel of every 4th row: a 4096-sample reference of each
 #: pixel would take minutes, and noise per pixel does not depend on the resolution.
 ERROR_STRIDE = 4
+
+
+def fills():
+    """The weathering fractions that WEATHERING gives, by the model: each must be in (0, 1)."""
+    s = model.weathering_state(model.MODES, WEATHERING)
+
+    def front(mask, level):
+        return float(model.pore_fill(s[mask], s["time"], s[level], s["front_width"]))
+
+    # soiling's sheltered fraction rises linearly from 0 at the rain threshold over the front width
+    return {
+        "sheltered": (s["rain_threshold"] - s["rain_map"]) / s["front_width"],
+        "carbon front": front("edge_map", "soiling_level"),
+        "water": front("rain_map", "wet_level"),
+        "salt": front("efflorescence_map", "efflorescence_level"),
+    }
+
+
+def check_fills(parser):
+    """Refuse to run, through ``parser``, when WEATHERING puts a fill at a bound."""
+    outside = {name: value for name, value in fills().items() if not 0.0 < value < 1.0}
+    if outside:
+        parser.error(f"WEATHERING puts {outside} at a bound, where Cycles folds nodes away")
 
 
 def stone(porous=True):
@@ -173,6 +199,7 @@ def main():
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--images", type=pathlib.Path, default=pathlib.Path("docs/img"))
     args = parser.parse_args()
+    check_fills(parser)
     sections = []
     for engine, (low, high) in SAMPLES.items():
         results = measure(engine, args.size, args.rounds)

@@ -1,10 +1,11 @@
 """The shading benchmarks' own pieces (benchmarks/shading.py, shading_instructions.py): the
 lookup-texture experiment renders what docs/benchmarks.md says it does, the folding check renders
-its baseline, and the instruction report groups C++ functions by name."""
+its baseline, the instruction report groups C++ functions by name, and the constant masks keep
+every fill inside its front."""
 
 import numpy as np
 
-from benchmarks import shading, shading_instructions
+from benchmarks import shading, shading_instructions, speed
 from porous_weathering.blender import render
 from porous_weathering.samples import studio
 
@@ -63,6 +64,6 @@ def test_the_folding_check_renders_its_baseline():
 
 
 def test_the_constant_masks_put_every_fill_inside_its_front():
-    """shading.py refuses to run when a fill of its constant masks is 0 or 1 (Cycles would fold
-    that mode's nodes away): the masks must stay inside the defaults' fronts."""
-    assert all(0.0 < value < 1.0 for value in shading.fills().values()), shading.fills()
+    """shading.py and speed.py refuse to run when a fill of their constant masks is 0 or 1 (Cycles
+    would fold that mode's nodes away): the masks must stay inside the defaults' fronts."""
+    assert all(0.0 < value < 1.0 for value in speed.fills().values()), speed.fills()
