@@ -85,7 +85,8 @@ STRUCTURED_ON_EVERY_MAP = f"{ON_EVERY_MAP}, the {STRUCTURED_STONE.lower()}'s str
 #: Materials shading_instructions.py can count but the timings leave out: designs measured, not
 #: shipped, a check of what Cycles folds, and the weathered material on every map.
 EXPERIMENTS = ("porous key light, lookup texture", FOLDED, ON_EVERY_MAP, STRUCTURED_ON_EVERY_MAP)
-#: (without, with) the stone's structure: what it adds per sample (docs/benchmarks.md, "The structure's cost per sample, timed").
+#: (without, with) the stone's structure: what it adds per sample (docs/benchmarks.md, "The
+#: structure's cost per sample, timed").
 STRUCTURE_PAIRS = ((UNSTRUCTURED, STRUCTURED), (ON_EVERY_MAP, STRUCTURED_ON_EVERY_MAP))
 
 
