@@ -426,6 +426,40 @@ def test_a_block_split_along_its_seams_is_one_block(fresh_scene):
     assert len(np.unique(np.concatenate(per_block))) == 3
 
 
+def test_a_wall_of_blocks_through_gltf_keeps_its_blocks(fresh_scene, tmp_path):
+    """A wall modelled block by block (flat-shaded, UV-unwrapped), exported and imported with
+    Blender's glTF add-on as a user brings it: the importer splits each block at its hard edges
+    and UV seams, yet Loose Parts finds the wall's four blocks, each whole (before: one block per
+    face, two dozen)."""
+    starts = (0.0, 0.51, 1.02, 1.52)  # 1 cm joints; the last two touch face to face
+    bm = bmesh.new()
+    for x in starts:
+        made = bmesh.ops.create_cube(bm, size=0.5)
+        bmesh.ops.translate(bm, vec=(x + 0.25, 0.0, 0.25), verts=made["verts"])
+    mesh = bpy.data.meshes.new("Wall")
+    bm.to_mesh(mesh)
+    bm.free()
+    wall = studio.link(fresh_scene, bpy.data.objects.new("Wall", mesh))
+    bpy.context.view_layer.objects.active = wall
+    wall.select_set(True)
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    bpy.ops.export_scene.gltf(filepath=str(tmp_path / "wall.glb"), use_selection=True)
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.import_scene.gltf(filepath=str(tmp_path / "wall.glb"))
+    (imported,) = [obj for obj in bpy.context.scene.objects if obj.type == "MESH"]
+    assert mesh_arrays.face_islands(imported.data).max() + 1 >= 24  # split, as the importer leaves it
+    centres = np.array([imported.matrix_world @ face.center for face in imported.data.polygons])
+    seen = np.abs(centres[:, 0] - 1.52) > 1e-4  # not the two faces where the last blocks touch
+    cube = np.searchsorted(starts, centres[:, 0] + 1e-4) - 1  # the block each face lies on
+    blocks = presets.face_blocks(imported)
+    found = [np.unique(blocks[seen & (cube == k)]) for k in range(len(starts))]
+    assert [len(each) for each in found] == [1, 1, 1, 1]
+    assert len(np.unique(np.concatenate(found))) == len(starts)
+
+
 def test_blocks_the_mesh_knows_each_take_their_own_draw(fresh_scene):
     """A wall of six blocks modelled one by one: each block (its loose part) has one draw b,
     neighbours differ, and the per-point parameters are the numpy maths of the read-back fields
