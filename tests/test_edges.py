@@ -6,6 +6,7 @@ import bmesh
 import numpy as np
 import pytest
 
+from helpers import through_gltf
 from porous_weathering.blender import mesh_arrays
 from porous_weathering.maps import bake, edges
 from porous_weathering.maps import curvature as curvature_maths
@@ -474,17 +475,7 @@ def test_a_mesh_through_gltf_reads_as_it_does_welded(fresh_scene, tmp_path):
     mesh = bpy.data.meshes.new("Exported")
     bm.to_mesh(mesh)
     bm.free()
-    exported = link(fresh_scene, mesh, "Exported")
-    bpy.context.view_layer.objects.active = exported
-    exported.select_set(True)
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.uv.smart_project()
-    bpy.ops.object.mode_set(mode="OBJECT")
-    bpy.ops.export_scene.gltf(filepath=str(tmp_path / "sphere.glb"), use_selection=True)
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.import_scene.gltf(filepath=str(tmp_path / "sphere.glb"))
-    (imported,) = [obj for obj in bpy.context.scene.objects if obj.type == "MESH"]
+    imported = through_gltf(link(fresh_scene, mesh, "Exported"), tmp_path)
     assert mesh_arrays.face_islands(imported.data).max() > 10  # split, as the importer leaves it
     bm = bmesh.new()
     bm.from_mesh(imported.data)

@@ -18,6 +18,7 @@ import bmesh
 import numpy as np
 import pytest
 
+import helpers
 import porous_weathering as pw
 from helpers import assert_matches, presets_row, stone_glossy_lobe, stone_parameters, stone_probe, stone_shifted
 from porous_weathering.blender import mesh_arrays, render
@@ -439,17 +440,7 @@ def test_a_wall_of_blocks_through_gltf_keeps_its_blocks(fresh_scene, tmp_path):
     mesh = bpy.data.meshes.new("Wall")
     bm.to_mesh(mesh)
     bm.free()
-    wall = studio.link(fresh_scene, bpy.data.objects.new("Wall", mesh))
-    bpy.context.view_layer.objects.active = wall
-    wall.select_set(True)
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.uv.smart_project()
-    bpy.ops.object.mode_set(mode="OBJECT")
-    bpy.ops.export_scene.gltf(filepath=str(tmp_path / "wall.glb"), use_selection=True)
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.import_scene.gltf(filepath=str(tmp_path / "wall.glb"))
-    (imported,) = [obj for obj in bpy.context.scene.objects if obj.type == "MESH"]
+    imported = helpers.through_gltf(studio.link(fresh_scene, bpy.data.objects.new("Wall", mesh)), tmp_path)
     assert mesh_arrays.face_islands(imported.data).max() + 1 >= 24  # split, as the importer leaves it
     centres = np.array([imported.matrix_world @ face.center for face in imported.data.polygons])
     seen = np.abs(centres[:, 0] - 1.52) > 1e-4  # not the two faces where the last blocks touch
