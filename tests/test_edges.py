@@ -492,6 +492,34 @@ def test_a_mesh_through_gltf_reads_as_it_does_welded(fresh_scene, tmp_path):
     np.testing.assert_allclose(edges.curvature(imported, radius), at, atol=1e-4 / radius)
 
 
+def test_a_triangle_soup_reads_as_its_welded_mesh(fresh_scene):
+    """Some exporters write every triangle with corners of its own (a soup): each edge is then two
+    borders on each other, a seam, so the soup's places are the welded mesh's vertices and it is
+    one part; a third border on an edge (a fin) joins nothing there."""
+    bm = bmesh.new()
+    bmesh.ops.create_icosphere(bm, subdivisions=3, radius=1.0)
+    bmesh.ops.triangulate(bm, faces=bm.faces[:])
+    welded_count = len(bm.verts)
+    bmesh.ops.split_edges(bm, edges=bm.edges[:])  # every triangle its own three vertices
+    mesh = bpy.data.meshes.new("Soup")
+    bm.to_mesh(mesh)
+    bm.free()
+    assert len(mesh.vertices) == 3 * len(mesh.polygons)
+    places = mesh_arrays.border_places(mesh)
+    assert len(np.unique(places)) == welded_count
+    assert not mesh_arrays.face_islands(mesh, places).any()
+    assert not mesh_arrays.open_edges(mesh, places).any()
+    fin = bpy.data.meshes.new("Soup and fin")
+    points = [tuple(v.co) for v in mesh.vertices]
+    a, b, _ = mesh.polygons[0].vertices
+    apex = tuple(2.0 * np.array(points[a]) + 0.5)  # a third triangle on the first triangle's first edge
+    faces = [tuple(face.vertices) for face in mesh.polygons] + [(len(points), len(points) + 1, len(points) + 2)]
+    fin.from_pydata(points + [points[a], points[b], apex], [], faces)
+    fin_places = mesh_arrays.border_places(fin)
+    assert len(np.unique(fin_places)) > welded_count + 1  # the edge's three borders are not joined
+    assert fin_places[len(points)] == len(points)  # the fin's corners stay their own
+
+
 def test_only_points_within_the_radius_of_another_parts_box_are_asked():
     """``contacts.near_another``: a point is near when it lies within the radius of a box
     other than its own part's, of its own object or of one beside it; a point of no part

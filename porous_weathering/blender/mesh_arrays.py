@@ -118,15 +118,19 @@ def border_places(mesh):
     (split blocks touching face to face) join nothing; every other vertex is its own number."""
     place = np.arange(len(mesh.vertices))
     ends = attribute(mesh, ".edge_verts", np.int32, 2)[edge_uses(mesh) == 1]
-    border = np.unique(ends)
+    on_border = np.zeros(len(place), dtype=bool)
+    on_border[ends.ravel()] = True  # a mask, not np.unique: a triangle soup's millions of ends
+    border = np.flatnonzero(on_border)
     if not len(border):
         return place
     first, same = row_groups(attribute(mesh, "position", np.float32, 3)[border])
     at = place.copy()
     at[border] = border[first][same]  # each border vertex by its position
-    _, edge_group, counts = np.unique(edge_keys(ends, at), return_inverse=True, return_counts=True)
-    seam = np.flatnonzero(counts[edge_group.reshape(-1)] == 2)
-    pair = seam[np.argsort(edge_group.reshape(-1)[seam], kind="stable")].reshape(-1, 2)
+    keys = edge_keys(ends, at)
+    order = np.argsort(keys)  # the borders that lie on each other, side by side
+    starts = np.flatnonzero(np.diff(keys[order], prepend=-1))
+    two = starts[np.diff(np.append(starts, len(order))) == 2]  # two borders on an edge, no third
+    pair = np.stack([order[two], order[two + 1]], axis=1)
     one, other = ends[pair[:, 0]], ends[pair[:, 1]]
     crossed = at[one[:, 0]] != at[other[:, 0]]  # the other edge runs the other way
     other[crossed] = other[crossed, ::-1]
@@ -140,8 +144,9 @@ def components(label, links):
     if not len(links):
         return label
     ends = np.concatenate([links, links[:, ::-1]])
-    ends = ends[np.argsort(ends[:, 0], kind="stable")]
-    items, starts = np.unique(ends[:, 0], return_index=True)
+    ends = ends[np.argsort(ends[:, 0])]
+    starts = np.flatnonzero(np.diff(ends[:, 0], prepend=-1))  # each item's first link
+    items = ends[starts, 0]
     while True:
         spread = label.copy()
         spread[items] = np.minimum(label[items], np.minimum.reduceat(label[ends[:, 1]], starts))
