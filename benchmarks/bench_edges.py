@@ -48,6 +48,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import scan_generator  # noqa: E402  (sample_blends/scan_generator.py)
 import timing  # noqa: E402  (benchmarks/timing.py)
 
+from benchmarks.scenes import through_gltf  # noqa: E402
 from porous_weathering.blender import mesh_arrays  # noqa: E402
 from porous_weathering.maps import edges, scan_checks  # noqa: E402
 
@@ -124,18 +125,9 @@ def gltf_row(triangles, rounds):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     vertices, faces = scan_generator.bust_mesh(triangles, seed=0)
     welded = scan_generator.add_to_scene("Bust", vertices * 0.001, faces)
-    bpy.context.view_layer.objects.active = welded
-    welded.select_set(True)
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.uv.smart_project()
-    bpy.ops.object.mode_set(mode="OBJECT")
     welded_time, welded_mask = best_mask(welded, rounds)
     with tempfile.TemporaryDirectory() as folder:
-        path = str(pathlib.Path(folder) / "bust.glb")
-        bpy.ops.export_scene.gltf(filepath=path, use_selection=True)
-        bpy.ops.import_scene.gltf(filepath=path)
-    (split,) = [obj for obj in bpy.context.scene.objects if obj.type == "MESH" and obj is not welded]
+        split = through_gltf(welded, folder, keep=True)
     split_time, mask = best_mask(split, rounds)
     at = dict(zip(world_places(welded), welded_mask))
     there = np.array([at[key] for key in world_places(split)])  # the welded mask at the split's vertices

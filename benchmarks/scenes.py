@@ -2,9 +2,12 @@
 
 A scene is described once, as reference objects (a surface kind, lights, a sky), and this
 module makes its Blender twin, so a render and the reference always show the same thing.
+``through_gltf`` sends an object through Blender's glTF add-on as a user's file arrives (the
+edge benchmark's scan and the tests' split meshes).
 """
 
 import math
+import pathlib
 
 import bpy
 
@@ -138,3 +141,23 @@ def markdown_table(header, rows):
     lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
     lines += ["| " + " | ".join(str(cell) for cell in row) + " |" for row in rows]
     return "\n".join(lines)
+
+
+def through_gltf(obj, folder, keep=False):
+    """``obj`` unwrapped by Smart UV Project, exported with Blender's glTF add-on into ``folder``
+    and imported again, split at its UV seams and hard edges as the importer leaves a user's
+    file: the imported mesh object. The scene is emptied before the import unless ``keep``."""
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.uv.smart_project()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    path = str(pathlib.Path(folder) / f"{obj.name}.glb")
+    bpy.ops.export_scene.gltf(filepath=path, use_selection=True)
+    if not keep:
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+    before = set(bpy.context.scene.objects)
+    bpy.ops.import_scene.gltf(filepath=path)
+    (imported,) = [found for found in bpy.context.scene.objects if found.type == "MESH" and found not in before]
+    return imported

@@ -184,8 +184,11 @@ def material_makers(sun):
 def materials(sun, names=None):
     """name -> material: ``names`` (the baseline always with them), else every one but EXPERIMENTS."""
     makers = material_makers(sun)
-    chosen = [BASELINE, *(name for name in names if name != BASELINE)] if names else makers
-    return {name: makers[name]() for name in chosen if names or name not in EXPERIMENTS}
+    if names:
+        chosen = [BASELINE, *(name for name in names if name != BASELINE)]
+    else:
+        chosen = [name for name in makers if name not in EXPERIMENTS]
+    return {name: makers[name]() for name in chosen}
 
 
 def scene_filling_the_frame(size, threads=0):

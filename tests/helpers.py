@@ -24,8 +24,6 @@
   ``toys`` fixture).
 - ``bust_mesh``, ``add_bust``: the scan-like bust of sample_blends/scan_generator.py, in
   millimetres, and the same bust added to the scene (the ``bust`` fixture of conftest.py).
-- ``through_gltf``: an object unwrapped, exported and imported again with Blender's glTF add-on,
-  split at its UV seams and hard edges as the importer leaves a user's file.
 """
 
 import contextlib
@@ -476,20 +474,3 @@ def presets_row(section: str, label: str) -> list[str]:
     text = (ROOT / "docs" / "presets.md").read_text(encoding="utf-8")
     row = next(line for line in text.split(section, 1)[1].splitlines() if line.startswith(f"| {label} |"))
     return [cell.strip() for cell in row.strip("|").split("|")]
-
-
-def through_gltf(obj, folder):
-    """``obj`` unwrapped by Smart UV Project, exported with Blender's glTF add-on into ``folder``
-    and imported into an empty scene: the imported mesh object (the scene before is gone)."""
-    bpy.context.view_layer.objects.active = obj
-    obj.select_set(True)
-    bpy.ops.object.mode_set(mode="EDIT")
-    bpy.ops.mesh.select_all(action="SELECT")
-    bpy.ops.uv.smart_project()
-    bpy.ops.object.mode_set(mode="OBJECT")
-    path = str(pathlib.Path(folder) / f"{obj.name}.glb")
-    bpy.ops.export_scene.gltf(filepath=path, use_selection=True)
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bpy.ops.import_scene.gltf(filepath=path)
-    (imported,) = [found for found in bpy.context.scene.objects if found.type == "MESH"]
-    return imported

@@ -6,7 +6,7 @@ import bmesh
 import numpy as np
 import pytest
 
-from helpers import through_gltf
+from benchmarks.scenes import through_gltf
 from porous_weathering.blender import mesh_arrays
 from porous_weathering.maps import bake, edges
 from porous_weathering.maps import curvature as curvature_maths

@@ -18,8 +18,8 @@ import bmesh
 import numpy as np
 import pytest
 
-import helpers
 import porous_weathering as pw
+from benchmarks.scenes import through_gltf
 from helpers import assert_matches, presets_row, stone_glossy_lobe, stone_parameters, stone_probe, stone_shifted
 from porous_weathering.blender import mesh_arrays, render
 from porous_weathering.contracts import STONE_NODE
@@ -440,7 +440,7 @@ def test_a_wall_of_blocks_through_gltf_keeps_its_blocks(fresh_scene, tmp_path):
     mesh = bpy.data.meshes.new("Wall")
     bm.to_mesh(mesh)
     bm.free()
-    imported = helpers.through_gltf(studio.link(fresh_scene, bpy.data.objects.new("Wall", mesh)), tmp_path)
+    imported = through_gltf(studio.link(fresh_scene, bpy.data.objects.new("Wall", mesh)), tmp_path)
     assert mesh_arrays.face_islands(imported.data).max() + 1 >= 24  # split, as the importer leaves it
     centres = np.array([imported.matrix_world @ face.center for face in imported.data.polygons])
     seen = np.abs(centres[:, 0] - 1.52) > 1e-4  # not the two faces where the last blocks touch

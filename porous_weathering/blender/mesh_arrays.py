@@ -134,7 +134,7 @@ def border_places(mesh):
     one, other = ends[pair[:, 0]], ends[pair[:, 1]]
     crossed = at[one[:, 0]] != at[other[:, 0]]  # the other edge runs the other way
     other[crossed] = other[crossed, ::-1]
-    return components(place, np.concatenate([one, other]).reshape(2, -1).T)
+    return components(place, np.stack([one.ravel(), other.ravel()], axis=1))  # each end to its twin
 
 
 def components(label, links):
