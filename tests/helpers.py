@@ -325,7 +325,7 @@ def rivulets_of(material, points, normals, obj, scene):
         return None
     metres = (points - np.array(obj.matrix_world.translation)) * scene.unit_settings.scale_length
     scalar = NumpyOps(colour=False)
-    across, horizontal = mode_base.fall_line(scalar, metres[..., 0], metres[..., 1], normals[..., 0], normals[..., 1])
+    across, horizontal = mode_base.fall_line(scalar, metres, normals)
     return across, horizontal, group.inputs[nodes.RIVULET_SPACING].default_value
 
 

@@ -8,7 +8,7 @@ import bpy
 import pytest
 
 from porous_weathering.core import modes
-from porous_weathering.core.shader_math import Graph, dot, front, minimum, mix, multiply_add, power
+from porous_weathering.core.shader_math import Graph, dot, front, minimum, mix, multiply_add, power, smoothstep
 from porous_weathering.shading import nodes
 
 
@@ -80,6 +80,20 @@ def test_per_point_forms_take_one_node_each():
     assert edge.inputs["Value"].links[0].from_socket.node.operation == "MULTIPLY_ADD"
     edges = [link.from_socket for name in ("From Min", "From Max") for link in edge.inputs[name].links]
     assert edge.inputs["From Min"].default_value == 1.0 and not any(graph.varies(socket) for socket in edges)
+
+
+def test_a_constant_times_a_smoothstep_is_its_map_range_to_that_constant():
+    """c smoothstep(e0, e1, x) is the smoothstep's Map Range to [0, c] (0 + f (c - 0): f c to the
+    bit), no Multiply node per point; a per-point factor stays a product."""
+    graph, x, c, _, _ = scratch_graph()
+    ramp = smoothstep(0.1, 0.3, x)
+    scaled = c * ramp
+    node = scaled.socket.node
+    assert node.bl_idname == "ShaderNodeMapRange" and node.inputs["To Max"].links[0].from_socket == c.socket
+    assert node.inputs["Value"].links[0].from_socket == x.socket and scaled.ramp is None  # not folded twice
+    assert (ramp * 0.5).socket.node.inputs["To Max"].default_value == 0.5 and (ramp * 0.5).bounds == (0.0, 0.5)
+    assert ramp * 1.0 is ramp and not varying_nodes(graph, "MULTIPLY")
+    assert (scaled * x).socket.node.operation == "MULTIPLY"
 
 
 def test_a_mask_input_varies_from_point_to_point():

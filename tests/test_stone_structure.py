@@ -304,7 +304,8 @@ RIVULET_STATE = dict(time=0.6, rain_map=0.0, edge_map=0.0, runoff_map=0.3, strea
 def runoff_entering(normal, x, y, field, variation=1.0, spacing=0.04, runoff_map=0.3, rain_map=0.0):
     """The run-off map as it enters the modes (the soiling point's state) at points of a face of
     ``normal`` placed at (x, y) metres (docs/model.md §8.8)."""
-    across, horizontal = base.fall_line(SCALAR, x, y, normal[0], normal[1])
+    place = np.stack(np.broadcast_arrays(x, y, 0.0), axis=-1)
+    across, horizontal = base.fall_line(SCALAR, place, np.asarray(normal))
     state = {**RIVULET_STATE, "runoff_map": runoff_map, "rain_map": rain_map}
     point = model.weathered_point(
         KD, STONE["ks"], STONE["roughness"], STONE["porosity"], STONE["pore_depth_ratio"], 0.8, 0.9, ("soiling",),
@@ -523,8 +524,7 @@ def test_rivulets_render_as_the_model_per_pixel(fresh_scene):
     got["z_p"] = stone_shifted(plane.render, material, "Porosity Field")
     normal = plane.render(studio.normal_probe())[..., :3] * 2.0 - 1.0
     place = studio.emission_probe("Place", lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) + 2.0)
-    x, y = np.moveaxis(plane.render(place)[..., :2] - 2.0, -1, 0)
-    across, horizontal = base.fall_line(SCALAR, x, y, normal[..., 0], normal[..., 1])
+    across, horizontal = base.fall_line(SCALAR, plane.render(place)[..., :3] - 2.0, normal)
     image = plane.render(material)
     diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
     glossy = glossy_lobe(plane, material)

@@ -31,6 +31,20 @@ class NumpyOps:
         return a * b + c
 
     @staticmethod
+    def cross(a, b):
+        """The cross product of vectors on the last axis."""
+        return np.cross(a, b)
+
+    @staticmethod
+    def dot(a, b):
+        """The dot product of vectors on the last axis: a scalar per point."""
+        return np.sum(np.multiply(a, b), axis=-1)
+
+    @staticmethod
+    def length(v):
+        return np.sqrt(np.sum(np.multiply(v, v), axis=-1))
+
+    @staticmethod
     def white_noise(w):
         """Blender's White Noise of ``w`` in 1D, its three channels (``voronoi.white_noise_colour``),
         in double precision as the rest of the model (the single-precision draws exactly)."""
@@ -85,6 +99,9 @@ class NodeOps:
     smoothstep = staticmethod(shader_math.smoothstep)
     front = staticmethod(shader_math.front)
     multiply_add = staticmethod(shader_math.multiply_add)
+    cross = staticmethod(shader_math.cross)
+    dot = staticmethod(shader_math.dot)
+    length = staticmethod(shader_math.length)
     mix = staticmethod(shader_math.mix)
     to_nearer_end = staticmethod(shader_math.to_nearer_end)
 

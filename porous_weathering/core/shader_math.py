@@ -185,8 +185,11 @@ class Graph:
         the constants last: (x c) f is (x f) c, and (x c) d is x (c d), which Cycles folds
         where the material sets c and d; the same factors give the same nodes in any order
         of layers, so that a factor of exactly 1 leaves a result bit for bit unchanged.  A constant
-        c times a varying 1 - y is c - c y, one multiply-add per point."""
+        c times a varying 1 - y is c - c y, one multiply-add per point, and c times a smoothstep
+        is the smoothstep's Map Range to [0, c] (0 + f (c - 0): f c to the bit), no node more."""
         for factor, other in ((a, b), (b, a)):
+            if getattr(other, "ramp", None) is not None and self._constant(factor) and not _is_one(factor):
+                return smoothstep(*other.ramp, top=factor)
             complement = getattr(other, "complement", None)
             if complement is not None and self.varies(other) and self._constant(factor) and not _is_one(factor):
                 return self.math("MULTIPLY_ADD", complement, -factor, factor)
@@ -361,6 +364,9 @@ class Expr:
         self.affine = None
         #: the operands of a Subtract or Minimum node, for Graph._subtracted_from_constant
         self.operands = None
+        #: (edge0, edge1, x) when this is smoothstep(edge0, edge1, x) in [0, 1], so that a constant
+        #: factor becomes the Map Range's top (Graph._product)
+        self.ramp = None
 
     def __add__(self, other):
         return self.graph.math("ADD", self, other)
@@ -422,21 +428,26 @@ def multiply_add(a, b, c):
     return a * b + c if graph is None else graph.math("MULTIPLY_ADD", a, b, c)
 
 
-def smoothstep(edge0, edge1, x):
-    """0 below edge0, 1 above edge1, 3t^2 - 2t^3 between (t = (x - edge0) / (edge1 - edge0)):
-    one Map Range node, where clamping and the cubic would take eight Math nodes."""
-    graph = _graph_of(edge0, edge1, x)
+def smoothstep(edge0, edge1, x, top=1.0):
+    """0 below edge0, 1 above edge1, 3t^2 - 2t^3 between (t = (x - edge0) / (edge1 - edge0)), times
+    ``top``: one Map Range node, where clamping and the cubic would take eight Math nodes."""
+    graph = _graph_of(edge0, edge1, x, top)
     if graph is None:
         t = min(max((x - edge0) / (edge1 - edge0), 0.0), 1.0)
-        return t * t * (3.0 - 2.0 * t)
+        return t * t * (3.0 - 2.0 * t) * top
     node = graph.node(
         "ShaderNodeMapRange",
-        {"Value": x, "From Min": edge0, "From Max": edge1, "To Min": 0.0, "To Max": 1.0},
+        {"Value": x, "From Min": edge0, "From Max": edge1, "To Min": 0.0, "To Max": top},
         data_type="FLOAT",
         interpolation_type="SMOOTHSTEP",
         clamp=False,  # the cubic stays in [0, 1]; Cycles would add a Clamp node
     )
-    return Expr(graph, node.outputs["Result"], SCALAR, bounds=(0.0, 1.0))
+    top_bounds = top.bounds if isinstance(top, Expr) else (top, top)
+    bounds = (0.0, top_bounds[1]) if top_bounds is not None and top_bounds[0] >= 0.0 else None
+    made = Expr(graph, node.outputs["Result"], SCALAR, bounds=bounds)
+    if _is_one(top):
+        made.ramp = (edge0, edge1, x)
+    return made
 
 
 def front(mask, advance, lag, width):
@@ -515,6 +526,14 @@ def to_nearer_end(x):
 
 def dot(a, b):
     return a.graph.math("DOT_PRODUCT", a, b)
+
+
+def cross(a, b):
+    return _graph_of(a, b).math("CROSS_PRODUCT", a, b)
+
+
+def length(v):
+    return v.graph.math("LENGTH", v)
 
 
 def normalize(v):

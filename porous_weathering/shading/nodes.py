@@ -32,8 +32,9 @@ from ..core.shader_math import Graph, dot, normalize
 #: build 12 the grains' plane, §8.1, in four nodes, its mirror from the rounded normal, and the
 #: noise's clamp taken before its gain; build 13 the stones' patches in two octaves as strong, a
 #: factor 8 apart, §8.1; build 14 the rivulets' draws from Blender's White Noise, §8.8; build 15
-#: the uptake's gain G = 8, §8.7; build 16 every run-off in rivulets a decimetre apart, §8.8.)
-BUILD_VERSION = 16
+#: the uptake's gain G = 8, §8.7; build 16 every run-off in rivulets a decimetre apart, §8.8;
+#: build 17 the rivulets' forms in fewer nodes, §8.8.)
+BUILD_VERSION = 17
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -381,12 +382,8 @@ def uses_runoff(modes):
 def fall_line(graph, inputs):
     """(u, h, spacing) of docs/model.md §8.8 at the shading point: its place across the fall line in
     metres (``point_in_metres``), the horizontal part of its normal and the rivulet spacing."""
-    geometry = graph.node("ShaderNodeNewGeometry", depth=0)
-    normal = graph.node("ShaderNodeSeparateXYZ", {"Vector": geometry.outputs["Normal"]})
-    place = graph.node("ShaderNodeSeparateXYZ", {"Vector": point_in_metres(graph, inputs)})
-    x, y = (graph.wrap(place.outputs[axis]) for axis in "XY")
-    normal_x, normal_y = (graph.wrap(normal.outputs[axis]) for axis in "XY")
-    return (*weathering_modes.base.fall_line(NODE_OPS, x, y, normal_x, normal_y), inputs[RIVULET_SPACING])
+    normal = graph.wrap(graph.node("ShaderNodeNewGeometry", depth=0).outputs["Normal"])
+    return (*weathering_modes.base.fall_line(NODE_OPS, point_in_metres(graph, inputs), normal), inputs[RIVULET_SPACING])
 
 
 def lichen_seeds(graph, inputs):

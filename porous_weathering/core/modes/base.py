@@ -187,7 +187,7 @@ def water_of(xp, state):
 
 #: k: a rivulet's profile across its cell is (1 - tau^2)^k, tau in [-1, 1] across its width (0 and
 #: flat at its edges, so the weight is smooth from one cell to the next); half its peak is within
-#: |tau| < 0.29.
+#: |tau| < 0.29. Even: the profile is taken as a power of tau^2 - 1.
 RIVULET_SHARPNESS = 8
 #: The profile's mean over its width, (1/2) integral (1 - tau^2)^k dtau = 4^k (k!)^2 / (2k + 1)!:
 #: the weight divides by it (and the width), so that it has mean 1 over every cell.
@@ -203,12 +203,17 @@ RIVULET_SLOPES = (math.sin(math.radians(5.0)), math.sin(math.radians(15.0)))
 RIVULET_HALF_WIDTHS = (0.1, 0.4)
 
 
-def fall_line(xp, x, y, normal_x, normal_y):
-    """(u, h) at a point (docs/model.md §8.8): u its place across the fall line, along the horizontal
-    tangent n x z / |n x z| (in the unit of ``x`` and ``y``, the place's world X and Y), and h =
-    |n x z|, the horizontal part of the normal (0 on a level face, 1 on a vertical one)."""
-    horizontal = xp.power(normal_x * normal_x + normal_y * normal_y, 0.5)
-    return (x * normal_y - y * normal_x) / xp.maximum(horizontal, porous.EPSILON), horizontal
+#: The world's up, z: the horizontal tangent of a face is n x z.
+UP = (0.0, 0.0, 1.0)
+
+
+def fall_line(xp, place, normal):
+    """(u, h) at a point (docs/model.md §8.8): u its place across the fall line, the vector ``place``
+    (world axes, in its unit) along the horizontal tangent n x z / |n x z| of its unit ``normal``,
+    and h = |n x z|, the horizontal part of the normal (0 on a level face, 1 on a vertical one)."""
+    tangent = xp.cross(normal, UP)  # (n_y, -n_x, 0): u = (x n_y - y n_x) / h in one dot product
+    horizontal = xp.length(tangent)
+    return xp.dot(place, tangent) / xp.maximum(horizontal, porous.EPSILON), horizontal
 
 
 def cell_draws(xp, cell):
@@ -227,15 +232,18 @@ def rivulet_excess(xp, across, horizontal, spacing, field, strength):
     ``strength`` (the stone's variation) and the face's slope
     (``horizontal`` between RIVULET_SLOPES) mix it towards 1.  Of mean 0 over every cell where
     ``strength`` and ``field`` hold across it; w in [0, 17]; 0 exactly at strength 0."""
-    x = across / xp.maximum(spacing, porous.EPSILON) + RIVULET_WANDER * field
+    x = xp.multiply_add(field, RIVULET_WANDER, across / xp.maximum(spacing, porous.EPSILON))
     cell = xp.floor(x)
     place, width, share = cell_draws(xp, cell)
-    half = RIVULET_HALF_WIDTHS[0] + (RIVULET_HALF_WIDTHS[1] - RIVULET_HALF_WIDTHS[0]) * width
-    offset = (x - cell - half) / half - (1.0 / half - 2.0) * place  # tau: the centre in [half, 1 - half]
-    peak = xp.power(xp.maximum(1.0 - offset * offset, 0.0), float(RIVULET_SHARPNESS))
-    height = 1.0 / (2.0 * RIVULET_MEAN * half)  # the profile's peak, for mean 1 over the cell
-    gathered = strength * xp.smoothstep(RIVULET_SLOPES[0], RIVULET_SLOPES[1], horizontal) * xp.power(share, 0.5)
-    return gathered * (peak * height - 1.0), gathered * (height - 1.0)
+    half = xp.multiply_add(width, RIVULET_HALF_WIDTHS[1] - RIVULET_HALF_WIDTHS[0], RIVULET_HALF_WIDTHS[0])
+    inverse = 1.0 / half
+    # tau = (x - cell - c) / half about the centre c = half + (1 - 2 half) place, in [half, 1 - half]
+    offset = xp.multiply_add(x - cell - place, inverse, xp.multiply_add(place, 2.0, -1.0))
+    # (1 - tau^2)^k within |tau| < 1 and 0 beyond, as (min(tau^2 - 1, 0))^k: k is even
+    peak = xp.power(xp.minimum(xp.multiply_add(offset, offset, -1.0), 0.0), float(RIVULET_SHARPNESS))
+    height = inverse * (0.5 / RIVULET_MEAN)  # the profile's peak, for mean 1 over the cell
+    gathered = strength * xp.smoothstep(RIVULET_SLOPES[0], RIVULET_SLOPES[1], horizontal) * xp.sqrt(share)
+    return gathered * xp.multiply_add(peak, height, -1.0), gathered * (height - 1.0)
 
 
 def in_rivulets(xp, runoff_map, excess, peak_excess):
