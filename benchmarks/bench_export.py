@@ -116,7 +116,8 @@ def import_variants(path):
 
 def node_material(sample, state):
     """The weathered material of ``state`` in the ambient mode, made with the public API (the
-    reference the export's textures are compared with)."""
+    reference the export's textures are compared with): the sample's stone, laid in its masonry, as
+    the exported material has it."""
     modes = (model.SOILING, model.WET) if state.wet else (model.SOILING,)
     masks = {mask: sample.sources[map_name] for mask, map_name in sample.recipe.masks[model.SOILING].items()}
     inputs = {name: value for mode in modes for name, value in sample.inputs(mode).items()}
@@ -126,6 +127,8 @@ def node_material(sample, state):
         key_light=None,
         time=state.age,
         environment=sample.recipe.environment,
+        stone=sample.recipe.stone,
+        masonry=sample.recipe.masonry,
         **sample.stone,
         **masks,
         **inputs,
