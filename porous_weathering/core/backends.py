@@ -40,9 +40,9 @@ class NumpyOps:
         """The dot product of vectors on the last axis: a scalar per point."""
         return np.sum(np.multiply(a, b), axis=-1)
 
-    @staticmethod
-    def length(v):
-        return np.sqrt(np.sum(np.multiply(v, v), axis=-1))
+    @classmethod
+    def length(cls, v):
+        return np.sqrt(cls.dot(v, v))
 
     @staticmethod
     def white_noise(w):
