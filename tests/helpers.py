@@ -274,19 +274,28 @@ def stone_probe(render_with, material, outputs):
     """(H, W, 3) of the ``outputs`` of ``material``'s stone node (a colour output alone, or up to
     three scalars), emitted by a copy of the material rendered by ``render_with``."""
 
-    def emit(tree, stone):
-        emission = tree.nodes.new("ShaderNodeEmission")
-        emission.inputs["Strength"].default_value = 1.0
-        if len(outputs) == 1:
-            tree.links.new(stone.outputs[outputs[0]], emission.inputs["Color"])
-        else:
-            combine = tree.nodes.new("ShaderNodeCombineXYZ")
-            for index, name in enumerate(outputs):
-                tree.links.new(stone.outputs[name], combine.inputs[index])
-            tree.links.new(combine.outputs[0], emission.inputs["Color"])
-        return emission.outputs[0]
+    return render_with(_surface_of_copy(material, lambda tree, stone: _emitted(tree, stone, outputs)))[..., :3]
 
-    return render_with(_surface_of_copy(material, emit))[..., :3]
+
+def _emitted(tree, stone, outputs, shift=0.0):
+    """An Emission of the stone node's ``outputs`` (a colour output alone, or up to three
+    scalars), plus ``shift``."""
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
+    if len(outputs) == 1:
+        value = stone.outputs[outputs[0]]
+    else:
+        combine = tree.nodes.new("ShaderNodeCombineXYZ")
+        for index, name in enumerate(outputs):
+            tree.links.new(stone.outputs[name], combine.inputs[index])
+        value = combine.outputs[0]
+    if shift:
+        add = tree.nodes.new("ShaderNodeVectorMath")
+        add.inputs[1].default_value = (shift, shift, shift)
+        tree.links.new(value, add.inputs[0])
+        value = add.outputs[0]
+    tree.links.new(value, emission.inputs["Color"])
+    return emission.outputs[0]
 
 
 def stone_shifted(render_with, material, socket):
@@ -313,6 +322,22 @@ def stone_parameters(render_with, material, extra=()):
     r, *others = np.moveaxis(stone_probe(render_with, material, scalars), -1, 0)
     kd = stone_probe(render_with, material, ("Base Color",))
     return dict(kd=kd, alpha=alpha, m=m, sp=sp, r=r, **{name: value for name, value in zip(extra, others)})
+
+
+def stone_texels(obj, outputs, size, shift=0.0):
+    """(size, size, 3), top row first: the ``outputs`` of the stone node of ``obj``'s material
+    (as ``stone_probe`` emits them) at the texel centres of its active UV map, by the exact
+    one-sample Cycles EMIT bake the glTF export bakes its textures with; emitted ``shift`` up (an
+    emission is not negative) and given back without it."""
+    material = obj.active_material
+    with scratch_scene.Ledger() as made:
+        probe = made.add(_surface_of_copy(material, lambda tree, stone: _emitted(tree, stone, outputs, shift)))
+        image = made.add(bpy.data.images.new("Stone Texels", size, size, alpha=True, float_buffer=True))
+        target = probe.node_tree.nodes.new("ShaderNodeTexImage")
+        target.image = image
+        probe.node_tree.nodes.active = target
+        copy = scratch_scene.placed_copy(obj, scratch_scene.temporary_scene(made, "Stone Texels"), probe, ledger=made)
+        return scratch_scene.emit_bake(copy, image)[..., :3] - shift
 
 
 def rivulets_of(material, points, normals, obj, scene):

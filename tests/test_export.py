@@ -16,8 +16,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import run_cli
-from porous_weathering.contracts import GROUP_NODE
+from helpers import run_cli, stone_texels
 from porous_weathering.core import model
 from porous_weathering.maps import lightmap
 from porous_weathering.publish import export, mapping
@@ -187,28 +186,34 @@ def test_srgb_encoding():
 # --- the textures against the model -----------------------------------------------------------
 
 
-def expected_weights(age, wet, size=SIZE, runoff=False):
+def expected_weights(age, wet, size=SIZE, runoff=False, stone=None):
     """The model's weights on the wall's texel centres (top row first), in the ambient mode
-    seen face on, as glTF values: (base colour, S, roughness)."""
+    seen face on, as glTF values: (base colour, S, roughness). ``stone``: the stone's parameters
+    at each texel (kd, m, alpha, sp and its structure's receptivity, field and variation:
+    ``stone_at_texels``) in place of STONE's uniform ones."""
     u = (np.arange(size) + 0.5) / size
     rain, edges = np.meshgrid(u, u[::-1])  # texel (row, column): E = u, C = v
     modes = ("soiling", "wet") if wet else ("soiling",)
     state = dict(time=age, rain_map=rain, edge_map=edges, **SOILING)
     if runoff:
         state["runoff_map"] = RUNOFF(rain)
+    uniform = dict(kd=STONE["base_color"], m=STONE["roughness"], alpha=STONE["porosity"], sp=STONE["pore_depth_ratio"])
+    point = {**uniform, **(stone or {})}
     kd, ks, water = model.weathered_coefficients(
-        STONE["base_color"],
-        STONE["ks"],
-        STONE["roughness"],
-        STONE["porosity"],
-        STONE["pore_depth_ratio"],
-        None,
-        1.0,
-        modes=modes,
-        **state,
-    )
+        point.pop("kd"), STONE["ks"], point["m"], point.pop("alpha"), point.pop("sp"), None, 1.0, modes=modes,
+        **{name: point.pop(name, None) for name in ("receptivity", "field", "variation")}, **state,
+    )  # fmt: skip
     ks = np.broadcast_to(ks, rain.shape)
-    return export.pbr_from_weights(kd, ks, water, STONE["roughness"], 0.05)
+    return export.pbr_from_weights(kd, ks, water, point["m"], 0.05)
+
+
+def stone_at_texels(wall, size=SIZE):
+    """The parameters of ``wall``'s stone at its texel centres, as ``expected_weights`` takes them."""
+    alpha, m, sp = np.moveaxis(stone_texels(wall, ("Porosity", "Roughness", "Pore Depth Ratio"), size), -1, 0)
+    structure = (nodes.RECEPTIVITY, "Porosity Field", "Variation")
+    receptivity, field, variation = np.moveaxis(stone_texels(wall, structure, size, shift=1.0), -1, 0)
+    kd = stone_texels(wall, ("Base Color",), size)
+    return dict(kd=kd, m=m, alpha=alpha, sp=sp, receptivity=receptivity, field=field, variation=variation)
 
 
 def material_values(material, gltf, binary, tmp_path, size=SIZE):
@@ -271,26 +276,32 @@ def test_the_runoff_reaches_the_exported_textures(tmp_path):
     assert np.abs(srgb(with_runoff) - srgb(without)).max() > 0.1
 
 
-def test_the_stones_structure_reaches_the_exported_textures(tmp_path):
-    """A stone's structure (docs/model.md §8) is baked into the textures: the clean variant's base
-    colour varies from texel to texel around the uniform wall's, and the soiled one's fronts follow
-    its receptivity (they differ from those of the same structure without it)."""
+def test_a_stones_textures_are_the_model_per_texel(tmp_path):
+    """A stone's structure (docs/model.md §8) is baked into the textures as the model has it, texel
+    by texel: each variant's base colour, S and roughness are the model's weights at the stone's
+    own parameters at that texel (its stone node's outputs read back by bakes at the texel
+    centres, as the export bakes), its fronts following the stone's receptivity and uptake
+    (§8.3, §8.7) and its deposit mixed with the stone's colour (§8.6); the clean stone varies
+    from texel to texel, its mean the uniform wall's."""
     wall = make_wall(stone="LIMESTONE")
     save(tmp_path)
     result = export.export_variants([wall], (0.0, 0.5), size=SIZE, out_dir=str(tmp_path / "out"))
     gltf, binary = read_glb(result.path)
-    clean, _, _ = material_values(variant_materials(gltf)["clean"], gltf, binary, tmp_path)
+    stone = stone_at_texels(wall)
+    srgb = mapping.linear_to_srgb
+    for variant, age in (("clean", 0.0), ("t=0.5", 0.5)):
+        base, s, r = material_values(variant_materials(gltf)[variant], gltf, binary, tmp_path)
+        want_base, want_s, want_r = expected_weights(age, False, stone=stone)
+        assert np.abs(srgb(base) - srgb(want_base)).max() <= 1.5 / 255, variant
+        assert np.abs(s - want_s).max() <= want_s.max() / 255 + 1e-6, variant
+        assert np.abs(r - want_r).max() <= 1.5 / 255, variant
     uniform = expected_weights(0.0, False)[0]
-    assert clean.std(axis=(0, 1)).min() > 0.005 and uniform.std(axis=(0, 1)).max() < 1e-6
+    clean = expected_weights(0.0, False, stone=stone)[0]
+    assert srgb(clean).std(axis=(0, 1)).min() > 0.005 and uniform.std(axis=(0, 1)).max() < 1e-6
     assert np.abs(clean.mean(axis=(0, 1)) - uniform.mean(axis=(0, 1))).max() < 0.03  # its mean kept
-    material = wall.active_material
-    assert nodes.RECEPTIVITY in material.node_tree.nodes[GROUP_NODE].inputs
-    soiled, _, _ = material_values(variant_materials(gltf)["t=0.5"], gltf, binary, tmp_path)
-    material.node_tree.links.remove(material.node_tree.nodes[GROUP_NODE].inputs[nodes.RECEPTIVITY].links[0])
-    without = export.export_variants([wall], (0.0, 0.5), size=SIZE, out_dir=str(tmp_path / "without"))
-    gltf, binary = read_glb(without.path)
-    unreceptive, _, _ = material_values(variant_materials(gltf)["t=0.5"], gltf, binary, tmp_path)
-    assert np.abs(soiled - unreceptive).max() > 0.02
+    # the soiled wall's fronts are the stone's: without its receptivity and uptake they lie elsewhere
+    without = dict(stone, receptivity=None, field=None)
+    assert np.abs(srgb(want_base) - srgb(expected_weights(0.5, False, stone=without)[0])).max() > 0.05
 
 
 def test_a_scans_vertex_colours_reach_the_exported_textures(tmp_path):
