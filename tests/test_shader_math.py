@@ -107,6 +107,24 @@ def test_a_mask_input_varies_from_point_to_point():
     assert (mask * level * 2.0).product == (mask, level * 2.0)  # the constants gather behind the mask
 
 
+def test_the_points_own_data_is_one_node_and_what_is_built_from_it_is_built_once():
+    """The shading geometry and the object's data are one node each in a tree, so that what two
+    parts build from them is built once: the rivulets and the lichens both take the point's place
+    in metres (docs/model.md §8.8, §9.3), one Subtract and one Scale on a stone with both."""
+    graph, _, c, _, _ = scratch_graph()
+    assert graph.node("ShaderNodeNewGeometry", depth=0) is graph.node("ShaderNodeNewGeometry", depth=0)
+    assert nodes.point_in_metres(graph, {"Metres Per Unit": c}) is nodes.point_in_metres(graph, {"Metres Per Unit": c})
+    group = nodes.weathered_group(modes.names(), nodes.SUN, receptive=True, rivulets=True)
+    kinds = [node.bl_idname for node in group.nodes]
+    assert kinds.count("ShaderNodeNewGeometry") == kinds.count("ShaderNodeObjectInfo") == 1
+    from_origin = [
+        node
+        for node in group.nodes
+        if any(link.from_node.bl_idname == "ShaderNodeObjectInfo" for socket in node.inputs for link in socket.links)
+    ]
+    assert len(from_origin) == 1  # the point less the object's location, in one Subtract
+
+
 @pytest.mark.parametrize("light_mode", nodes.LIGHT_MODES)
 def test_every_node_of_a_group_feeds_an_output(light_mode):
     for count in range(len(modes.names()) + 1):

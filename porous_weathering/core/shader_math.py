@@ -24,11 +24,22 @@ class Graph:
         self.tree = tree
         self._rows = {}
         self._made = {}  # (operation, operands) -> Expr: a shared sub-expression is built once
+        self._sources = {}  # (bl_idname, properties) -> the one node of the shading point's own data
         self._varying = set()  # names of the nodes downstream of the Geometry node or a mask
         self._varying_sockets = set()  # group inputs that change from point to point (masks)
 
     def node(self, bl_idname, inputs=(), depth=None, **properties):
-        """A new node with ``properties`` set and ``inputs`` (name or index -> value) connected."""
+        """A new node with ``properties`` set and ``inputs`` (name or index -> value) connected; a
+        source of the shading point's own data (``VARYING_SOURCES``, no inputs) is made once per
+        tree, so that what is built from it (the point's place, its normal) is built once too."""
+        if bl_idname in VARYING_SOURCES and not inputs:
+            key = (bl_idname, depth, *sorted(properties.items()))
+            if key not in self._sources:
+                self._sources[key] = self._new_node(bl_idname, (), depth, properties)
+            return self._sources[key]
+        return self._new_node(bl_idname, inputs, depth, properties)
+
+    def _new_node(self, bl_idname, inputs, depth, properties):
         node = self.tree.nodes.new(bl_idname)
         for key, value in properties.items():
             setattr(node, key, value)

@@ -34,7 +34,7 @@ from ..core.shader_math import Graph, dot, normalize
 #: factor 8 apart, §8.1; build 14 the rivulets' draws from Blender's White Noise, §8.8; build 15
 #: the uptake's gain G = 8, §8.7; build 16 every run-off in rivulets a decimetre apart, §8.8;
 #: build 17 the rivulets' forms in fewer nodes, §8.8.)
-BUILD_VERSION = 17
+BUILD_VERSION = 18
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
