@@ -326,18 +326,40 @@ def stone_parameters(render_with, material, extra=()):
 
 def stone_texels(obj, outputs, size, shift=0.0):
     """(size, size, 3), top row first: the ``outputs`` of the stone node of ``obj``'s material
-    (as ``stone_probe`` emits them) at the texel centres of its active UV map, by the exact
-    one-sample Cycles EMIT bake the glTF export bakes its textures with; emitted ``shift`` up (an
-    emission is not negative) and given back without it."""
-    material = obj.active_material
+    (as ``stone_probe`` emits them) at the texel centres of its active UV map (``texel_bake``);
+    emitted ``shift`` up (an emission is not negative) and given back without it."""
+    return texel_bake(obj, lambda tree, stone: _emitted(tree, stone, outputs, shift), size) - shift
+
+
+def position_texels(obj, size, shift):
+    """(size, size, 3), top row first: the world position at the texel centres of ``obj``'s active
+    UV map (``texel_bake``), emitted ``shift`` up (an emission is not negative): the very points
+    a texture's texels hold, where the bake's own rasterising of the UV map puts them."""
+
+    def emit(tree, stone):
+        geometry = tree.nodes.new("ShaderNodeNewGeometry")
+        add = tree.nodes.new("ShaderNodeVectorMath")
+        add.inputs[1].default_value = (shift, shift, shift)
+        tree.links.new(geometry.outputs["Position"], add.inputs[0])
+        emission = tree.nodes.new("ShaderNodeEmission")
+        tree.links.new(add.outputs[0], emission.inputs["Color"])
+        return emission.outputs[0]
+
+    return texel_bake(obj, emit, size) - shift
+
+
+def texel_bake(obj, surface, size):
+    """(size, size, 3), top row first: what a copy of ``obj``'s material whose surface is
+    ``surface(tree, stone_node)`` emits at the texel centres of its active UV map, by the exact
+    one-sample Cycles EMIT bake the glTF export bakes its textures with."""
     with scratch_scene.Ledger() as made:
-        probe = made.add(_surface_of_copy(material, lambda tree, stone: _emitted(tree, stone, outputs, shift)))
-        image = made.add(bpy.data.images.new("Stone Texels", size, size, alpha=True, float_buffer=True))
+        probe = made.add(_surface_of_copy(obj.active_material, surface))
+        image = made.add(bpy.data.images.new("Texels", size, size, alpha=True, float_buffer=True))
         target = probe.node_tree.nodes.new("ShaderNodeTexImage")
         target.image = image
         probe.node_tree.nodes.active = target
-        copy = scratch_scene.placed_copy(obj, scratch_scene.temporary_scene(made, "Stone Texels"), probe, ledger=made)
-        return scratch_scene.emit_bake(copy, image)[..., :3] - shift
+        copy = scratch_scene.placed_copy(obj, scratch_scene.temporary_scene(made, "Texels"), probe, ledger=made)
+        return scratch_scene.emit_bake(copy, image)[..., :3].astype(np.float64)
 
 
 def rivulets_of(material, points, normals, obj, scene):

@@ -5,6 +5,7 @@ paradata, the command line, the operator, and bad input that leaves nothing behi
 
 import hashlib
 import json
+import math
 import os
 import shutil
 import struct
@@ -16,7 +17,8 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import run_cli, stone_texels
+from helpers import position_texels, rivulets_of, run_cli, stone_texels
+from porous_weathering.contracts import GROUP_NODE
 from porous_weathering.core import model
 from porous_weathering.maps import lightmap
 from porous_weathering.publish import export, mapping
@@ -31,6 +33,8 @@ AGES = (0.0, 0.5, 1.0)
 #: (E = u) is weak, so that it washes some of the sheltered side and streaks the rest. Linear,
 #: as the per-corner values are interpolated across the faces.
 RUNOFF = lambda u: 0.9 * (1.0 - u)
+#: The share of the other walls' rain the standing wall of a stone's rivulets takes.
+RIVULET_WALL_RAIN = 0.25
 
 
 # --- a tiny wall and its export -------------------------------------------------------------
@@ -186,25 +190,39 @@ def test_srgb_encoding():
 # --- the textures against the model -----------------------------------------------------------
 
 
-def expected_weights(age, wet, size=SIZE, runoff=False, stone=None):
+def expected_weights(age, wet, size=SIZE, runoff=False, stone=None, rivulets=None, rain_share=1.0):
     """The model's weights on the wall's texel centres (top row first), in the ambient mode
     seen face on, as glTF values: (base colour, S, roughness). ``stone``: the stone's parameters
     at each texel (kd, m, alpha, sp and its structure's receptivity, field and variation:
-    ``stone_at_texels``) in place of STONE's uniform ones."""
+    ``stone_at_texels``) in place of STONE's uniform ones; ``rivulets``: the model's (u, h, spacing)
+    at each texel (``texel_rivulets``), which gather its run-off; ``rain_share``: E = that share of u
+    (a wall whose rain map was scaled), the run-off still RUNOFF(u)."""
     u = (np.arange(size) + 0.5) / size
-    rain, edges = np.meshgrid(u, u[::-1])  # texel (row, column): E = u, C = v
+    across, edges = np.meshgrid(u, u[::-1])  # texel (row, column): u, and C = v
+    rain = rain_share * across
     modes = ("soiling", "wet") if wet else ("soiling",)
     state = dict(time=age, rain_map=rain, edge_map=edges, **SOILING)
     if runoff:
-        state["runoff_map"] = RUNOFF(rain)
+        state["runoff_map"] = RUNOFF(across)
     uniform = dict(kd=STONE["base_color"], m=STONE["roughness"], alpha=STONE["porosity"], sp=STONE["pore_depth_ratio"])
     point = {**uniform, **(stone or {})}
     kd, ks, water = model.weathered_coefficients(
         point.pop("kd"), STONE["ks"], point["m"], point.pop("alpha"), point.pop("sp"), None, 1.0, modes=modes,
-        **{name: point.pop(name, None) for name in ("receptivity", "field", "variation")}, **state,
+        **{name: point.pop(name, None) for name in ("receptivity", "field", "variation")}, rivulets=rivulets,
+        **state,
     )  # fmt: skip
     ks = np.broadcast_to(ks, rain.shape)
     return export.pbr_from_weights(kd, ks, water, point["m"], 0.05)
+
+
+def texel_rivulets(wall, size=SIZE):
+    """The model's rivulets (docs/model.md §8.8) at the wall's texel centres, top row first, from
+    their positions as the bake puts them (a rivulet's profile is narrower than a texel: its
+    weight moves by an 8-bit step where the point moves by 0.1 mm) and the wall's normal."""
+    points = position_texels(wall, size, shift=10.0)
+    normal = np.array(wall.matrix_world)[:3, :3] @ (0.0, 0.0, 1.0)
+    normals = np.broadcast_to(normal / np.linalg.norm(normal), points.shape)
+    return rivulets_of(wall.active_material, points, normals, wall, bpy.context.scene)
 
 
 def stone_at_texels(wall, size=SIZE):
@@ -302,6 +320,36 @@ def test_a_stones_textures_are_the_model_per_texel(tmp_path):
     # the soiled wall's fronts are the stone's: without its receptivity and uptake they lie elsewhere
     without = dict(stone, receptivity=None, field=None)
     assert np.abs(srgb(want_base) - srgb(expected_weights(0.5, False, stone=without)[0])).max() > 0.05
+
+
+def test_a_stones_rivulets_are_the_models_in_the_textures(tmp_path):
+    """A wall standing up, of a stone, whose soiling reads a run-off map: its run-off gathers into
+    the stone's rivulets (docs/model.md §8.8), and its t = 1 textures are the model's with them at
+    each texel (its stone and its place across the fall line), not the model's without them. Its
+    rain is a quarter of the other walls' (E = u / 4), so that the water the rivulets gather and
+    take away decides where it washes."""
+    wall = make_wall(stone="LIMESTONE", runoff=True)
+    rain = wall.data.color_attributes["pw_rain"].data
+    values = np.empty(len(rain) * 4, dtype=np.float32)
+    rain.foreach_get("color", values)
+    rain.foreach_set("color", values * RIVULET_WALL_RAIN)
+    wall.rotation_euler = (math.radians(90.0), 0.0, 0.0)  # facing -Y, its v up
+    bpy.context.view_layer.update()
+    save(tmp_path)
+    assert nodes.RIVULET_SPACING in wall.active_material.node_tree.nodes[GROUP_NODE].inputs
+    result = export.export_variants([wall], (1.0,), size=SIZE, out_dir=str(tmp_path / "out"))
+    gltf, binary = read_glb(result.path)
+    base, s, r = material_values(variant_materials(gltf)["t=1"], gltf, binary, tmp_path)
+    stone, rivulets = stone_at_texels(wall), texel_rivulets(wall)
+    want_base, want_s, want_r = expected_weights(
+        1.0, False, runoff=True, stone=stone, rivulets=rivulets, rain_share=RIVULET_WALL_RAIN
+    )
+    srgb = mapping.linear_to_srgb
+    assert np.abs(srgb(base) - srgb(want_base)).max() <= 1.5 / 255
+    assert np.abs(s - want_s).max() <= want_s.max() / 255 + 1e-6
+    assert np.abs(r - want_r).max() <= 1.5 / 255
+    without = expected_weights(1.0, False, runoff=True, stone=stone, rain_share=RIVULET_WALL_RAIN)[0]
+    assert np.abs(srgb(want_base) - srgb(without)).max() > 0.05  # the rivulets show
 
 
 def test_a_scans_vertex_colours_reach_the_exported_textures(tmp_path):
