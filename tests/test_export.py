@@ -19,7 +19,7 @@ import pytest
 
 from helpers import position_texels, rivulets_of, run_cli, stone_texels
 from porous_weathering.contracts import GROUP_NODE
-from porous_weathering.core import model
+from porous_weathering.core import model, stones
 from porous_weathering.maps import lightmap
 from porous_weathering.publish import export, mapping
 from porous_weathering.samples.studio import add_sun
@@ -40,10 +40,11 @@ RIVULET_WALL_RAIN = 0.25
 # --- a tiny wall and its export -------------------------------------------------------------
 
 
-def make_wall(name="Wall", key_light=True, modes=("soiling",), runoff=False, stone=None):
+def make_wall(name="Wall", key_light=True, modes=("soiling",), runoff=False, stone=None, masonry=None):
     """A 2 m square of 8 x 8 quads facing +Z, its UV map the whole [0, 1]² square, with a rain
-    map E = u and an edge map C = v (colour attributes), and a weathered material (sun mode);
-    with ``runoff``, a run-off map R = RUNOFF(u) read by the soiling too."""
+    map E = u and an edge map C = v (colour attributes), and a weathered material (sun mode) of
+    ``stone`` laid as ``masonry``; with ``runoff``, a run-off map R = RUNOFF(u) read by the
+    soiling too."""
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=2.0)
     wall = bpy.context.active_object
     wall.name = name
@@ -62,7 +63,7 @@ def make_wall(name="Wall", key_light=True, modes=("soiling",), runoff=False, sto
     if "efflorescence" in modes:
         masks["efflorescence_map"] = "pw_edges"
     material = weathering.make_weathered_material(
-        f"{name} Stone", modes=modes, key_light=sun, stone=stone, **STONE, **masks
+        f"{name} Stone", modes=modes, key_light=sun, stone=stone, masonry=masonry, **STONE, **masks
     )
     wall.data.materials.append(material)
     return wall
@@ -294,14 +295,24 @@ def test_the_runoff_reaches_the_exported_textures(tmp_path):
     assert np.abs(srgb(with_runoff) - srgb(without)).max() > 0.1
 
 
-def test_a_stones_textures_are_the_model_per_texel(tmp_path):
+#: Coursed ashlar whose joints about a fifth of the wall's texel centres fall in (docs/model.md §8.5): its
+#: lengths are not multiples of the texels' spacing, so that the joints do not fall between them.
+WIDE_JOINTED_ASHLAR = stones.Ashlar(course_height=0.3, block_length=0.55, joint_width=0.04)
+
+
+@pytest.mark.parametrize("masonry", [None, WIDE_JOINTED_ASHLAR], ids=["stone", "ashlar"])
+def test_a_stones_textures_are_the_model_per_texel(tmp_path, masonry):
     """A stone's structure (docs/model.md §8) is baked into the textures as the model has it, texel
     by texel: each variant's base colour, S and roughness are the model's weights at the stone's
     own parameters at that texel (its stone node's outputs read back by bakes at the texel
     centres, as the export bakes), its fronts following the stone's receptivity and uptake
     (§8.3, §8.7) and its deposit mixed with the stone's colour (§8.6); the clean stone varies
-    from texel to texel, its mean the uniform wall's."""
-    wall = make_wall(stone="LIMESTONE")
+    from texel to texel, its mean the uniform wall's. Laid as ashlar (§8.5), each block and the
+    mortar in the joints are held alike, on a wall standing up (its courses level)."""
+    wall = make_wall(stone="LIMESTONE", masonry=masonry)
+    if masonry is not None:  # lying at z = 0 the whole wall would be one bed joint
+        wall.rotation_euler = (math.radians(90.0), 0.0, 0.0)
+        bpy.context.view_layer.update()
     save(tmp_path)
     result = export.export_variants([wall], (0.0, 0.5), size=SIZE, out_dir=str(tmp_path / "out"))
     gltf, binary = read_glb(result.path)
@@ -317,6 +328,9 @@ def test_a_stones_textures_are_the_model_per_texel(tmp_path):
     clean = expected_weights(0.0, False, stone=stone)[0]
     assert srgb(clean).std(axis=(0, 1)).min() > 0.005 and uniform.std(axis=(0, 1)).max() < 1e-6
     assert np.abs(clean.mean(axis=(0, 1)) - uniform.mean(axis=(0, 1))).max() < 0.03  # its mean kept
+    if masonry is not None:  # the joints are among the texels held to the model
+        joint = stone_texels(wall, ("Joint",), SIZE)[..., 0]
+        assert 0.05 < (joint > 0.99).mean() < 0.5 and (joint < 0.01).mean() > 0.5
     # the soiled wall's fronts are the stone's: without its receptivity and uptake they lie elsewhere
     without = dict(stone, receptivity=None, field=None)
     assert np.abs(srgb(want_base) - srgb(expected_weights(0.5, False, stone=without)[0])).max() > 0.05
