@@ -303,24 +303,25 @@ WIDE_JOINTED_ASHLAR = stones.Ashlar(course_height=0.3, block_length=0.55, joint_
 @pytest.mark.parametrize("masonry", [None, WIDE_JOINTED_ASHLAR], ids=["stone", "ashlar"])
 def test_a_stones_textures_are_the_model_per_texel(tmp_path, masonry):
     """A stone's structure (docs/model.md §8) is baked into the textures as the model has it, texel
-    by texel: each variant's base colour, S and roughness are the model's weights at the stone's
-    own parameters at that texel (its stone node's outputs read back by bakes at the texel
-    centres, as the export bakes), its fronts following the stone's receptivity and uptake
-    (§8.3, §8.7) and its deposit mixed with the stone's colour (§8.6); the clean stone varies
-    from texel to texel, its mean the uniform wall's. Laid as ashlar (§8.5), each block and the
-    mortar in the joints are held alike, on a wall standing up (its courses level)."""
+    by texel: each variant's (new, soiled, wet) base colour, S and roughness are the model's
+    weights at the stone's own parameters at that texel (its stone node's outputs read back by
+    bakes at the texel centres, as the export bakes), its fronts following the stone's
+    receptivity and uptake (§8.3, §8.7) and its deposit mixed with the stone's colour (§8.6); the
+    clean stone varies from texel to texel, its mean the uniform wall's. Laid as ashlar (§8.5),
+    each block and the mortar in the joints are held alike, on a wall standing up (its courses
+    level)."""
     wall = make_wall(stone="LIMESTONE", masonry=masonry)
     if masonry is not None:  # lying at z = 0 the whole wall would be one bed joint
         wall.rotation_euler = (math.radians(90.0), 0.0, 0.0)
         bpy.context.view_layer.update()
     save(tmp_path)
-    result = export.export_variants([wall], (0.0, 0.5), size=SIZE, out_dir=str(tmp_path / "out"))
+    result = export.export_variants([wall], (0.0, 0.5), wet=True, size=SIZE, out_dir=str(tmp_path / "out"))
     gltf, binary = read_glb(result.path)
     stone = stone_at_texels(wall)
     srgb = mapping.linear_to_srgb
-    for variant, age in (("clean", 0.0), ("t=0.5", 0.5)):
+    for variant, age, wet in (("clean", 0.0, False), ("t=0.5", 0.5, False), ("wet", 0.5, True)):
         base, s, r = material_values(variant_materials(gltf)[variant], gltf, binary, tmp_path)
-        want_base, want_s, want_r = expected_weights(age, False, stone=stone)
+        want_base, want_s, want_r = expected_weights(age, wet, stone=stone)
         assert np.abs(srgb(base) - srgb(want_base)).max() <= 1.5 / 255, variant
         assert np.abs(s - want_s).max() <= want_s.max() / 255 + 1e-6, variant
         assert np.abs(r - want_r).max() <= 1.5 / 255, variant
@@ -333,7 +334,8 @@ def test_a_stones_textures_are_the_model_per_texel(tmp_path, masonry):
         assert 0.05 < (joint > 0.99).mean() < 0.5 and (joint < 0.01).mean() > 0.5
     # the soiled wall's fronts are the stone's: without its receptivity and uptake they lie elsewhere
     without = dict(stone, receptivity=None, field=None)
-    assert np.abs(srgb(want_base) - srgb(expected_weights(0.5, False, stone=without)[0])).max() > 0.05
+    soiled, unreceptive = (expected_weights(0.5, False, stone=point)[0] for point in (stone, without))
+    assert np.abs(srgb(soiled) - srgb(unreceptive)).max() > 0.05
 
 
 def test_a_stones_rivulets_are_the_models_in_the_textures(tmp_path):
