@@ -33,7 +33,8 @@ from ..core.shader_math import Graph, dot, normalize
 #: noise's clamp taken before its gain; build 13 the stones' patches in two octaves as strong, a
 #: factor 8 apart, §8.1; build 14 the rivulets' draws from Blender's White Noise, §8.8; build 15
 #: the uptake's gain G = 8, §8.7; build 16 every run-off in rivulets a decimetre apart, §8.8;
-#: build 17 the rivulets' forms in fewer nodes, §8.8.)
+#: build 17 the rivulets' forms in fewer nodes, §8.8; build 18 the point's own data, and so its
+#: place, one node per group.)
 BUILD_VERSION = 18
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
