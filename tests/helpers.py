@@ -270,30 +270,33 @@ def _surface_of_copy(material, surface):
     return copy
 
 
-def stone_probe(render_with, material, outputs):
+def stone_probe(render_with, material, outputs, shift=0.0):
     """(H, W, 3) of the ``outputs`` of ``material``'s stone node (a colour output alone, or up to
-    three scalars), emitted by a copy of the material rendered by ``render_with``."""
-
-    return render_with(_surface_of_copy(material, lambda tree, stone: _emitted(tree, stone, outputs)))[..., :3]
+    three scalars), plus ``shift``, emitted by a copy of the material rendered by ``render_with``."""
+    return render_with(_surface_of_copy(material, lambda tree, stone: _emitted(tree, stone, outputs, shift)))[..., :3]
 
 
 def _emitted(tree, stone, outputs, shift=0.0):
     """An Emission of the stone node's ``outputs`` (a colour output alone, or up to three
     scalars), plus ``shift``."""
-    emission = tree.nodes.new("ShaderNodeEmission")
-    emission.inputs["Strength"].default_value = 1.0
     if len(outputs) == 1:
-        value = stone.outputs[outputs[0]]
-    else:
-        combine = tree.nodes.new("ShaderNodeCombineXYZ")
-        for index, name in enumerate(outputs):
-            tree.links.new(stone.outputs[name], combine.inputs[index])
-        value = combine.outputs[0]
+        return _emission(tree, stone.outputs[outputs[0]], shift)
+    combine = tree.nodes.new("ShaderNodeCombineXYZ")
+    for index, name in enumerate(outputs):
+        tree.links.new(stone.outputs[name], combine.inputs[index])
+    return _emission(tree, combine.outputs[0], shift)
+
+
+def _emission(tree, value, shift=0.0):
+    """An Emission of strength 1 of the socket ``value`` plus ``shift`` (an emission is not
+    negative: a signed value is emitted shifted up)."""
     if shift:
         add = tree.nodes.new("ShaderNodeVectorMath")
         add.inputs[1].default_value = (shift, shift, shift)
         tree.links.new(value, add.inputs[0])
         value = add.outputs[0]
+    emission = tree.nodes.new("ShaderNodeEmission")
+    emission.inputs["Strength"].default_value = 1.0
     tree.links.new(value, emission.inputs["Color"])
     return emission.outputs[0]
 
@@ -301,17 +304,7 @@ def _emitted(tree, stone, outputs, shift=0.0):
 def stone_shifted(render_with, material, socket):
     """(H, W) of a field output of the stone node, in [-1, 1]: emitted shifted by +1 (an
     emission is not negative)."""
-
-    def emit(tree, stone):
-        add = tree.nodes.new("ShaderNodeMath")
-        add.operation = "ADD"
-        add.inputs[1].default_value = 1.0
-        tree.links.new(stone.outputs[socket], add.inputs[0])
-        emission = tree.nodes.new("ShaderNodeEmission")
-        tree.links.new(add.outputs[0], emission.inputs["Color"])
-        return emission.outputs[0]
-
-    return render_with(_surface_of_copy(material, emit))[..., 0] - 1.0
+    return stone_probe(render_with, material, (socket,), shift=1.0)[..., 0] - 1.0
 
 
 def stone_parameters(render_with, material, extra=()):
@@ -337,13 +330,7 @@ def position_texels(obj, size, shift):
     a texture's texels hold, where the bake's own rasterising of the UV map puts them."""
 
     def emit(tree, stone):
-        geometry = tree.nodes.new("ShaderNodeNewGeometry")
-        add = tree.nodes.new("ShaderNodeVectorMath")
-        add.inputs[1].default_value = (shift, shift, shift)
-        tree.links.new(geometry.outputs["Position"], add.inputs[0])
-        emission = tree.nodes.new("ShaderNodeEmission")
-        tree.links.new(add.outputs[0], emission.inputs["Color"])
-        return emission.outputs[0]
+        return _emission(tree, tree.nodes.new("ShaderNodeNewGeometry").outputs["Position"], shift)
 
     return texel_bake(obj, emit, size) - shift
 
