@@ -58,6 +58,7 @@ def test_the_colours_are_those_documented():
         (biological.ALGAE_COLOR, (52, -12, 30)),
         (biological.BIOFILM_COLOR, (30, -4, 8)),
         (biological.LICHEN_COLOR, (65, 15, 55)),
+        (biological.LICHEN_SHADE_COLOR, (60, -5, 20)),
     ):
         assert lab(item.default) == pytest.approx(documented, abs=0.3), item.name
 
@@ -134,6 +135,24 @@ def test_lichen_cover_follows_the_boolean_model():
     assert cover(distance, value, 4.0, 0.5) < 0.5
     # without the crowded radius the one-seed-per-cell cover is far above the law at u = 1
     assert np.mean(distance < math.sqrt(1.0 / math.pi)) > (1.0 - math.exp(-1.0)) + 0.08
+
+
+def test_a_thallus_is_orange_as_far_as_the_sun_reaches_it():
+    """A point inside an established thallus shows the lichen's colour alone: the sun colour where
+    a quarter of full sun or more reaches it, the shade colour where none does, and their mix at
+    the light between (docs/model.md §9.3): on a north face the thalli are greenish grey."""
+    inside = {biological.LICHEN_SEEDS: (np.zeros(1), np.zeros(1))}  # at an established seed
+    sun, shade = (np.asarray(item.default) for item in (biological.LICHEN_COLOR, biological.LICHEN_SHADE_COLOR))
+    for sun_map, light in ((0.0, 0.0), (0.02, 0.08), (0.1, 0.4), (0.25, 1.0), (0.46, 1.0)):
+        # the level at 1 and the point wet: the seed establishes wherever any light reaches it
+        colour = seen(50.0, fields=inside, sun_map=sun_map, rain_map=1.0, biological_level=1.0)[0]
+        expected = shade + (sun - shade) * light if sun_map > 0.0 else None
+        if expected is None:  # no light: no thallus establishes, whatever its seed
+            assert np.linalg.norm(lab(colour) - lab(sun)) > 20.0 and np.linalg.norm(lab(colour) - lab(shade)) > 5.0
+            continue
+        assert colour == pytest.approx(expected, abs=1e-6), sun_map
+    north = lab(seen(50.0, fields=inside, **FACES["north"]))[0]
+    assert north[1] < 0.0 < lab(seen(50.0, fields=inside, **FACES["south"]))[0][1] - 10.0
 
 
 def test_lichens_grow_at_their_rate_after_the_lag():

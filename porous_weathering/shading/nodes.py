@@ -34,8 +34,8 @@ from ..core.shader_math import Graph, dot, normalize
 #: factor 8 apart, §8.1; build 14 the rivulets' draws from Blender's White Noise, §8.8; build 15
 #: the uptake's gain G = 8, §8.7; build 16 every run-off in rivulets a decimetre apart, §8.8;
 #: build 17 the rivulets' forms in fewer nodes, §8.8; build 18 the point's own data, and so its
-#: place, one node per group.)
-BUILD_VERSION = 18
+#: place, one node per group; build 19 the lichens orange as far as the sun reaches them, §9.3.)
+BUILD_VERSION = 19
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"

@@ -54,7 +54,8 @@ PORE_BIOMASS = 0.2
 
 #: Lichens (docs/model.md §9.3): they establish this many years after cleaning (on rural samples by
 #: the end of the second year: Adamson et al. 2012); where the sun is at least LIGHT_NEEDED they are
-#: as lit as they need; a thallus's rim blends over LICHEN_RIM metres, a seed's establishment over SEED_RIM.
+#: as lit as they need, and as orange (their pigment is a sunscreen); a thallus's rim blends over
+#: LICHEN_RIM metres, a seed's establishment over SEED_RIM.
 LICHEN_LAG_YEARS = 1.5
 LIGHT_NEEDED = 0.25
 LICHEN_RIM = 3e-4
@@ -111,7 +112,14 @@ LICHEN_COLOR = Input(
     (0.625, 0.286, 0.038),
     0.0,
     1.0,
-    "The lichen thalli (L* 65, a* 15, b* 55: the orange-yellow Xanthoria of walls)",
+    "The lichen thalli in the sun (L* 65, a* 15, b* 55: the orange-yellow Xanthoria of walls)",
+)
+LICHEN_SHADE_COLOR = Input(
+    "lichen_shade_color",
+    (0.302, 0.288, 0.154),
+    0.0,
+    1.0,
+    "The lichen thalli in the shade (L* 60, a* -5, b* 20: greenish grey, without the sun's orange pigment)",
 )
 LICHEN_DENSITY = Input(
     "lichen_density",
@@ -192,11 +200,15 @@ def lichen_radius(xp, state):
     return xp.maximum(state["biological_years"] - LICHEN_LAG_YEARS, 0.0) * (state["lichen_growth"] * 0.0005)
 
 
-def lichen_suitability(xp, state):
-    """L in [0, 1]: the share of seeds that establish, damp (as ``humid``) and lit (sun up to
-    LIGHT_NEEDED), times the level."""
-    lit = xp.minimum(state["sun_map"] * (1.0 / LIGHT_NEEDED), 1.0)
-    return state["biological_level"] * humid(xp, wetness(xp, state)) * lit
+def lichen_light(xp, state):
+    """How lit a thallus is, in [0, 1]: the sun map up to LIGHT_NEEDED."""
+    return xp.minimum(state["sun_map"] * (1.0 / LIGHT_NEEDED), 1.0)
+
+
+def lichen_suitability(xp, state, light):
+    """L in [0, 1]: the share of seeds that establish, damp (as ``humid``) and lit (``light``),
+    times the level."""
+    return state["biological_level"] * humid(xp, wetness(xp, state)) * light
 
 
 def crowded_radius(xp, radius, density):
@@ -206,15 +218,16 @@ def crowded_radius(xp, radius, density):
     return radius / xp.power(1.0 + (CROWDING * math.pi) * (density * radius * radius), 0.5)
 
 
-def lichen_cover(xp, state, distance, seed):
+def lichen_cover(xp, state, distance, seed, light=None):
     """The thallus cover at a point ``distance`` cells from the nearest seed, whose value is
     ``seed``: the seed established (its value under L), and the point within r(years) of it
-    (crowded_radius)."""
+    (crowded_radius).  ``light``: the point's ``lichen_light``, if the caller has it."""
+    light = lichen_light(xp, state) if light is None else light
     density = xp.maximum(state["lichen_density"], LEAST_DENSITY)
     spacing = 1.0 / xp.power(density, 0.5)  # metres per cell
     radius = crowded_radius(xp, lichen_radius(xp, state), density)
     inside = 1.0 - xp.smoothstep(radius - LICHEN_RIM, radius, distance * spacing)
-    established = xp.smoothstep(seed, seed + SEED_RIM, lichen_suitability(xp, state))
+    established = xp.smoothstep(seed, seed + SEED_RIM, lichen_suitability(xp, state, light))
     return inside * established
 
 
@@ -238,10 +251,17 @@ def lichen_seeds_at(metres, normals, state, kind):
     return distance.astype(np.float64), seed.astype(np.float64)
 
 
+def lichen_colour(xp, state, light):
+    """A thallus's colour: the shade's greenish grey, orange as far as it is lit (docs/model.md
+    §9.3: its pigment is a sunscreen, made as far as the sun reaches it)."""
+    return blend(xp, state["lichen_shade_color"], state["lichen_color"], xp.channel(light))
+
+
 def lay_lichens(xp, point):
     distance, seed = point.fields.get(LICHEN_SEEDS, NO_SEEDS)
-    coverage = lichen_cover(xp, point.state, distance, seed)
-    cover(xp, point, point.state["lichen_color"], coverage)
+    light = lichen_light(xp, point.state)
+    coverage = lichen_cover(xp, point.state, distance, seed, light)
+    cover(xp, point, lichen_colour(xp, point.state, light), coverage)
     point.notes["lichen"] = coverage
 
 
@@ -282,6 +302,7 @@ MODE = Mode(
         ALGAE_COLOR,
         BIOFILM_COLOR,
         LICHEN_COLOR,
+        LICHEN_SHADE_COLOR,
         LICHEN_DENSITY,
         LICHEN_GROWTH,
     ),
