@@ -58,7 +58,7 @@ def test_the_colours_are_those_documented():
         (biological.ALGAE_COLOR, (52, -12, 30)),
         (biological.BIOFILM_COLOR, (30, -4, 8)),
         (biological.LICHEN_COLOR, (65, 15, 55)),
-        (biological.LICHEN_SHADE_COLOR, (60, -5, 20)),
+        (biological.LICHEN_GREY_COLOR, (65, -3, 12)),
     ):
         assert lab(item.default) == pytest.approx(documented, abs=0.3), item.name
 
@@ -137,22 +137,47 @@ def test_lichen_cover_follows_the_boolean_model():
     assert np.mean(distance < math.sqrt(1.0 / math.pi)) > (1.0 - math.exp(-1.0)) + 0.08
 
 
-def test_a_thallus_is_orange_as_far_as_the_sun_reaches_it():
-    """A point inside an established thallus shows the lichen's colour alone: the sun colour where
-    a quarter of full sun or more reaches it, the shade colour where none does, and their mix at
-    the light between (docs/model.md §9.3): on a north face the thalli are greenish grey."""
-    inside = {biological.LICHEN_SEEDS: (np.zeros(1), np.zeros(1))}  # at an established seed
-    sun, shade = (np.asarray(item.default) for item in (biological.LICHEN_COLOR, biological.LICHEN_SHADE_COLOR))
-    for sun_map, light in ((0.0, 0.0), (0.02, 0.08), (0.1, 0.4), (0.25, 1.0), (0.46, 1.0)):
-        # the level at 1 and the point wet: the seed establishes wherever any light reaches it
-        colour = seen(50.0, fields=inside, sun_map=sun_map, rain_map=1.0, biological_level=1.0)[0]
-        expected = shade + (sun - shade) * light if sun_map > 0.0 else None
-        if expected is None:  # no light: no thallus establishes, whatever its seed
-            assert np.linalg.norm(lab(colour) - lab(sun)) > 20.0 and np.linalg.norm(lab(colour) - lab(shade)) > 5.0
-            continue
-        assert colour == pytest.approx(expected, abs=1e-6), sun_map
-    north = lab(seen(50.0, fields=inside, **FACES["north"]))[0]
-    assert north[1] < 0.0 < lab(seen(50.0, fields=inside, **FACES["south"]))[0][1] - 10.0
+def test_a_thallus_is_grey_or_orange_as_far_as_the_sun_reaches_it():
+    """A point inside an established thallus shows the lichen's colour alone (docs/model.md §9.3):
+    a seed of the orange species (its value below ORANGE_SHARE x L) is the orange where a quarter
+    of full sun or more reaches it, the grey where none does, and their mix at the light between;
+    any other seed is grey in the sun too; on a north face every thallus is near the grey."""
+    sun, grey = (np.asarray(item.default) for item in (biological.LICHEN_COLOR, biological.LICHEN_GREY_COLOR))
+
+    def thallus(seed_value, **inputs):
+        """The colour at an established seed's own place (distance 0), the point wet (L = light)."""
+        inside = {biological.LICHEN_SEEDS: (np.zeros(1), np.full(1, seed_value))}
+        return seen(50.0, fields=inside, rain_map=1.0, biological_level=1.0, **inputs)[0]
+
+    for sun_map, light in ((0.1, 0.4), (0.25, 1.0), (0.46, 1.0)):
+        assert thallus(0.0, sun_map=sun_map) == pytest.approx(grey + (sun - grey) * light, abs=1e-6), sun_map
+        # established (below L = light) but above the orange species' share of it: grey
+        assert thallus(0.5 * light, sun_map=sun_map) == pytest.approx(grey, abs=1e-6), sun_map
+    assert np.linalg.norm(lab(thallus(0.0, sun_map=0.0)) - lab(grey)) > 5.0  # no light: no thallus at all
+    north, south = (
+        lab(seen(50.0, fields={biological.LICHEN_SEEDS: (np.zeros(1), np.zeros(1))}, **FACES[face]))[0]
+        for face in ("north", "south")
+    )
+    assert north[1] < 0.0 < south[1] - 10.0
+
+
+def test_a_third_of_the_thalli_are_orange():
+    """Over many seeds of a wet, sunlit wall, the established thalli of the orange species are
+    ORANGE_SHARE of them, wherever L puts the establishment."""
+    values = np.random.default_rng(5).random(200_000)
+    sun, grey = (np.asarray(item.default) for item in (biological.LICHEN_COLOR, biological.LICHEN_GREY_COLOR))
+    for sun_map in (0.3, 0.5):  # L = 1 (wet, full light), and a share of that on a drier face
+        for rain_map in (1.0, 0.0):
+            state = model.weathering_state(
+                "biological", dict(sun_map=sun_map, rain_map=rain_map, runoff_map=0.0, biological_years=50.0)
+            )
+            light = biological.lichen_light(XP, state)
+            suitability = biological.lichen_suitability(XP, state, light)
+            colour = biological.lichen_colour(NumpyOps(), state, values, suitability, light)  # RGB last
+            established = biological.lichen_cover(XP, state, np.zeros_like(values), values) > 0.5
+            orange = np.abs(colour[:, 0] - sun[0]) < np.abs(colour[:, 0] - grey[0])
+            assert orange[established].mean() == pytest.approx(biological.ORANGE_SHARE, abs=0.02), (sun_map, rain_map)
+            assert not orange[~established].any()
 
 
 def test_lichens_grow_at_their_rate_after_the_lag():

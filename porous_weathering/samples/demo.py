@@ -188,9 +188,11 @@ DOCS_BEFORE_AFTER = {model.SOILING: "sculpted_stone", model.WET: "brick_wall", m
 #: without run-off: docs/model.md §7.2) and by the rain and its run-off (the defaults).
 DOCS_RUNOFF = (("rain alone", dict(runoff=0.0, streaks=0.0)), ("rain and run-off", {}))
 #: docs/images/facade_life.png (docs/model.md §9): the façade in the country, life alone, at these
-#: years since it was last clean. Its front faces north here (north angle 180: +Y is south), as a
-#: façade in the shade most of the day, at 50° N: a fact of the site, given to its sun map.
+#: years since it was last clean, at 50° N, a row for each way its front faces: to the north, in
+#: the shade most of the day, and to the south, in the sun. The way is a fact of the site, given to
+#: its sun map as the angle of north from +Y (the front faces -Y): 180 puts north in front of it.
 DOCS_LIFE_YEARS = (5.0, 20.0, 50.0)
+DOCS_LIFE_FRONTS = {"north": 180.0, "south": 0.0}
 LIFE = "biological"
 #: docs/survey.md (docs/model.md §10): the soiled façade in its site surveyed at these years, each
 #: condition map (docs/images/facade_survey_<years>y.png) beside its render (..._render.png).
@@ -479,15 +481,19 @@ def render_porous_vs_base(path, size=256, samples=64):
 
 def render_facade_life(work, size, samples, bake_samples):
     """docs/images/facade_life.png: the façade in RURAL, biological mode alone, at DOCS_LIFE_YEARS
-    (every clock of its material set from the years, ``ages_for_years``)."""
-    recipe = replace(RECIPES[FACADE], modes=(LIFE,), environment="RURAL", sun=dict(latitude=50.0, north_angle=180.0))
-    facade = Sample(FACADE, bake_samples=bake_samples, map_dir=work, progress=True, recipe=recipe)
-    facade.use_cycles(size, samples)
-    pictures = [
-        facade.render_years(LIFE, years, os.path.join(work, f"facade_life_{years:g}.png")) for years in DOCS_LIFE_YEARS
-    ]
-    labels = [f"biological, rural, {years:g} years" for years in DOCS_LIFE_YEARS]
-    return side_by_side(pictures, len(pictures), os.path.join(DOCS_IMAGES, "facade_life.png"), labels, DOCS_SCALE)
+    (every clock of its material set from the years, ``ages_for_years``), a row for each of
+    DOCS_LIFE_FRONTS."""
+    pictures, labels = [], []
+    for front, north_angle in DOCS_LIFE_FRONTS.items():
+        sun_site = dict(latitude=50.0, north_angle=north_angle)
+        recipe = replace(RECIPES[FACADE], modes=(LIFE,), environment="RURAL", sun=sun_site)
+        facade = Sample(FACADE, bake_samples=bake_samples, map_dir=work, progress=True, recipe=recipe)
+        facade.use_cycles(size, samples)
+        for years in DOCS_LIFE_YEARS:
+            pictures.append(facade.render_years(LIFE, years, os.path.join(work, f"facade_life_{front}_{years:g}.png")))
+            labels.append(f"biological, rural, front to the {front}, {years:g} years")
+    out = os.path.join(DOCS_IMAGES, "facade_life.png")
+    return side_by_side(pictures, len(DOCS_LIFE_YEARS), out, labels, DOCS_SCALE)
 
 
 def survey_facade(facade, years, out_dir):

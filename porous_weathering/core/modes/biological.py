@@ -54,10 +54,14 @@ PORE_BIOMASS = 0.2
 
 #: Lichens (docs/model.md §9.3): they establish this many years after cleaning (on rural samples by
 #: the end of the second year: Adamson et al. 2012); where the sun is at least LIGHT_NEEDED they are
-#: as lit as they need, and as orange (their pigment is a sunscreen); a thallus's rim blends over
-#: LICHEN_RIM metres, a seed's establishment over SEED_RIM.
+#: as lit as they need, and those of the orange species as orange as they get (their pigment is a
+#: sunscreen); a thallus's rim blends over LICHEN_RIM metres, a seed's establishment over SEED_RIM.
 LICHEN_LAG_YEARS = 1.5
 LIGHT_NEEDED = 0.25
+#: The share of the thalli that are of the orange species (Caloplaca, Xanthoria): one of the three
+#: of a calcareous wall's community, beside the grey (Aspicilia, Lecanora) and the dark ones
+#: (docs/model.md §9.3; judgement).
+ORANGE_SHARE = 1.0 / 3.0
 LICHEN_RIM = 3e-4
 SEED_RIM = 0.02
 #: One seed per Voronoi cell covers more than the Boolean model of the same density (its thalli
@@ -114,12 +118,13 @@ LICHEN_COLOR = Input(
     1.0,
     "The lichen thalli in the sun (L* 65, a* 15, b* 55: the orange-yellow Xanthoria of walls)",
 )
-LICHEN_SHADE_COLOR = Input(
-    "lichen_shade_color",
-    (0.302, 0.288, 0.154),
+LICHEN_GREY_COLOR = Input(
+    "lichen_grey_color",
+    (0.357, 0.345, 0.247),
     0.0,
     1.0,
-    "The lichen thalli in the shade (L* 60, a* -5, b* 20: greenish grey, without the sun's orange pigment)",
+    "The thalli without the sun's orange pigment (L* 65, a* -3, b* 12: the grey lichens of walls, "
+    "and the orange ones in the shade)",
 )
 LICHEN_DENSITY = Input(
     "lichen_density",
@@ -218,16 +223,17 @@ def crowded_radius(xp, radius, density):
     return radius / xp.power(1.0 + (CROWDING * math.pi) * (density * radius * radius), 0.5)
 
 
-def lichen_cover(xp, state, distance, seed, light=None):
+def lichen_cover(xp, state, distance, seed, suitability=None):
     """The thallus cover at a point ``distance`` cells from the nearest seed, whose value is
     ``seed``: the seed established (its value under L), and the point within r(years) of it
-    (crowded_radius).  ``light``: the point's ``lichen_light``, if the caller has it."""
-    light = lichen_light(xp, state) if light is None else light
+    (crowded_radius).  ``suitability``: the point's L, if the caller has it."""
+    if suitability is None:
+        suitability = lichen_suitability(xp, state, lichen_light(xp, state))
     density = xp.maximum(state["lichen_density"], LEAST_DENSITY)
     spacing = 1.0 / xp.power(density, 0.5)  # metres per cell
     radius = crowded_radius(xp, lichen_radius(xp, state), density)
     inside = 1.0 - xp.smoothstep(radius - LICHEN_RIM, radius, distance * spacing)
-    established = xp.smoothstep(seed, seed + SEED_RIM, lichen_suitability(xp, state, light))
+    established = xp.smoothstep(seed, seed + SEED_RIM, suitability)
     return inside * established
 
 
@@ -251,17 +257,20 @@ def lichen_seeds_at(metres, normals, state, kind):
     return distance.astype(np.float64), seed.astype(np.float64)
 
 
-def lichen_colour(xp, state, light):
-    """A thallus's colour: the shade's greenish grey, orange as far as it is lit (docs/model.md
-    §9.3: its pigment is a sunscreen, made as far as the sun reaches it)."""
-    return blend(xp, state["lichen_shade_color"], state["lichen_color"], xp.channel(light))
+def lichen_colour(xp, state, seed, suitability, light):
+    """A thallus's colour (docs/model.md §9.3): grey, or, for the ORANGE_SHARE of the seeds that
+    establish with the lowest values (a draw of the seed's own: below ORANGE_SHARE x L), orange as
+    far as it is lit (its pigment is a sunscreen, made as far as the sun reaches it)."""
+    orange = xp.smoothstep(seed, seed + SEED_RIM, suitability * ORANGE_SHARE)
+    return blend(xp, state["lichen_grey_color"], state["lichen_color"], xp.channel(orange * light))
 
 
 def lay_lichens(xp, point):
     distance, seed = point.fields.get(LICHEN_SEEDS, NO_SEEDS)
     light = lichen_light(xp, point.state)
-    coverage = lichen_cover(xp, point.state, distance, seed, light)
-    cover(xp, point, lichen_colour(xp, point.state, light), coverage)
+    suitability = lichen_suitability(xp, point.state, light)
+    coverage = lichen_cover(xp, point.state, distance, seed, suitability)
+    cover(xp, point, lichen_colour(xp, point.state, seed, suitability, light), coverage)
     point.notes["lichen"] = coverage
 
 
@@ -302,7 +311,7 @@ MODE = Mode(
         ALGAE_COLOR,
         BIOFILM_COLOR,
         LICHEN_COLOR,
-        LICHEN_SHADE_COLOR,
+        LICHEN_GREY_COLOR,
         LICHEN_DENSITY,
         LICHEN_GROWTH,
     ),
