@@ -116,7 +116,7 @@ LICHEN_COLOR = Input(
     (0.625, 0.286, 0.038),
     0.0,
     1.0,
-    "The lichen thalli in the sun (L* 65, a* 15, b* 55: the orange-yellow Xanthoria of walls)",
+    "The orange species' thalli in the sun (L* 65, a* 15, b* 55: Xanthoria, Caloplaca)",
 )
 LICHEN_GREY_COLOR = Input(
     "lichen_grey_color",
