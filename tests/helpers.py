@@ -46,7 +46,7 @@ from porous_weathering.core import model
 from porous_weathering.core import modes as weathering_modes
 from porous_weathering.core.backends import NumpyOps
 from porous_weathering.core.modes import base as mode_base
-from porous_weathering.core.modes import soiling, wet
+from porous_weathering.core.modes import biological, soiling, wet
 from porous_weathering.maps import registry as maps
 from porous_weathering.maps import sky_bake
 from porous_weathering.samples import studio
@@ -268,6 +268,30 @@ def _surface_of_copy(material, surface):
     output = next(node for node in tree.nodes if node.type == "OUTPUT_MATERIAL")
     tree.links.new(surface(tree, tree.nodes[STONE_NODE]), output.inputs["Surface"])
     return copy
+
+
+def lichen_seed_probe(plane, density):
+    """(distance in cells, seed value, size draw) per pixel of the plane facing +Z, from a 2D Voronoi texture of
+    the same seeds built here (docs/model.md §9.3: the x-y plane, shifted by the plane offset, ``density``
+    seeds per m²), not through the shading code."""
+    spacing = density**0.5
+
+    def build(graph, geometry):
+        position = graph.node("ShaderNodeSeparateXYZ", {"Vector": geometry.outputs["Position"]})
+        shifted = graph.wrap(position.outputs["Y"]) + biological.PLANE_OFFSET
+        place = graph.node("ShaderNodeCombineXYZ", {"X": position.outputs["X"], "Y": shifted, "Z": 0.0})
+        voronoi = graph.node(
+            "ShaderNodeTexVoronoi", {"Vector": place.outputs[0], "Scale": spacing}, voronoi_dimensions="2D"
+        )
+        seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})  # the cell's own values
+        all_three = graph.node(
+            "ShaderNodeCombineXYZ",
+            {"X": voronoi.outputs["Distance"], "Y": seed.outputs["Red"], "Z": seed.outputs["Green"]},
+        )
+        return all_three.outputs[0]
+
+    probe = plane.render(studio.emission_probe("Seed Probe", build))
+    return probe[..., 0], probe[..., 1], probe[..., 2]
 
 
 def stone_probe(render_with, material, outputs, shift=0.0):

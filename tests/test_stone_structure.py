@@ -26,6 +26,7 @@ import porous_weathering as pw
 from helpers import (
     MaskedPlane,
     assert_matches,
+    lichen_seed_probe,
     presets_row,
     stone_glossy_lobe,
     stone_parameters,
@@ -35,7 +36,7 @@ from helpers import (
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model, porous, stones
 from porous_weathering.core.backends import NumpyOps
-from porous_weathering.core.modes import base, soiling
+from porous_weathering.core.modes import base, biological, soiling
 from porous_weathering.samples import studio
 from porous_weathering.shading import nodes
 from porous_weathering.shading.presets import PATCH_OCTAVES, PRESETS
@@ -452,6 +453,39 @@ def test_weathered_fronts_follow_the_stone(fresh_scene, variation):
     fill = model.pore_fill(0.55, np.minimum(0.5 * got["r"], 1.0), 1.0, 0.1)
     fill = base.local_share(XP, fill, base.uptake_spread(XP, got["z_p"], variation))[covered]
     assert fill.min() < 0.25 and fill.max() > 0.75  # the front runs through the stone's structure
+
+
+def test_life_follows_the_stone(fresh_scene):
+    """The algal film at the stone's pace and the lichens' establishment at the point's share of the
+    stone (docs/model.md §8.3, §8.7, §9.3): per pixel where the model puts them, given the stone's
+    values and the lichens' seeds read back; the share of seeds that establish runs through the
+    stone's structure about its mean."""
+    plane = MaskedPlane(fresh_scene, size=24)
+    state = dict(
+        biological_years=20.0, lichen_density=4.0, lichen_growth=20.0, damp_map=0.3, rain_map=0.2, runoff_map=0.0,
+        sun_map=0.5,
+    )  # fmt: skip
+    material = pw.make_weathered_material(
+        "Life", modes=("biological",), **STONE, stone="LIMESTONE", key_light=plane.sun, environment=None, **state
+    )
+    got = read_back(plane, material)
+    got["z_p"] = stone_shifted(plane.render, material, "Porosity Field")
+    seeds = lichen_seed_probe(plane, state["lichen_density"])
+    image = plane.render(material)
+    diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
+    n_dot_l, n_dot_v = cosines(plane)
+    kd_w, ks_w, _ = model.weathered_coefficients(
+        got["kd"], STONE["ks"], got["m"], got["alpha"], got["sp"], n_dot_l, n_dot_v, ("biological",),
+        receptivity=got["r"], field=got["z_p"], variation=1.0, fields={biological.LICHEN_SEEDS: seeds}, **state,
+    )  # fmt: skip
+    covered = image[..., 3] > 0.999
+    assert_matches(image, kd_w * diffuse + ks_w[..., None] * glossy_lobe(plane, material), covered)
+    full = model.weathering_state("biological", state)
+    spread = base.uptake_spread(SCALAR, got["z_p"], 1.0)[covered]
+    light = biological.lichen_light(SCALAR, full)
+    suitability = biological.lichen_suitability(SCALAR, full, light)  # 0.72 here
+    established = base.local_share(SCALAR, suitability, spread)
+    assert established.min() < suitability - 0.2 < suitability + 0.2 < established.max()
 
 
 @pytest.mark.parametrize("weathered", [False, True], ids=["porous", "weathered"])

@@ -24,6 +24,7 @@ from helpers import (
     assert_matches,
     expected_image,
     gradient_image,
+    lichen_seed_probe,
     lobes,
     model_weights,
     paper_modes,
@@ -270,40 +271,20 @@ BIOLOGICAL_STATE = dict(
 )
 
 
-def lichen_seed_probe(plane):
-    """(distance in cells, seed value) per pixel of the plane facing +Z, from a 2D Voronoi texture of
-    the same seeds built here (docs/model.md §9.3: the x-y plane, shifted by the plane offset), not
-    through the shading code."""
-    spacing = BIOLOGICAL_STATE["lichen_density"] ** 0.5
-
-    def build(graph, geometry):
-        position = graph.node("ShaderNodeSeparateXYZ", {"Vector": geometry.outputs["Position"]})
-        shifted = graph.wrap(position.outputs["Y"]) + biological.PLANE_OFFSET
-        place = graph.node("ShaderNodeCombineXYZ", {"X": position.outputs["X"], "Y": shifted, "Z": 0.0})
-        voronoi = graph.node(
-            "ShaderNodeTexVoronoi", {"Vector": place.outputs[0], "Scale": spacing}, voronoi_dimensions="2D"
-        )
-        seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})  # the cell's own value
-        both = graph.node("ShaderNodeCombineXYZ", {"X": voronoi.outputs["Distance"], "Y": seed.outputs["Red"]})
-        return both.outputs[0]
-
-    probe = plane.render(studio.emission_probe("Seed Probe", build))
-    return probe[..., 0], probe[..., 1]
-
-
 def test_the_numpy_lichen_seeds_are_the_renders(fresh_scene):
     """The seeds the survey draws in numpy (biological.lichen_seeds_at, docs/model.md §10.1) are the
     Voronoi texture's at each pixel's place on the plane, with this Blender's hash."""
     plane = MaskedPlane(fresh_scene)
-    seeds = lichen_seed_probe(plane)
+    seeds = lichen_seed_probe(plane, BIOLOGICAL_STATE["lichen_density"])
     place = plane.render(studio.emission_probe("Place Probe", lambda graph, geometry: geometry.outputs["Position"]))
     covered = place[..., 3] > 0.999
     metres = place[..., :3][covered]
     normals = np.broadcast_to((0.0, 0.0, 1.0), metres.shape)
-    distance, value = biological.lichen_seeds_at(metres, normals, BIOLOGICAL_STATE, compat.VORONOI_HASH)
+    distance, value, size = biological.lichen_seeds_at(metres, normals, BIOLOGICAL_STATE, compat.VORONOI_HASH)
     assert np.abs(distance - seeds[0][covered]).max() < 1e-5
     assert np.array_equal(value.astype(np.float32), seeds[1][covered])
-    assert len(np.unique(value)) > 4  # several seeds on the plane
+    assert np.array_equal(size.astype(np.float32), seeds[2][covered])
+    assert len(np.unique(value)) > 4 and len(np.unique(size)) > 4  # several seeds on the plane
 
 
 def test_the_numpy_white_noise_is_the_renders(fresh_scene):
@@ -334,7 +315,7 @@ def test_biological_matches_model(fresh_scene):
     image = plane.render(weathered("Life", ("biological",), key_light=plane.sun, sun_map=sun, **BIOLOGICAL_STATE))
     covered = image[..., 3] > 0.999
     sun_map = plane.probe(sun)
-    seeds = lichen_seed_probe(plane)
+    seeds = lichen_seed_probe(plane, BIOLOGICAL_STATE["lichen_density"])
     n_dot_l = np.dot(np.array(plane.sun.matrix_world.to_3x3().col[2]), (0.0, 0.0, 1.0))
     weights = model.weathered_coefficients(
         *(STONE[key] for key in ("base_color", "ks", "roughness", "porosity", "pore_depth_ratio")),
@@ -348,7 +329,7 @@ def test_biological_matches_model(fresh_scene):
     state = {**model.weathering_state("biological", BIOLOGICAL_STATE), "sun_map": sun_map}
     xp = NumpyOps(colour=False)
     lichen = biological.lichen_cover(xp, state, *seeds)
-    unreached = biological.lichen_cover(xp, state, np.zeros_like(seeds[0]), seeds[1]) < 0.5  # seeds too high for L
+    unreached = biological.lichen_cover(xp, state, np.zeros_like(seeds[0]), *seeds[1:]) < 0.5  # seeds too high for L
     assert 0.1 < lichen[covered].mean() < 0.9 and 0.1 < unreached[covered].mean() < 0.9
     assert_matches(image, expected_image(weights, lobes(plane.render, STONE["roughness"])), covered)
     off = plane.render(
