@@ -216,6 +216,16 @@ def test_the_lichens_establish_at_the_stones_share():
     assert np.ptp(point.notes["biomass"]) == 0.0
 
 
+def test_receptive_stone_holds_more_film():
+    """The film's biomass is r times the plain stone's once grown (docs/model.md §9.3: receptive
+    stone holds more, as it holds more water), and never above 1; r = 1 is the plain stone's."""
+    state = model.weathering_state("biological", dict(biological_years=20.0, rain_map=1.0, runoff_map=0.0, sun_map=0.0))
+    plain = biological.algal_biomass(XP, state, 1.0)  # wet and dark: 1 * (1 - exp(-20))
+    receptivity = np.array([0.8, 1.0, 1.25, 3.0])
+    held = biological.algal_biomass(XP, state, receptivity)
+    assert held[:3] == pytest.approx(receptivity[:3] * plain, rel=1e-6) and held[3] == 1.0
+
+
 def test_lichens_grow_at_their_rate_after_the_lag():
     state = model.weathering_state("biological", dict(biological_years=21.5, lichen_growth=2.0))
     assert float(biological.lichen_radius(XP, state)) == pytest.approx(0.020)  # 20 years x 1 mm

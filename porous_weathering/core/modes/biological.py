@@ -177,9 +177,14 @@ def decay(xp, years, receptivity, time_constant):
 
 def algal_biomass(xp, state, receptivity):
     """B in [0, 1] (docs/model.md §9.3): the level times the dampness, approached with ALGAE_YEARS at
-    the point's local years (receptive stone is colonised faster: docs/model.md §8.3)."""
-    growth = decay(xp, state["biological_years"], receptivity, ALGAE_YEARS)
-    return dampness(xp, state) * (state["biological_level"] * growth)
+    the point's local years, and times the receptivity: receptive stone is colonised faster
+    (docs/model.md §8.3) and holds more, as it holds more water; without a stone (r = 1) B itself."""
+    biomass = dampness(xp, state) * (
+        state["biological_level"] * decay(xp, state["biological_years"], receptivity, ALGAE_YEARS)
+    )
+    if isinstance(receptivity, float) and receptivity == 1.0:
+        return biomass
+    return xp.minimum(biomass * receptivity, 1.0)
 
 
 def film_colour(xp, state, receptivity):
