@@ -4,8 +4,8 @@ Blender's 2D Voronoi texture puts one seed in each unit cell, uniformly within i
 the distance to the nearest seed among the cell and its eight neighbours.  This script draws the
 same seeds in numpy (independently of Blender), measures the share of points within r of their
 nearest seed, and compares it with the Boolean model of Poisson seeds of the same density,
-1 - exp(-lambda pi r^2): every thallus of radius r, and the mode's own ``lichen_cover`` (each
-thallus its own size, of mean square r^2).  Plain numpy, no bpy:  python benchmarks/lichen_cover.py
+1 - exp(-lambda pi r^2): without a correction, and with the mode's own ``lichen_cover`` (its crowded
+radius).  Plain numpy, no bpy:  python benchmarks/lichen_cover.py
 """
 
 import pathlib
@@ -20,25 +20,24 @@ from porous_weathering.core.modes import biological
 
 
 def voronoi_seeds(cells: int = 400, points: int = 200_000, seed: int = 1):
-    """(distance in cells to the nearest seed, that seed's value and size draw) at ``points`` random
-    points of a ``cells`` x ``cells`` grid of one seed per cell, as Blender's 2D Voronoi F1 finds them."""
+    """(distance in cells to the nearest seed, that seed's value) at ``points`` random points of a
+    ``cells`` x ``cells`` grid of one seed per cell, as Blender's 2D Voronoi F1 finds them."""
     rng = np.random.default_rng(seed)
     sx, sy = (np.arange(cells)[axis] + rng.random((cells, cells)) for axis in (np.s_[:, None], np.s_[None, :]))
-    values, sizes = rng.random((2, cells, cells))
+    values = rng.random((cells, cells))
     where = rng.random((points, 2)) * (cells - 4) + 2
     cx, cy = np.floor(where).astype(int).T
-    best, value, size = np.full(points, np.inf), np.zeros(points), np.zeros(points)
+    best, value = np.full(points, np.inf), np.zeros(points)
     for dx in (-1, 0, 1):
         for dy in (-1, 0, 1):
             d = np.hypot(sx[cx + dx, cy + dy] - where[:, 0], sy[cx + dx, cy + dy] - where[:, 1])
             closer = d < best
             best = np.where(closer, d, best)
             value = np.where(closer, values[cx + dx, cy + dy], value)
-            size = np.where(closer, sizes[cx + dx, cy + dy], size)
-    return best, value, size
+    return best, value
 
 
-def cover(distance, value, size, u, suitability=1.0):
+def cover(distance, value, u, suitability=1.0):
     """The mean lichen cover of the mode at lambda pi r^2 = ``u`` (lambda = 1 per m², level 1, a
     surface as damp and lit as lichens need, scaled to ``suitability``)."""
     density = 1.0
@@ -55,18 +54,18 @@ def cover(distance, value, size, u, suitability=1.0):
         runoff=0.0,
         damp_map=0.0,
     )
-    return float(np.mean(biological.lichen_cover(NumpyOps(colour=False), state, distance, value, size)))
+    return float(np.mean(biological.lichen_cover(NumpyOps(colour=False), state, distance, value)))
 
 
 def main():
-    seeds = voronoi_seeds()
-    distance = seeds[0]
-    print("u = lambda pi r^2 | Boolean | one seed per cell, r as is | the mode (sizes spread) | L = 0.5: Boolean, mode")
+    distance, value = voronoi_seeds()
+    print("u = lambda pi r^2 | Boolean | one seed per cell, r as is | the mode (crowded r) | L = 0.5: Boolean, mode")
     for u in (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 3.0, 4.0):
         plain = float(np.mean(distance < np.sqrt(u / np.pi)))
         boolean, half = 1.0 - np.exp(-u), 1.0 - np.exp(-0.5 * u)
         print(
-            f"{u:5.2f} | {boolean:.3f} | {plain:.3f} | {cover(*seeds, u):.3f} | {half:.3f}, {cover(*seeds, u, 0.5):.3f}"
+            f"{u:5.2f} | {boolean:.3f} | {plain:.3f} | {cover(distance, value, u):.3f}"
+            f" | {half:.3f}, {cover(distance, value, u, 0.5):.3f}"
         )
 
 

@@ -271,7 +271,7 @@ def _surface_of_copy(material, surface):
 
 
 def lichen_seed_probe(plane, density):
-    """(distance in cells, seed value, size draw) per pixel of the plane facing +Z, from a 2D Voronoi texture of
+    """(distance in cells, seed value) per pixel of the plane facing +Z, from a 2D Voronoi texture of
     the same seeds built here (docs/model.md §9.3: the x-y plane, shifted by the plane offset, ``density``
     seeds per m²), not through the shading code."""
     spacing = density**0.5
@@ -283,15 +283,12 @@ def lichen_seed_probe(plane, density):
         voronoi = graph.node(
             "ShaderNodeTexVoronoi", {"Vector": place.outputs[0], "Scale": spacing}, voronoi_dimensions="2D"
         )
-        seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})  # the cell's own values
-        all_three = graph.node(
-            "ShaderNodeCombineXYZ",
-            {"X": voronoi.outputs["Distance"], "Y": seed.outputs["Red"], "Z": seed.outputs["Green"]},
-        )
-        return all_three.outputs[0]
+        seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})  # the cell's own value
+        both = graph.node("ShaderNodeCombineXYZ", {"X": voronoi.outputs["Distance"], "Y": seed.outputs["Red"]})
+        return both.outputs[0]
 
     probe = plane.render(studio.emission_probe("Seed Probe", build))
-    return probe[..., 0], probe[..., 1], probe[..., 2]
+    return probe[..., 0], probe[..., 1]
 
 
 def stone_probe(render_with, material, outputs, shift=0.0):

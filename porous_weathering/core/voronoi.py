@@ -56,58 +56,51 @@ def _pcg2d(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x & 0x7FFFFFFF, y & 0x7FFFFFFF
 
 
-def _pcg3d_xy(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The first two words of Cycles' ``hash_pcg3d_i``."""
+def _pcg3d_x(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """The first word of Cycles' ``hash_pcg3d_i``."""
     x, y, z = (w * _PCG_MULTIPLIER + _PCG_INCREMENT for w in (x, y, z))
     x = x + y * z
     y = y + z * x
     z = z + x * y
     x, y, z = x ^ (x >> 16), y ^ (y >> 16), z ^ (z >> 16)
-    x = x + y * z
-    return x & 0x7FFFFFFF, (y + z * x) & 0x7FFFFFFF
+    return (x + y * z) & 0x7FFFFFFF
 
 
 def _to_unit(h: np.ndarray) -> np.ndarray:
     return h.astype(np.float32) * np.float32(2.0**-31)
 
 
-def cell_hash(
-    cx: np.ndarray, cy: np.ndarray, kind: str
-) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
-    """(seed x, seed y in the cell, the cell's two values: the Color's red and green) of cells (cx, cy)."""
-    if kind == LOOKUP3:  # hash_float2_to_float3: the red is the seed's x, the green its y
-        sx, sy = lookup3(cx, cy), lookup3(cx, cy, np.ones_like(cx))
-        return sx, sy, (sx, sy)
+def cell_hash(cx: np.ndarray, cy: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(seed x, seed y in the cell, the cell's value: the Color's red) of cells (cx, cy)."""
+    if kind == LOOKUP3:
+        own = lookup3(cx, cy)
+        return own, lookup3(cx, cy, np.ones_like(cx)), own
     if kind == PCG:
         ix, iy = cx.astype(np.int32), cy.astype(np.int32)
         sx, sy = _pcg2d(ix, iy)
-        red, green = _pcg3d_xy(ix, iy, np.zeros_like(ix))
-        return _to_unit(sx), _to_unit(sy), (_to_unit(red), _to_unit(green))
+        return _to_unit(sx), _to_unit(sy), _to_unit(_pcg3d_x(ix, iy, np.zeros_like(ix)))
     raise ValueError(f"the Voronoi hash is {LOOKUP3!r} or {PCG!r}, not {kind!r}")
 
 
-def voronoi_f1(
-    x: np.ndarray, y: np.ndarray, scale: np.ndarray | float, kind: str
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Distance, Color's red, Color's green) of the Voronoi texture node (2D, F1) at ``(x, y) *
-    scale``, its cells hashed by ``kind`` (LOOKUP3 or PCG): the distance in cells to the nearest
-    seed and that seed's own two values in [0, 1]."""
+def voronoi_f1(x: np.ndarray, y: np.ndarray, scale: np.ndarray | float, kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """(Distance, Color's red) of the Voronoi texture node (2D, F1) at ``(x, y) * scale``, its
+    cells hashed by ``kind`` (LOOKUP3 or PCG): the distance in cells to the nearest seed and that
+    seed's own value in [0, 1]."""
     with np.errstate(over="ignore"):
         coord = [np.asarray(axis, dtype=np.float32) * np.asarray(scale, dtype=np.float32) for axis in (x, y)]
         cell = [np.floor(axis) for axis in coord]
         local = [axis - corner for axis, corner in zip(coord, cell)]
         best = np.full(coord[0].shape, np.inf, dtype=np.float32)
-        red, green = (np.zeros(coord[0].shape, dtype=np.float32) for _ in range(2))
+        value = np.zeros(coord[0].shape, dtype=np.float32)
         for j in (-1, 0, 1):  # Cycles' order: a tie keeps the first seed found
             for i in (-1, 0, 1):
-                sx, sy, (own_red, own_green) = cell_hash(cell[0] + np.float32(i), cell[1] + np.float32(j), kind)
+                sx, sy, own = cell_hash(cell[0] + np.float32(i), cell[1] + np.float32(j), kind)
                 dx, dy = np.float32(i) + sx - local[0], np.float32(j) + sy - local[1]
                 distance = np.sqrt(dx * dx + dy * dy)
                 nearer = distance < best
                 best = np.where(nearer, distance, best)
-                red = np.where(nearer, own_red, red)
-                green = np.where(nearer, own_green, green)
-    return best, red, green
+                value = np.where(nearer, own, value)
+    return best, value
 
 
 def white_noise_colour(w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -35,7 +35,7 @@ from ..core.shader_math import Graph, dot, normalize
 #: the uptake's gain G = 8, §8.7; build 16 every run-off in rivulets a decimetre apart, §8.8;
 #: build 17 the rivulets' forms in fewer nodes, §8.8; build 18 the point's own data, and so its
 #: place, one node per group; build 19 the lichens orange as far as the sun reaches them, §9.3;
-#: build 20 each thallus its own size, and the lichens establishing at the stone's share, §9.3.)
+#: build 20 the lichens establishing at the stone's share and the film holding as much as r, §9.3.)
 BUILD_VERSION = 20
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
@@ -389,7 +389,7 @@ def fall_line(graph, inputs):
 
 
 def lichen_seeds(graph, inputs):
-    """(distance to the nearest seed in cells, that seed's value and size draw in [0, 1]) of the lichens
+    """(distance to the nearest seed in cells, that seed's value in [0, 1)) of the lichens
     (docs/model.md §9.3): a 2D Voronoi texture of one seed per cell of side 1/sqrt(lambda) metres, on
     the world plane the surface faces most (x-y for tops, x-z for faces along x, y-z for faces along
     y: a thallus on any face is a disc of radius r), each plane its own seeds."""
@@ -412,9 +412,7 @@ def lichen_seeds(graph, inputs):
         distance="EUCLIDEAN",
     )
     seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})
-    return tuple(
-        graph.wrap(output) for output in (voronoi.outputs["Distance"], seed.outputs["Red"], seed.outputs["Green"])
-    )
+    return graph.wrap(voronoi.outputs["Distance"]), graph.wrap(seed.outputs["Red"])
 
 
 #: The shader's builder of each per-point field a mode's record names (``Mode.fields``).

@@ -9,8 +9,7 @@ renders the material without life bit for bit.
 
 The lichens' seeds are a field (``Mode.fields``): the shader reads them from a Voronoi texture at
 the point's place in metres, one seed per cell of side 1/sqrt(lambda) (``LICHEN_SEEDS``: the distance
-to the nearest seed, in cells, and that seed's own two random values, whether it establishes and how
-large it grows); the numpy model is given them.
+to the nearest seed, in cells, and that seed's own random value); the numpy model is given them.
 """
 
 import math
@@ -66,25 +65,20 @@ LIGHT_NEEDED = 0.25
 ORANGE_SHARE = 1.0 / 3.0
 LICHEN_RIM = 3e-4
 SEED_RIM = 0.02
-#: Thalli of one wall differ in size (their growth rates differ, their seeds arrive over the years):
-#: each is drawn with r(years) times its own factor, spread uniformly over 1 -+ SIZE_SPREAD and
-#: scaled to a mean square of 1 (0.48 to 1.44), so that the Boolean model's cover 1 - exp(-lambda pi
-#: E[r^2]) is that of r(years).  One seed per Voronoi cell covers more than Poisson seeds (its thalli
-#: overlap less) and a thallus larger than its cell is cut at it (it covers less): at this spread the
-#: two balance, and the cover is the Boolean law's within 0.035 for lambda pi r^2 up to 4
-#: (docs/model.md §9.3, measured by benchmarks/lichen_cover.py).
-SIZE_SPREAD = 0.5
+#: One seed per Voronoi cell covers more than the Boolean model of the same density (its thalli
+#: overlap less): drawn with r / sqrt(1 + CROWDING lambda pi r^2), the cover is the Boolean law's
+#: within 0.015 for lambda pi r^2 up to 4 (docs/model.md §9.3, measured by benchmarks/lichen_cover.py).
+CROWDING = 0.26
 #: The least density taken (per m²), so that the seeds' cells stay finite (one per hectare: none seen).
 LEAST_DENSITY = 1e-4
 
 #: Metres between the three planes' seed patterns (docs/model.md §9.3), so each plane has its own seeds.
 PLANE_OFFSET = 1000.5
 
-#: The field the lichens read: (distance to the nearest seed in cells, that seed's value and its
-#: size's draw, each in [0, 1]).
+#: The field the lichens read: (distance to the nearest seed in cells, that seed's value in [0, 1)).
 LICHEN_SEEDS = "lichen_seeds"
 #: What the numpy model takes where it is given no seeds: no seed within reach (no lichen).
-NO_SEEDS = (1e9, 1.0, 0.5)
+NO_SEEDS = (1e9, 1.0)
 
 BIOLOGICAL_YEARS = Input(
     "biological_years",
@@ -228,30 +222,29 @@ def lichen_suitability(xp, state, light):
     return state["biological_level"] * humid(xp, wetness(xp, state)) * light
 
 
-def size_factor(size):
-    """A thallus's radius over r(years), from its seed's size draw ``size`` in [0, 1]: uniform over
-    1 -+ SIZE_SPREAD, of mean square 1 (docs/model.md §9.3)."""
-    scale = 1.0 / math.sqrt(1.0 + SIZE_SPREAD * SIZE_SPREAD / 3.0)
-    return (1.0 - SIZE_SPREAD) * scale + (2.0 * SIZE_SPREAD * scale) * size
+def crowded_radius(xp, radius, density):
+    """The radius a thallus of radius r is drawn with among seeds one per cell, so that their
+    cover follows the Boolean model 1 - exp(-u), u = lambda pi r^2 (docs/model.md §9.3):
+    r / sqrt(1 + CROWDING u)."""
+    return radius / xp.power(1.0 + (CROWDING * math.pi) * (density * radius * radius), 0.5)
 
 
-def lichen_cover(xp, state, distance, seed, size, suitability=None):
+def lichen_cover(xp, state, distance, seed, suitability=None):
     """The thallus cover at a point ``distance`` cells from the nearest seed, whose value is
-    ``seed`` and size draw ``size``: the seed established (its value under L), and the point within
-    its thallus's radius (r(years) times ``size_factor``).  ``suitability``: the point's L, if the
-    caller has it."""
+    ``seed``: the seed established (its value under L), and the point within r(years) of it
+    (crowded_radius).  ``suitability``: the point's L, if the caller has it."""
     if suitability is None:
         suitability = lichen_suitability(xp, state, lichen_light(xp, state))
     density = xp.maximum(state["lichen_density"], LEAST_DENSITY)
     spacing = 1.0 / xp.power(density, 0.5)  # metres per cell
-    radius = lichen_radius(xp, state) * size_factor(size)
+    radius = crowded_radius(xp, lichen_radius(xp, state), density)
     inside = 1.0 - xp.smoothstep(radius - LICHEN_RIM, radius, distance * spacing)
     established = xp.smoothstep(seed, seed + SEED_RIM, suitability)
     return inside * established
 
 
 def lichen_seeds_at(metres, normals, state, kind):
-    """The lichens' seeds (LICHEN_SEEDS: distance in cells, seed value, size draw) at points ``metres`` (..., 3)
+    """The lichens' seeds (LICHEN_SEEDS: distance in cells, seed value) at points ``metres`` (..., 3)
     from their object's origin whose surface faces ``normals`` (..., 3), as the shader's Voronoi
     texture gives them with the hash ``kind`` of the Blender that renders it (docs/model.md §9.3;
     ``voronoi``: the same hash, in single precision): on
@@ -266,7 +259,8 @@ def lichen_seeds_at(metres, normals, state, kind):
     u = np.where(faces_x, y + offset, x)
     v = np.where(faces_z, y + offset, z)
     density = np.maximum(np.asarray(state["lichen_density"], dtype=np.float32), np.float32(LEAST_DENSITY))
-    return tuple(field.astype(np.float64) for field in voronoi.voronoi_f1(u, v, np.sqrt(density), kind))
+    distance, seed = voronoi.voronoi_f1(u, v, np.sqrt(density), kind)
+    return distance.astype(np.float64), seed.astype(np.float64)
 
 
 def lichen_colour(xp, state, seed, suitability, light):
@@ -278,11 +272,11 @@ def lichen_colour(xp, state, seed, suitability, light):
 
 
 def lay_lichens(xp, point):
-    distance, seed, size = point.fields.get(LICHEN_SEEDS, NO_SEEDS)
+    distance, seed = point.fields.get(LICHEN_SEEDS, NO_SEEDS)
     light = lichen_light(xp, point.state)
     # the share of seeds that establish, at the point's share of the stone (docs/model.md §8.7)
     suitability = local_share(xp, lichen_suitability(xp, point.state, light), point.spread)
-    coverage = lichen_cover(xp, point.state, distance, seed, size, suitability)
+    coverage = lichen_cover(xp, point.state, distance, seed, suitability)
     cover(xp, point, lichen_colour(xp, point.state, seed, suitability, light), coverage)
     point.notes["lichen"] = coverage
 
