@@ -456,8 +456,8 @@ def test_weathered_fronts_follow_the_stone(fresh_scene, variation):
 
 
 def test_life_follows_the_stone(fresh_scene):
-    """The algal film at the stone's pace and the lichens' establishment at the point's share of the
-    stone (docs/model.md §8.3, §8.7, §9.3): per pixel where the model puts them, given the stone's
+    """The algal film at the stone's pace and capacity and the lichens' establishment at the point's
+    share of the stone (docs/model.md §8.3, §8.7, §9.3): per pixel where the model puts them, given the stone's
     values and the lichens' seeds read back; the share of seeds that establish runs through the
     stone's structure about its mean."""
     plane = MaskedPlane(fresh_scene, size=24)

@@ -188,7 +188,7 @@ def weathered_point(
     layers leave (what the condition survey reads, docs/model.md §10)."""
     state = {item.name: xp.clip(state[item.name], item.low, item.high) for item in inputs_of(modes)}
     receptivity = 1.0 if receptivity is None else xp.maximum(receptivity, 0.0)
-    if "time" in state and not (isinstance(receptivity, float) and receptivity == 1.0):
+    if "time" in state and not base.plain_stone(receptivity):
         state["time"] = base.local_age(xp, state["time"], receptivity)
     kd, ks = porous.valid_albedo(xp, kd, ks)
     m = xp.maximum(m, 0.0)

@@ -260,6 +260,12 @@ def fill_curve(xp, progress):
     return xp.smoothstep(0.0, 1.0, progress)
 
 
+def plain_stone(receptivity) -> bool:
+    """Whether ``receptivity`` is the constant 1 a material without the stone's structure has
+    (docs/model.md §8.3): its layers then build what they built before the stone, node for node."""
+    return isinstance(receptivity, float) and receptivity == 1.0
+
+
 def local_age(xp, time, receptivity):
     """The age at a point of the stone's structure (docs/model.md §8.3): its pores fill
     ``receptivity`` times as fast as the stone's mean, min(r t, 1), so that every front (carbon,

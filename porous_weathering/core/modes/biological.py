@@ -34,6 +34,7 @@ from .base import (
     cover,
     filled_absorption,
     local_share,
+    plain_stone,
     water_of,
 )
 from .soiling import polluted_diffuse
@@ -176,7 +177,7 @@ def algal_biomass(xp, state, receptivity):
     biomass = dampness(xp, state) * (
         state["biological_level"] * decay(xp, state["biological_years"], receptivity, ALGAE_YEARS)
     )
-    if isinstance(receptivity, float) and receptivity == 1.0:
+    if plain_stone(receptivity):
         return biomass
     return xp.minimum(biomass * receptivity, 1.0)
 
