@@ -251,10 +251,11 @@ def weathered_coefficients(
     ``kd`` is an RGB colour (a scalar is taken as grey); ``modes`` picks among the registered
     modes (None: all of them); ``state`` holds their inputs (WEATHERING_INPUTS; defaults for
     those left out).  At time 0 the result is porous_coefficients() exactly, with k_water = 0.
-    Pore-filling modes apply first (carbon, salt, water), then the wet darkening, the grey
-    deposit over them and the black crust over everything; ``crust=0, wet_darkening=0`` give
-    the paper's equations exactly (docs/model.md §6).  ``receptivity`` (docs/model.md §8.3; None:
-    without the stone's structure, as r = 1) makes each point's pores fill r times as fast;
+    Pore-filling modes apply first (carbon, salt, the algae, water), then the wet darkening, the
+    grey deposit, the algal film and the lichens over them and the black crust over everything;
+    ``crust=0, wet_darkening=0`` give the paper's equations exactly (docs/model.md §6).
+    ``receptivity`` (docs/model.md §8.3; None: without the stone's structure, as r = 1) makes
+    each point's pores fill r times as fast;
     ``field`` (the stone's porosity field z_p, in [-1, 1]) and ``variation`` (v) take every fill and
     cover at the point's place in the stone (docs/model.md §8.7), and ``variation`` mixes the deposit
     with the stone's own colour (docs/model.md §8.6); None: without them.

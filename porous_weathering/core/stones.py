@@ -65,7 +65,8 @@ class Texture:
     colour: float  #: weight in z_c
     detail: float = 2.0  #: octaves of noise (NOISE), of the bands' distortion (WAVE)
     distortion: float = 0.0  #: WAVE: how far the bands wander (veins); NOISE: domain distortion
-    #: WAVE: the bands' axis in object space, "Z" for horizontal bedding, "DIAGONAL" for veins.
+    #: WAVE: the bands' axis along the world's axes (docs/model.md §8.2), "Z" for horizontal bedding,
+    #: "DIAGONAL" for veins.
     direction: str = "Z"
     #: NOISE: each octave's size over the next's (Blender's Lacunarity) and its amplitude's
     #: (Roughness): 2 and 0.5 halve both; 8 and 1 give octaves a factor 8 apart, as strong.
@@ -301,8 +302,8 @@ def ashlar(xp, x, y, z, course_height, block_length, joint_width):
     """(course, block, joint) at the point (x, y, z) in metres of an ashlar of those lengths
     (metres): the course's and the block's whole-number indices (a block is the pair) and the
     joint's share j in [0, 1] (1 in the mortar, 0 in the stone, blending over the arris).  The
-    blocks run along x + y, which is continuous round the corners of a wall in the object's
-    axes (a block turns the corner as a quoin does)."""
+    blocks run along x + y, which is continuous round the corners of a wall in the world's X and
+    Y axes (a block turns the corner as a quoin does)."""
     half = joint_width * 0.5
     arris = xp.minimum(half, ARRIS) * 0.5
     rows = z / course_height

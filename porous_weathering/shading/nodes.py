@@ -277,14 +277,16 @@ RECEPTIVITY_INPUT = {
         0.0,
         -1.0,
         1.0,
-        "The stone's porosity field z_p: where in the stone's spread this point takes up soot, water and salt",
+        "The stone's porosity field z_p: where in the stone's spread this point takes up soot, water and salt "
+        "(and so where lichens take hold and rivulets wander)",
     ),
     VARIATION: (
         "NodeSocketFloat",
         0.0,
         0.0,
         1.0,
-        "The stone's variation v: how far its fills and covers follow its field, and the deposit its colour",
+        "The stone's variation v: how far its fills, covers, rivulets and lichens follow its field, and the "
+        "deposit its colour",
     ),
 }
 #: The input of a receptive group whose run-off gathers into rivulets (docs/model.md §8.8).
@@ -444,7 +446,10 @@ STONE_OUTPUTS = {
     RECEPTIVITY: ("NodeSocketFloat", "r: how much faster than the mean this point's pores fill"),
     FIELD: ("NodeSocketFloat", "z_p in [-1, 1], the porosity field"),
     "Colour Field": ("NodeSocketFloat", "z_c in [-1, 1], the colour field"),
-    VARIATION: ("NodeSocketFloat", "v, the variation in [0, 1]: what the weathering's uptake and deposit read"),
+    VARIATION: (
+        "NodeSocketFloat",
+        "v, the variation in [0, 1]: what the weathering's uptake, deposit, rivulets and lichens read",
+    ),
 }
 
 

@@ -1,5 +1,6 @@
-"""Weathered materials (docs/model.md §4): the porous material plus soiling, wet surfaces and
-efflorescence, composed from only the modes a material uses, aged by one time input."""
+"""Weathered materials (docs/model.md §4): the porous material plus soiling, wet surfaces,
+efflorescence and life on stone, composed from only the modes a material uses, aged by their
+clocks (t, and the years of life: docs/model.md §9.4)."""
 
 import math
 import os
@@ -48,20 +49,23 @@ def make_weathered_material(
 ) -> "bpy.types.Material":
     """A new material: the porous BRDF (as make_porous_material) weathered by ``modes``.
 
-    ``modes`` is any of the registered modes ("soiling", "wet", "efflorescence"); the material
-    has the nodes of those modes only.  ``weathering`` sets their inputs (``time``, the levels,
-    colours, thresholds, and the extensions beyond the paper ``crust`` and ``wet_darkening``,
-    whose 0 renders the paper's equations exactly); each mask input (``rain_map``,
-    ``edge_map``, ``efflorescence_map``) is a number, a ``bpy.types.Image``, an image file path
-    (a string ending in an image extension or containing a path separator) or the name of a
-    colour attribute.  Out-of-range values are clamped and a missing image becomes the
-    mask's default constant, each with a PorousInputWarning; the material never renders
-    NaN or the missing-texture pink.  ``water_roughness`` is the water lobe's roughness.
+    ``modes`` is any of the registered modes ("soiling", "wet", "efflorescence", "biological"); the
+    material has the nodes of those modes only.  ``weathering`` sets their inputs (``time``, the
+    levels, colours, thresholds, and the extensions beyond the paper ``crust`` and ``wet_darkening``,
+    whose 0 renders the paper's equations exactly); each mask input (``rain_map``, ``runoff_map``,
+    ``edge_map``, ``efflorescence_map``, ``damp_map``, ``sun_map``) is a number, a
+    ``bpy.types.Image``, an image file path (a string ending in an image extension or containing a
+    path separator) or the name of a colour attribute.  Out-of-range values are clamped and a
+    missing image becomes the mask's default constant, each with a PorousInputWarning; the
+    material never renders NaN or the missing-texture pink.  ``water_roughness`` is the water lobe's roughness.
     ``environment`` (a key of ``environments.ENVIRONMENTS``, default "URBAN") sets the site's inputs
-    the modes use (deposit and pollution colours, crust, streaks, efflorescence level); the inputs
-    given explicitly win; None leaves the API defaults.  ``stone`` and ``variation`` give the
-    stone's structure as in make_porous_material, and through its receptivity every front follows
-    it (docs/model.md §8.3); ``stone=None`` or ``variation=0`` is the uniform material.
+    the modes use (deposit and pollution colours, crust, streaks, efflorescence level, life's level
+    and lichen density); the inputs given explicitly win; None leaves the API defaults.  ``stone``
+    and ``variation`` give the stone's structure as in make_porous_material: through its
+    receptivity every front follows it (docs/model.md §8.3), each fill and cover is taken at the
+    point's share of the stone (§8.7), the deposit mixes with the stone's colour (§8.6) and the
+    run-off gathers into its rivulets (§8.8); ``stone=None`` or ``variation=0`` is the uniform
+    material.
     ``masonry`` lays the stone as ashlar with mortar joints, or in the mesh's own blocks, as in
     make_porous_material.
     """

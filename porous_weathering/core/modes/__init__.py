@@ -153,14 +153,15 @@ def weathered_weights(
     m) and the near-mirror water lobe of a point weathered by ``modes`` (already checked);
     ``state`` holds every input they use.  At time 0 the weights are the porous ones exactly.
     ``receptivity`` (the stone's structure, docs/model.md §8.3; None: the model without it) scales
-    how fast the point's pores fill: every layer reads the local age min(r t, 1).  ``field`` (the
+    how fast the point's pores fill: every front and cover reads the local age min(r t, 1), and life
+    its years at r (docs/model.md §9.3).  ``field`` (the
     stone's porosity field z_p) and ``variation`` (its v) give the stone's uptake (docs/model.md §8.7):
     every fill and cover is taken at the point's place in the stone; and ``variation`` the deposit's
     mix with the stone's own colour (docs/model.md §8.6).  None: the model without them.  ``fields``
     holds the per-point values the modes' records name in ``Mode.fields`` (docs/model.md §9.3).
     ``rivulets`` (the point's place across the fall line, the face's horizontal part h and the
     rivulet spacing: docs/model.md §8.8) gathers the run-off map into the stone's rivulets, by its
-    ``variation``, where a feature above gathered the flow; None: the run-off as the map gives it."""
+    ``variation``, wherever the map holds run-off; None: the run-off as the map gives it."""
     point = weathered_point(
         xp, kd, ks, m, alpha, sp, n_dot_l, n_dot_v, modes, state, receptivity, field, variation, fields, rivulets
     )

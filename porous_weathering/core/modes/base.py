@@ -4,8 +4,9 @@ A mode is one ``Mode`` record: its inputs, its asset metadata, and its maths as 
 functions written once against a backend ``xp`` (``backends.py``) that either evaluates
 numpy arrays (the model) or builds shader nodes (the groups).  Layers of every mode a
 material uses run in the order of their ``stage`` on one ``Point``: pore-filling layers
-first (carbon, salt, water), then layers lying over the surface (the grey deposit, then the
-black crust over everything).
+first (carbon, salt, the algae, water, then the wet darkening), then layers lying over the
+surface (the grey deposit, the algal film and the lichens, then the black crust over
+everything: docs/model.md §4.4, §9.3).
 """
 
 import math

@@ -61,14 +61,14 @@ PORE_BIOMASS = 0.2
 LICHEN_LAG_YEARS = 1.5
 LIGHT_NEEDED = 0.25
 #: The share of the thalli that are of the orange species (Caloplaca, Xanthoria): one of the three
-#: of a calcareous wall's community, beside the grey (Aspicilia, Lecanora) and the dark ones
-#: (docs/model.md §9.3; judgement).
+#: of a calcareous wall's community; the rest are grey (Aspicilia, Lecanora), the dark Verrucaria
+#: left out (docs/model.md §9.3; judgement).
 ORANGE_SHARE = 1.0 / 3.0
 LICHEN_RIM = 3e-4
 SEED_RIM = 0.02
 #: One seed per Voronoi cell covers more than the Boolean model of the same density (its thalli
 #: overlap less): drawn with r / sqrt(1 + CROWDING lambda pi r^2), the cover is the Boolean law's
-#: within 0.015 for lambda pi r^2 up to 4 (docs/model.md §9.3, measured by benchmarks/lichen_cover.py).
+#: within 0.025 for lambda pi r^2 up to 4 (docs/model.md §9.3, measured by benchmarks/lichen_cover.py).
 CROWDING = 0.26
 #: The least density taken (per m²), so that the seeds' cells stay finite (one per hectare: none seen).
 LEAST_DENSITY = 1e-4

@@ -43,7 +43,8 @@ CRUST_DEFAULT = 0.8
 #: stone's own colour as it filters this one's.
 DEPOSIT_REFERENCE_STONE = (0.6724431569576875, 0.6104955708078648, 0.4793201831008268)
 
-#: The streaks' default: chosen so that the façade's dirty tails read (to be checked on pictures).
+#: The streaks' default: chosen so that the façade's dirty tails read (checked on
+#: docs/images/runoff_before_after.png, docs/model.md §7.2).
 STREAKS_DEFAULT = 0.5
 
 RAIN_THRESHOLD = Input(
@@ -232,7 +233,7 @@ MODE = Mode(
         Layer(COVER_CRUST, lay_crust),
     ),
     catalog="Soiling",
-    asset_summary="Soiling (white, grey and black areas) from a rain map and an edge map",
+    asset_summary="Soiling (white, grey and black areas) from a rain, run-off and edge map",
     preview=dict(time=1.0, rain_map=0.0, edge_map=1.0),
     order=10,
     patterns=(BLACK_CRUST, SOILING),

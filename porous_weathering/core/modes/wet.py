@@ -1,8 +1,9 @@
-"""Wet surfaces (docs/model.md §4, section 4.2 of the paper): water fills the pores where the rain map
-is highest first, and a near-mirror water lobe of its own reflects the sky.  Beyond the paper
-(docs/model.md §6; ``wet_darkening = 0`` is the paper): the stone under the water darkens as Ångström and
-Lekner & Dorf explain, by light the water's surface sends back down to be absorbed again, and
-the water's surface reflects as water does, by Fresnel (this project's decision: docs/model.md).
+"""Wet surfaces (docs/model.md §4, section 4.2 of the paper): water fills the pores where water
+reaches first (rain, run-off or rising damp), and a near-mirror water lobe of its own reflects the
+sky.  Beyond the paper (docs/model.md §6; ``wet_darkening = 0`` is the paper): the stone under the
+water darkens as Ångström and Lekner & Dorf explain, by light the water's surface sends back down to
+be absorbed again, and the water's surface reflects as water does, by Fresnel (this project's
+decision: docs/model.md).
 The front sweeps the water reaching a point, rain or run-off (docs/model.md §7; ``runoff = 0`` is the
 rain map alone) or rising damp drawn up from the ground (docs/model.md §9.2; D = 0 is the water from above
 alone)."""
@@ -43,7 +44,11 @@ WATER_INTERNAL_REFLECTANCE = 1.0 - (1.0 - WATER_MEAN_REFLECTANCE) / WATER_INDEX*
 WATER_NORMAL_REFLECTANCE = ((WATER_INDEX - 1.0) / (WATER_INDEX + 1.0)) ** 2
 
 WET_LEVEL = Input(
-    "wet_level", 1.0, 0.0, 1.0, "How far down the rain map the wet area reaches at t = 1 (lower it to dry)"
+    "wet_level",
+    1.0,
+    0.0,
+    1.0,
+    "How far down its water mask (rain, run-off, rising damp) the wet area reaches at t = 1 (lower it to dry)",
 )
 WATER_SPECULAR = Input("water_specular", 1.0, 0.0, 1.0, "k_s,water: the water lobe's weight (about 1)")
 WET_DARKENING = Input(
@@ -135,11 +140,11 @@ MOIST_AREA = Pattern(
 MODE = Mode(
     name="wet",
     label="Wet",
-    description="Rain fills the pores with water where the rain map is highest first",
+    description="Water fills the pores where rain, run-off or rising damp reaches first",
     inputs=(TIME, FRONT_WIDTH, RAIN_MAP, RUNOFF_MAP, RUNOFF, DAMP_MAP, WET_LEVEL, WATER_SPECULAR, WET_DARKENING),
     layers=(Layer(FILL_WATER, fill_with_water), Layer(DARKEN_WET, darken_under_water)),
     catalog="Wet Surfaces",
-    asset_summary="Wet surface: water fills the pores where the rain map is highest first",
+    asset_summary="Wet surface: water fills the pores where rain, run-off or rising damp reaches first",
     preview=dict(time=1.0, rain_map=1.0),
     water_lobe=True,
     order=20,
