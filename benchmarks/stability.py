@@ -35,6 +35,7 @@ from porous_weathering.core import modes as weathering_modes
 from porous_weathering.core.shader_math import Graph, dot  # noqa: E402
 from porous_weathering.samples import studio  # noqa: E402
 from porous_weathering.shading import nodes
+from porous_weathering.survey.tally import FIELDS as FIELDS_IN_NUMPY
 
 #: (k_d, k_s) pairs: k_a -> 0, k_a = 1, k_a -> 0 in one channel and -> 1 in another,
 #: k_s + k_d > 1 (invalid: clamped), a typical stone.
@@ -184,9 +185,10 @@ def specular_readout(graph, group_node, zero):
     return graph.node("ShaderNodeCombineXYZ", {"X": outputs["Specular Weight"], "Y": water_red, "Z": flag}).outputs[0]
 
 
-def field_readout(name):
+def field_readout(name, first, components):
     """A readout of the field ``name`` (its shader builder, ``nodes.FIELDS``), from what feeds
-    the group node's inputs: its first two components as a colour."""
+    the group node's inputs: its components ``first`` to ``first + 2`` as a colour; the number of
+    its components is appended to ``components``."""
 
     def readout(graph, group_node, zero):
         inputs = {
@@ -194,15 +196,16 @@ def field_readout(name):
             for socket in group_node.inputs
             if hasattr(socket, "default_value")
         }
-        first, second = nodes.FIELDS[name](graph, inputs)
-        return graph.node("ShaderNodeCombineXYZ", {"X": first, "Y": second}).outputs[0]
+        values = nodes.FIELDS[name](graph, inputs)
+        components.append(len(values))
+        return graph.node("ShaderNodeCombineXYZ", dict(zip("XYZ", values[first : first + 3]))).outputs[0]
 
     return readout
 
 
 def rendered_outputs(cases, modes, light_mode, size):
     """(k_d (N, 3), k_s (N,), k_water red (N,), finite flag (N,)) of the node group, one Cycles
-    render pair, and {field: its two components (N,) each} read back at the same points (the
+    render pair, and {field: its components (N,) each} read back at the same points (the
     lichens' seeds, a texture of the point's place: docs/model.md §9.3)."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -222,9 +225,11 @@ def rendered_outputs(cases, modes, light_mode, size):
     diffuse, special = images
     fields = {}
     for name in weathering_modes.fields_of(modes):
-        studio.assign(obj, probe_material(group, sockets, field_readout(name)))
-        read = render.render_array(scene)[..., :2].reshape(-1, 2).astype(np.float64)
-        fields[name] = (read[:, 0], read[:, 1])
+        components, read = [], []
+        while not components or len(read) < components[0]:  # three components a render
+            studio.assign(obj, probe_material(group, sockets, field_readout(name, len(read), components)))
+            read += list(render.render_array(scene)[..., :3].reshape(-1, 3).astype(np.float64).T)
+        fields[name] = tuple(read[: components[0]])
     return diffuse, special[:, 0], special[:, 1], special[:, 2], fields
 
 
@@ -270,8 +275,10 @@ def model_sweep(count=200_000, seed=1):
         for name in ("m", "sp", "alpha"):  # sprinkle NaN and infinities, which the model must clamp
             poison = rng.random(count) < 0.02
             cases[name] = np.where(poison, rng.choice([np.nan, np.inf, -np.inf], count), cases[name])
-        # the fields of the point's place anywhere in their range: a distance of up to two cells
-        fields = {name: (2.0 * rng.random(count), rng.random(count)) for name in weathering_modes.fields_of(modes)}
+        # the fields of the point's place as the survey draws them, at places up to 100 m out facing anywhere
+        places, facing = rng.uniform(-100.0, 100.0, (count, 3)), rng.normal(size=(count, 3))
+        facing /= np.linalg.norm(facing, axis=1, keepdims=True)
+        fields = {name: FIELDS_IN_NUMPY[name](places, facing, cases) for name in weathering_modes.fields_of(modes)}
         kd, ks, water = model_outputs(cases, modes, light_mode, fields)
         outputs = np.column_stack([kd, ks, water])
         rows.append(

@@ -271,24 +271,32 @@ def _surface_of_copy(material, surface):
 
 
 def lichen_seed_probe(plane, density):
-    """(distance in cells, seed value) per pixel of the plane facing +Z, from a 2D Voronoi texture of
-    the same seeds built here (docs/model.md §9.3: the x-y plane, shifted by the plane offset, ``density``
-    seeds per m²), not through the shading code."""
+    """The lichens' seeds (biological.LICHEN_SEEDS: the nearest seed's distance in cells, value and size
+    draw, then the second nearest's) per pixel of the plane facing +Z, from 2D Voronoi textures of the
+    same seeds built here (docs/model.md §9.3: the x-y plane, shifted by the plane offset, ``density``
+    seeds per m²; F1, then F2, each its Distance and its Color's red and blue), not through the shading
+    code."""
     spacing = density**0.5
 
-    def build(graph, geometry):
-        position = graph.node("ShaderNodeSeparateXYZ", {"Vector": geometry.outputs["Position"]})
-        shifted = graph.wrap(position.outputs["Y"]) + biological.PLANE_OFFSET
-        place = graph.node("ShaderNodeCombineXYZ", {"X": position.outputs["X"], "Y": shifted, "Z": 0.0})
-        voronoi = graph.node(
-            "ShaderNodeTexVoronoi", {"Vector": place.outputs[0], "Scale": spacing}, voronoi_dimensions="2D"
-        )
-        seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})  # the cell's own value
-        both = graph.node("ShaderNodeCombineXYZ", {"X": voronoi.outputs["Distance"], "Y": seed.outputs["Red"]})
-        return both.outputs[0]
+    def probe(feature):
+        def build(graph, geometry):
+            position = graph.node("ShaderNodeSeparateXYZ", {"Vector": geometry.outputs["Position"]})
+            shifted = graph.wrap(position.outputs["Y"]) + biological.PLANE_OFFSET
+            place = graph.node("ShaderNodeCombineXYZ", {"X": position.outputs["X"], "Y": shifted, "Z": 0.0})
+            voronoi = graph.node(
+                "ShaderNodeTexVoronoi",
+                {"Vector": place.outputs[0], "Scale": spacing},
+                voronoi_dimensions="2D",
+                feature=feature,
+            )
+            draws = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})  # the cell's own
+            emitted = {"X": voronoi.outputs["Distance"], "Y": draws.outputs["Red"], "Z": draws.outputs["Blue"]}
+            return graph.node("ShaderNodeCombineXYZ", emitted).outputs[0]
 
-    probe = plane.render(studio.emission_probe("Seed Probe", build))
-    return probe[..., 0], probe[..., 1]
+        seeds = plane.render(studio.emission_probe(f"Seed Probe {feature}", build))
+        return seeds[..., 0], seeds[..., 1], seeds[..., 2]
+
+    return (*probe("F1"), *probe("F2"))
 
 
 def stone_probe(render_with, material, outputs, shift=0.0):

@@ -273,17 +273,22 @@ BIOLOGICAL_STATE = dict(
 
 def test_the_numpy_lichen_seeds_are_the_renders(fresh_scene):
     """The seeds the survey draws in numpy (biological.lichen_seeds_at, docs/model.md §10.1) are the
-    Voronoi texture's at each pixel's place on the plane, with this Blender's hash."""
+    Voronoi texture's F1 and F2 at each pixel's place on the plane, with this Blender's hash: the
+    distances within 1e-5 cells, the seeds' values and size draws bit for bit."""
     plane = MaskedPlane(fresh_scene)
     seeds = lichen_seed_probe(plane, BIOLOGICAL_STATE["lichen_density"])
     place = plane.render(studio.emission_probe("Place Probe", lambda graph, geometry: geometry.outputs["Position"]))
     covered = place[..., 3] > 0.999
     metres = place[..., :3][covered]
     normals = np.broadcast_to((0.0, 0.0, 1.0), metres.shape)
-    distance, value = biological.lichen_seeds_at(metres, normals, BIOLOGICAL_STATE, compat.VORONOI_HASH)
-    assert np.abs(distance - seeds[0][covered]).max() < 1e-5
-    assert np.array_equal(value.astype(np.float32), seeds[1][covered])
-    assert len(np.unique(value)) > 4  # several seeds on the plane
+    drawn = biological.lichen_seeds_at(metres, normals, BIOLOGICAL_STATE, compat.VORONOI_HASH)
+    for nearest in (0, 3):  # F1, then F2
+        distance, value, size = drawn[nearest : nearest + 3]
+        assert np.abs(distance - seeds[nearest][covered]).max() < 1e-5
+        assert np.array_equal(value.astype(np.float32), seeds[nearest + 1][covered])
+        assert np.array_equal(size.astype(np.float32), seeds[nearest + 2][covered])
+        assert len(np.unique(value)) > 4 and len(np.unique(size)) > 4  # several seeds on the plane
+    assert np.all(drawn[3] >= drawn[0]) and not np.array_equal(drawn[1], drawn[4])
 
 
 def test_the_numpy_white_noise_is_the_renders(fresh_scene):
@@ -327,9 +332,12 @@ def test_biological_matches_model(fresh_scene):
     )
     state = {**model.weathering_state("biological", BIOLOGICAL_STATE), "sun_map": sun_map}
     xp = NumpyOps(colour=False)
-    lichen = biological.lichen_cover(xp, state, *seeds)
-    unreached = biological.lichen_cover(xp, state, np.zeros_like(seeds[0]), seeds[1]) < 0.5  # seeds too high for L
+    lichen = biological.lichen_cover(xp, state, seeds)
+    at_seed = (np.zeros_like(seeds[0]), seeds[1], seeds[2])
+    unreached = biological.lichen_cover(xp, state, at_seed * 2) < 0.5  # seeds too high for L
+    second = biological.thalli_covers(xp, state, seeds)[1] * (1.0 - biological.thalli_covers(xp, state, seeds)[0])
     assert 0.1 < lichen[covered].mean() < 0.9 and 0.1 < unreached[covered].mean() < 0.9
+    assert (second[covered] > 0.5).mean() > 0.01  # thalli seen past a nearer seed
     assert_matches(image, expected_image(weights, lobes(plane.render, STONE["roughness"])), covered)
     off = plane.render(
         weathered("Off", ("biological",), key_light=plane.sun, sun_map=sun, **BIOLOGICAL_STATE, biological_level=0.0)

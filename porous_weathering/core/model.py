@@ -260,8 +260,9 @@ def weathered_coefficients(
     cover at the point's place in the stone (docs/model.md §8.7), and ``variation`` mixes the deposit
     with the stone's own colour (docs/model.md §8.6); None: without them.
     ``fields`` holds what a shader reads from the point's place and the modes' records name
-    (``Mode.fields``): the biological mode's ``lichen_seeds``, (distance to the nearest seed in
-    cells, that seed's value), read back from a render (docs/model.md §9.3); without it, no lichen.
+    (``Mode.fields``): the biological mode's ``lichen_seeds``, (distance in cells, value, size draw)
+    of the nearest seed and then of the second nearest, read back from a render (docs/model.md §9.3);
+    without it, no lichen.
     ``rivulets`` = (u, h, spacing): the point's place across the fall line and the rivulet spacing in
     metres, and the horizontal part h of its normal (``modes.base.fall_line``); with ``variation`` it
     gathers the run-off map into rivulets (docs/model.md §8.8).  None: the run-off map as it is.

@@ -1,4 +1,4 @@
-"""Blender's Voronoi texture (2D, F1, Euclidean, randomness 1: the node's defaults) and White Noise
+"""Blender's Voronoi texture (2D, F1 and F2, Euclidean, randomness 1: the node's defaults) and White Noise
 texture (1D, its Color) as Cycles computes them, in numpy and in single precision as the shader
 works, so that a point's nearest seed is the render's (docs/model.md §10.1: the survey's lichens)
 and a cell's draws are the render's (§8.8: the rivulets). The Voronoi's cells are hashed by a hash
@@ -56,51 +56,63 @@ def _pcg2d(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return x & 0x7FFFFFFF, y & 0x7FFFFFFF
 
 
-def _pcg3d_x(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> np.ndarray:
-    """The first word of Cycles' ``hash_pcg3d_i``."""
+def _pcg3d(x: np.ndarray, y: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cycles' ``hash_pcg3d_i`` (int32, wrapping; its shift is arithmetic)."""
     x, y, z = (w * _PCG_MULTIPLIER + _PCG_INCREMENT for w in (x, y, z))
     x = x + y * z
     y = y + z * x
     z = z + x * y
     x, y, z = x ^ (x >> 16), y ^ (y >> 16), z ^ (z >> 16)
-    return (x + y * z) & 0x7FFFFFFF
+    x = x + y * z
+    y = y + z * x
+    z = z + x * y
+    return x & 0x7FFFFFFF, y & 0x7FFFFFFF, z & 0x7FFFFFFF
 
 
 def _to_unit(h: np.ndarray) -> np.ndarray:
     return h.astype(np.float32) * np.float32(2.0**-31)
 
 
-def cell_hash(cx: np.ndarray, cy: np.ndarray, kind: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(seed x, seed y in the cell, the cell's value: the Color's red) of cells (cx, cy)."""
-    if kind == LOOKUP3:
+def cell_hash(
+    cx: np.ndarray, cy: np.ndarray, kind: str
+) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray]]:
+    """(seed x, seed y in the cell, the cell's two values: the Color's red and blue) of cells (cx, cy)."""
+    if kind == LOOKUP3:  # hash_float2_to_float3: its red is the seed's x (and its green the seed's y)
         own = lookup3(cx, cy)
-        return own, lookup3(cx, cy, np.ones_like(cx)), own
+        return own, lookup3(cx, cy, np.ones_like(cx)), (own, lookup3(cx, cy, np.full_like(cx, 2.0)))
     if kind == PCG:
         ix, iy = cx.astype(np.int32), cy.astype(np.int32)
         sx, sy = _pcg2d(ix, iy)
-        return _to_unit(sx), _to_unit(sy), _to_unit(_pcg3d_x(ix, iy, np.zeros_like(ix)))
+        red, _, blue = _pcg3d(ix, iy, np.zeros_like(ix))
+        return _to_unit(sx), _to_unit(sy), (_to_unit(red), _to_unit(blue))
     raise ValueError(f"the Voronoi hash is {LOOKUP3!r} or {PCG!r}, not {kind!r}")
 
 
-def voronoi_f1(x: np.ndarray, y: np.ndarray, scale: np.ndarray | float, kind: str) -> tuple[np.ndarray, np.ndarray]:
-    """(Distance, Color's red) of the Voronoi texture node (2D, F1) at ``(x, y) * scale``, its
-    cells hashed by ``kind`` (LOOKUP3 or PCG): the distance in cells to the nearest seed and that
-    seed's own value in [0, 1]."""
+def voronoi_f1_f2(x: np.ndarray, y: np.ndarray, scale: np.ndarray | float, kind: str) -> tuple[np.ndarray, ...]:
+    """(F1's Distance, Color's red and blue, F2's Distance, Color's red and blue) of the Voronoi
+    texture node (2D) at ``(x, y) * scale``, its cells hashed by ``kind`` (LOOKUP3 or PCG): the
+    distances in cells to the nearest and the second nearest seed and each seed's own two values in
+    [0, 1], as Cycles' ``voronoi_f1`` and ``voronoi_f2`` find them."""
     with np.errstate(over="ignore"):
         coord = [np.asarray(axis, dtype=np.float32) * np.asarray(scale, dtype=np.float32) for axis in (x, y)]
         cell = [np.floor(axis) for axis in coord]
         local = [axis - corner for axis, corner in zip(coord, cell)]
-        best = np.full(coord[0].shape, np.inf, dtype=np.float32)
-        value = np.zeros(coord[0].shape, dtype=np.float32)
+        first, second = (np.full(coord[0].shape, np.inf, dtype=np.float32) for _ in range(2))
+        first_values, second_values = ([np.zeros(coord[0].shape, dtype=np.float32)] * 2 for _ in range(2))
         for j in (-1, 0, 1):  # Cycles' order: a tie keeps the first seed found
             for i in (-1, 0, 1):
                 sx, sy, own = cell_hash(cell[0] + np.float32(i), cell[1] + np.float32(j), kind)
                 dx, dy = np.float32(i) + sx - local[0], np.float32(j) + sy - local[1]
                 distance = np.sqrt(dx * dx + dy * dy)
-                nearer = distance < best
-                best = np.where(nearer, distance, best)
-                value = np.where(nearer, own, value)
-    return best, value
+                nearest, next_nearest = distance < first, (distance >= first) & (distance < second)
+                second = np.where(nearest, first, np.where(next_nearest, distance, second))
+                second_values = [
+                    np.where(nearest, old, np.where(next_nearest, new, kept))
+                    for old, new, kept in zip(first_values, own, second_values)
+                ]
+                first = np.where(nearest, distance, first)
+                first_values = [np.where(nearest, new, kept) for new, kept in zip(own, first_values)]
+    return first, *first_values, second, *second_values
 
 
 def white_noise_colour(w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

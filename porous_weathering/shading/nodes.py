@@ -35,8 +35,9 @@ from ..core.shader_math import Graph, dot, normalize
 #: the uptake's gain G = 8, §8.7; build 16 every run-off in rivulets a decimetre apart, §8.8;
 #: build 17 the rivulets' forms in fewer nodes, §8.8; build 18 the point's own data, and so its
 #: place, one node per group; build 19 the lichens orange as far as the sun reaches them, §9.3;
-#: build 20 the lichens establishing at the stone's share and the film holding as much as r, §9.3.)
-BUILD_VERSION = 20
+#: build 20 the lichens establishing at the stone's share and the film holding as much as r, §9.3;
+#: build 21 the lichens' thalli each of its own size, seen from the two nearest seeds, §9.3.)
+BUILD_VERSION = 21
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -391,10 +392,11 @@ def fall_line(graph, inputs):
 
 
 def lichen_seeds(graph, inputs):
-    """(distance to the nearest seed in cells, that seed's value in [0, 1)) of the lichens
-    (docs/model.md §9.3): a 2D Voronoi texture of one seed per cell of side 1/sqrt(lambda) metres, on
-    the world plane the surface faces most (x-y for tops, x-z for faces along x, y-z for faces along
-    y: a thallus on any face is a disc of radius r), each plane its own seeds."""
+    """The lichens' seeds (biological.LICHEN_SEEDS: the nearest seed's distance in cells, value and
+    size draw, then the second nearest's; docs/model.md §9.3): a 2D Voronoi texture's F1 and F2 (its
+    Distance, its Color's red and blue) of one seed per cell of side 1/sqrt(lambda) metres, on the
+    world plane the surface faces most (x-y for tops, x-z for faces along x, y-z for faces along y:
+    a thallus on any face is a disc), each plane its own seeds."""
     normal = graph.node("ShaderNodeNewGeometry", depth=0).outputs["Normal"]
     n = graph.node("ShaderNodeSeparateXYZ", {"Vector": normal})
     ax, ay, az = (graph.math("ABSOLUTE", graph.wrap(n.outputs[axis])) for axis in "XYZ")
@@ -406,15 +408,23 @@ def lichen_seeds(graph, inputs):
     v = NODE_OPS.mix(faces_z, z, y) + faces_z * biological.PLANE_OFFSET
     density = NODE_OPS.maximum(inputs[biological.LICHEN_DENSITY.socket], biological.LEAST_DENSITY)
     place = graph.node("ShaderNodeCombineXYZ", {"X": u, "Y": v, "Z": 0.0})
-    voronoi = graph.node(
-        "ShaderNodeTexVoronoi",
-        {"Vector": place.outputs[0], "Scale": NODE_OPS.power(density, 0.5)},
-        voronoi_dimensions="2D",
-        feature="F1",
-        distance="EUCLIDEAN",
-    )
-    seed = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})
-    return graph.wrap(voronoi.outputs["Distance"]), graph.wrap(seed.outputs["Red"])
+    scale = NODE_OPS.power(density, 0.5)
+    seeds = []
+    for feature in ("F1", "F2"):
+        voronoi = graph.node(
+            "ShaderNodeTexVoronoi",
+            {"Vector": place.outputs[0], "Scale": scale},
+            voronoi_dimensions="2D",
+            feature=feature,
+            distance="EUCLIDEAN",
+        )
+        draws = graph.node("ShaderNodeSeparateColor", {"Color": voronoi.outputs["Color"]})
+        seeds += [
+            graph.wrap(voronoi.outputs["Distance"]),
+            graph.wrap(draws.outputs["Red"]),
+            graph.wrap(draws.outputs["Blue"]),
+        ]
+    return tuple(seeds)
 
 
 #: The shader's builder of each per-point field a mode's record names (``Mode.fields``).

@@ -8,8 +8,9 @@ year (docs/model.md §9.4 derives both clocks from years at a site).  ``biologic
 renders the material without life bit for bit.
 
 The lichens' seeds are a field (``Mode.fields``): the shader reads them from a Voronoi texture at
-the point's place in metres, one seed per cell of side 1/sqrt(lambda) (``LICHEN_SEEDS``: the distance
-to the nearest seed, in cells, and that seed's own random value); the numpy model is given them.
+the point's place in metres, one seed per cell of side 1/sqrt(lambda) (``LICHEN_SEEDS``: the nearest
+and the second nearest seed, each its distance in cells and its own two random values, whether it
+establishes and how large it grows); the numpy model is given them.
 """
 
 import math
@@ -66,20 +67,27 @@ LIGHT_NEEDED = 0.25
 ORANGE_SHARE = 1.0 / 3.0
 LICHEN_RIM = 3e-4
 SEED_RIM = 0.02
+#: Thalli of one wall differ in size (their growth rates differ, their seeds arrive over the years):
+#: each is drawn with r(years) times its own factor, spread uniformly over 1 -+ SIZE_SPREAD and
+#: scaled to a mean square of 1 (0.48 to 1.44), so that the Boolean model's cover 1 - exp(-lambda pi
+#: E[r^2]) is that of r(years) (docs/model.md §9.3).
+SIZE_SPREAD = 0.5
 #: One seed per Voronoi cell covers more than the Boolean model of the same density (its thalli
-#: overlap less): drawn with r / sqrt(1 + CROWDING lambda pi r^2), the cover is the Boolean law's
-#: within 0.025 for lambda pi r^2 up to 4 (docs/model.md §9.3, measured by benchmarks/lichen_cover.py).
-CROWDING = 0.26
+#: overlap less): drawn with their radii over sqrt(1 + CROWDING lambda pi r^2), the cover of the two
+#: nearest seeds' thalli is the Boolean law's within 0.03 for lambda pi r^2 up to 4 (docs/model.md
+#: §9.3, measured by benchmarks/lichen_cover.py).
+CROWDING = 0.16
 #: The least density taken (per m²), so that the seeds' cells stay finite (one per hectare: none seen).
 LEAST_DENSITY = 1e-4
 
 #: Metres between the three planes' seed patterns (docs/model.md §9.3), so each plane has its own seeds.
 PLANE_OFFSET = 1000.5
 
-#: The field the lichens read: (distance to the nearest seed in cells, that seed's value in [0, 1)).
+#: The field the lichens read: the nearest seed's (distance in cells, value, size draw), then the
+#: second nearest's (the Voronoi's F1 and F2; the values and draws in [0, 1]).
 LICHEN_SEEDS = "lichen_seeds"
 #: What the numpy model takes where it is given no seeds: no seed within reach (no lichen).
-NO_SEEDS = (1e9, 1.0)
+NO_SEEDS = (1e9, 1.0, 0.5) * 2
 
 BIOLOGICAL_YEARS = Input(
     "biological_years",
@@ -223,34 +231,49 @@ def lichen_suitability(xp, state, light):
     return state["biological_level"] * humid(xp, wetness(xp, state)) * light
 
 
-def crowded_radius(xp, radius, density):
-    """The radius a thallus of radius r is drawn with among seeds one per cell, so that their
-    cover follows the Boolean model 1 - exp(-u), u = lambda pi r^2 (docs/model.md §9.3):
-    r / sqrt(1 + CROWDING u)."""
-    return radius / xp.power(1.0 + (CROWDING * math.pi) * (density * radius * radius), 0.5)
+def size_factor(size):
+    """A thallus's radius over r(years), from its seed's size draw ``size`` in [0, 1]: uniform over
+    1 -+ SIZE_SPREAD, of mean square 1 (docs/model.md §9.3)."""
+    scale = 1.0 / math.sqrt(1.0 + SIZE_SPREAD * SIZE_SPREAD / 3.0)
+    return (1.0 - SIZE_SPREAD) * scale + (2.0 * SIZE_SPREAD * scale) * size
 
 
-def lichen_cover(xp, state, distance, seed, suitability=None):
-    """The thallus cover at a point ``distance`` cells from the nearest seed, whose value is
-    ``seed``: the seed established (its value under L), and the point within r(years) of it
-    (crowded_radius).  ``suitability``: the point's L, if the caller has it."""
+def thallus_cover(xp, seed, suitability, spacing, radius):
+    """The cover at a point of one seed's thallus, ``seed`` = (its distance in cells of ``spacing``
+    metres, its value, its size draw): the seed established (its value under the point's L,
+    ``suitability``) and the point within ``radius`` times the seed's size_factor."""
+    distance, value, size = seed
+    radius = size_factor(size) * radius
+    inside = 1.0 - xp.smoothstep(radius - LICHEN_RIM, radius, distance * spacing)
+    return inside * xp.smoothstep(value, value + SEED_RIM, suitability)
+
+
+def thalli_covers(xp, state, seeds, suitability=None):
+    """(the nearest seed's thallus cover, the second nearest's) at a point whose seeds are ``seeds``
+    (LICHEN_SEEDS), each thallus_cover with r(years) over sqrt(1 + CROWDING lambda pi r^2).
+    ``suitability``: the point's L, if the caller has it."""
     if suitability is None:
         suitability = lichen_suitability(xp, state, lichen_light(xp, state))
     density = xp.maximum(state["lichen_density"], LEAST_DENSITY)
     spacing = 1.0 / xp.power(density, 0.5)  # metres per cell
-    radius = crowded_radius(xp, lichen_radius(xp, state), density)
-    inside = 1.0 - xp.smoothstep(radius - LICHEN_RIM, radius, distance * spacing)
-    established = xp.smoothstep(seed, seed + SEED_RIM, suitability)
-    return inside * established
+    radius = lichen_radius(xp, state)
+    radius = radius / xp.power(1.0 + (CROWDING * math.pi) * (density * radius * radius), 0.5)
+    return tuple(thallus_cover(xp, seed, suitability, spacing, radius) for seed in (seeds[:3], seeds[3:]))
+
+
+def lichen_cover(xp, state, seeds, suitability=None):
+    """The lichens' cover at a point whose seeds are ``seeds`` (LICHEN_SEEDS): within either of
+    its two nearest seeds' thalli, c_1 + c_2 (1 - c_1) (thalli_covers)."""
+    first, second = thalli_covers(xp, state, seeds, suitability)
+    return xp.multiply_add(second, 1.0 - first, first)
 
 
 def lichen_seeds_at(metres, normals, state, kind):
-    """The lichens' seeds (LICHEN_SEEDS: distance in cells, seed value) at points ``metres`` (..., 3)
-    from their object's origin whose surface faces ``normals`` (..., 3), as the shader's Voronoi
-    texture gives them with the hash ``kind`` of the Blender that renders it (docs/model.md §9.3;
-    ``voronoi``: the same hash, in single precision): on
-    the world plane the surface faces most, each plane shifted by PLANE_OFFSET, one seed per cell
-    of side 1/sqrt(lambda)."""
+    """The lichens' seeds (LICHEN_SEEDS) at points ``metres`` (..., 3) from their object's origin
+    whose surface faces ``normals`` (..., 3), as the shader's Voronoi texture gives them with the
+    hash ``kind`` of the Blender that renders it (docs/model.md §9.3; ``voronoi``: the same hash, in
+    single precision): on the world plane the surface faces most, each plane shifted by
+    PLANE_OFFSET, one seed per cell of side 1/sqrt(lambda)."""
     metres, normals = np.asarray(metres, dtype=np.float32), np.abs(np.asarray(normals, dtype=np.float32))
     ax, ay, az = np.moveaxis(normals, -1, 0)
     x, y, z = np.moveaxis(metres, -1, 0)
@@ -260,25 +283,27 @@ def lichen_seeds_at(metres, normals, state, kind):
     u = np.where(faces_x, y + offset, x)
     v = np.where(faces_z, y + offset, z)
     density = np.maximum(np.asarray(state["lichen_density"], dtype=np.float32), np.float32(LEAST_DENSITY))
-    distance, seed = voronoi.voronoi_f1(u, v, np.sqrt(density), kind)
-    return distance.astype(np.float64), seed.astype(np.float64)
+    return tuple(field.astype(np.float64) for field in voronoi.voronoi_f1_f2(u, v, np.sqrt(density), kind))
 
 
-def lichen_colour(xp, state, seed, suitability, light):
+def lichen_colour(xp, state, value, suitability, light):
     """A thallus's colour (docs/model.md §9.3): grey, or, for the ORANGE_SHARE of the seeds that
-    establish with the lowest values (a draw of the seed's own: below ORANGE_SHARE x L), orange as
-    far as it is lit (its pigment is a sunscreen, made as far as the sun reaches it)."""
-    orange = xp.smoothstep(seed, seed + SEED_RIM, suitability * ORANGE_SHARE)
+    establish with the lowest values (its seed's ``value``: below ORANGE_SHARE x L), orange as far
+    as it is lit (its pigment is a sunscreen, made as far as the sun reaches it)."""
+    orange = xp.smoothstep(value, value + SEED_RIM, suitability * ORANGE_SHARE)
     return blend(xp, state["lichen_grey_color"], state["lichen_color"], xp.channel(orange * light))
 
 
 def lay_lichens(xp, point):
-    distance, seed = point.fields.get(LICHEN_SEEDS, NO_SEEDS)
+    """The thalli of the point's two nearest seeds, the nearest's over the other's."""
+    seeds = point.fields.get(LICHEN_SEEDS, NO_SEEDS)
     light = lichen_light(xp, point.state)
     # the share of seeds that establish, at the point's share of the stone (docs/model.md §8.7)
     suitability = local_share(xp, lichen_suitability(xp, point.state, light), point.spread)
-    coverage = lichen_cover(xp, point.state, distance, seed, suitability)
-    cover(xp, point, lichen_colour(xp, point.state, seed, suitability, light), coverage)
+    first, second = thalli_covers(xp, point.state, seeds, suitability)
+    colours = (lichen_colour(xp, point.state, value, suitability, light) for value in (seeds[4], seeds[1]))
+    coverage = xp.multiply_add(second, 1.0 - first, first)
+    cover(xp, point, blend(xp, *colours, xp.channel(first)), coverage)
     point.notes["lichen"] = coverage
 
 
