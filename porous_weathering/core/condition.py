@@ -61,7 +61,7 @@ def classify(
     return index, loss
 
 
-#: The faces a forecast reports (docs/model.md §10): the four sides by the bearing of their outward
+#: The faces a forecast reports (docs/model.md §10.3): the four sides by the bearing of their outward
 #: normal, and the surfaces facing up and down (more than 45° from the vertical plane).
 FACES = ("north", "east", "south", "west", "up", "down")
 

@@ -51,7 +51,7 @@ def ambient_g(xp, k):
 
 def bounce_count(xp, sp, theta_i, theta_r, plus=0.0, fill=0.0):
     """n_b + ``plus``, eq. (6), of pores a fraction ``fill`` full, whose depth ratio is then
-    s = s_p (1 - fill) (docs/model.md §4): s (3.7 - theta_i - theta_r) + 4 pi s / (s + 6).  For angles in
+    s = s_p (1 - fill) (docs/model.md §4.0): s (3.7 - theta_i - theta_r) + 4 pi s / (s + 6).  For angles in
     [0, pi/2] it is never negative (3.7 + 4 pi / (s + 6) > pi >= theta_i + theta_r), so no node
     clamps it.  Written as a multiply-add of s by 3.7 - theta_i - theta_r (one node that every
     fill shares) and 4 pi s / (s + 6) = s / (s / 4 pi + 6 / 4 pi): where s is a constant (an

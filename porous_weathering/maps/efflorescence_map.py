@@ -1,4 +1,4 @@
-"""Efflorescence location maps (docs/model.md §4, paper section 4.3): a height field in [0, 1] that says
+"""Efflorescence location maps (docs/model.md §4.3, paper section 4.3): a height field in [0, 1] that says
 where salt fills the pores first (highest first).  Either generated, concentrated along the
 mortar joints of a running-bond brick pattern (where brick/mortar migration brings the salt),
 or made from a user's photograph of efflorescence: luminance, denoised and normalised with

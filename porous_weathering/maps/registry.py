@@ -63,7 +63,7 @@ class MapKind:
         return [item.name for item in weathering_modes.inputs().values() if item.map == self.name]
 
 
-# --- maps made, not baked (the efflorescence location map, docs/model.md §4) -----------------------------
+# --- maps made, not baked (the efflorescence location map, docs/model.md §4.3) -----------------------------
 
 
 @dataclass(frozen=True)

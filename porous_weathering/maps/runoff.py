@@ -43,7 +43,7 @@ ATTRIBUTE_FINEST, ATTRIBUTE_COARSEST = 512, 256
 @dataclass(frozen=True)
 class RunoffSettings:
     """The run-off: its length L (R = 1 - exp(-Q / L)), the stone's absorption length l and the
-    angle below the horizontal past which a surface drips (docs/model.md §7)."""
+    angle below the horizontal past which a surface drips (docs/model.md §7.1)."""
 
     runoff_length: float | None = option(
         None,

@@ -631,5 +631,5 @@ def interpolate(surface: Surface, values: np.ndarray, points: np.ndarray, normal
 
 
 def runoff_map(flux: np.ndarray, runoff_length: float) -> np.ndarray:
-    """R = 1 - exp(-Q / L) (docs/model.md §7)."""
+    """R = 1 - exp(-Q / L) (docs/model.md §7.1)."""
     return -np.expm1(-np.asarray(flux, float) / runoff_length)

@@ -24,7 +24,7 @@ from ..shading.weathering import image_uv_map
 
 #: Sample points per object: each triangle gets k² of them, k chosen so that the whole surface
 #: has about this many (at most MAX_SPLIT² per triangle, at least one). A front crossing a
-#: triangle is then placed to 1/MAX_SPLIT of its height: 0.2% of a box's face (docs/model.md §10).
+#: triangle is then placed to 1/MAX_SPLIT of its height: 0.2% of a box's face (docs/model.md §10.2).
 TARGET_SAMPLES = 1_000_000
 MAX_SPLIT = 128
 

@@ -319,7 +319,7 @@ def blend(xp, clean, weathered, fill):
 
 
 def filled_absorption(xp, ka, sp, fill, theta_i, theta_r):
-    """A_p of pores a fraction ``fill`` full: s_p,eff = s_p (1 - fill) (docs/model.md §4)."""
+    """A_p of pores a fraction ``fill`` full: s_p,eff = s_p (1 - fill) (docs/model.md §4.0)."""
     nb = porous.bounce_count(xp, sp, theta_i, theta_r, fill=fill)
     return porous.pore_absorption(xp, ka, xp.channel(nb))
 

@@ -137,7 +137,7 @@ def fill_with_carbon(xp, point):
 
 
 def crust_coverage(xp, sheltered, edge_map, time, level, width, crust, spread=None):
-    """c (docs/model.md §6): ``crust`` times how far the black area's carbon fill has progressed past
+    """c (docs/model.md §6.1): ``crust`` times how far the black area's carbon fill has progressed past
     saturation where it is sheltered (at the point of the stone, sheltering included: docs/model.md
     §8.7); ``crust`` itself at a fully black point (sheltered, mask 1) at t = 1, level 1."""
     past = past_saturation(xp, edge_map, time, level, width)

@@ -28,7 +28,7 @@ from .base import (
     water_of,
 )
 
-#: Refractive index of water in the visible (docs/model.md §6).
+#: Refractive index of water in the visible (docs/model.md §6.2).
 WATER_INDEX = 1.333
 
 #: r̄: the cosine-weighted hemispherical Fresnel reflectance of water seen from air,
@@ -70,7 +70,7 @@ def wet_weights(xp, kd, water_specular, pore, ap):
 
 
 def wet_darkening_factor(xp, kd, strength, water):
-    """What the diffuse weight is multiplied by, per channel (docs/model.md §6): 1 on dry stone, and
+    """What the diffuse weight is multiplied by, per channel (docs/model.md §6.2): 1 on dry stone, and
     (1 - p) / (1 - p k_d) under water, where light bounces between stone and water surface,
     for the share w = ``strength`` x ``water`` the water covers.  A Mix by w of 1 and that is a
     Mix by ``water`` of 1 and the Mix by ``strength`` (both 1 + w ((1 - p) / (1 - p k_d) - 1)),
