@@ -261,11 +261,15 @@ def thalli_covers(xp, state, seeds, suitability=None):
     return tuple(thallus_cover(xp, seed, suitability, spacing, radius) for seed in (seeds[:3], seeds[3:]))
 
 
+def in_either(xp, first, second):
+    """The cover of two thalli's covers ``first`` and ``second`` together: c_1 + c_2 (1 - c_1)."""
+    return xp.multiply_add(second, 1.0 - first, first)
+
+
 def lichen_cover(xp, state, seeds, suitability=None):
     """The lichens' cover at a point whose seeds are ``seeds`` (LICHEN_SEEDS): within either of
-    its two nearest seeds' thalli, c_1 + c_2 (1 - c_1) (thalli_covers)."""
-    first, second = thalli_covers(xp, state, seeds, suitability)
-    return xp.multiply_add(second, 1.0 - first, first)
+    its two nearest seeds' thalli (thalli_covers)."""
+    return in_either(xp, *thalli_covers(xp, state, seeds, suitability))
 
 
 def lichen_seeds_at(metres, normals, state, kind):
@@ -301,9 +305,10 @@ def lay_lichens(xp, point):
     # the share of seeds that establish, at the point's share of the stone (docs/model.md §8.7)
     suitability = local_share(xp, lichen_suitability(xp, point.state, light), point.spread)
     first, second = thalli_covers(xp, point.state, seeds, suitability)
-    colours = (lichen_colour(xp, point.state, value, suitability, light) for value in (seeds[4], seeds[1]))
-    coverage = xp.multiply_add(second, 1.0 - first, first)
-    cover(xp, point, blend(xp, *colours, xp.channel(first)), coverage)
+    others = lichen_colour(xp, point.state, seeds[4], suitability, light)
+    nearest = lichen_colour(xp, point.state, seeds[1], suitability, light)
+    coverage = in_either(xp, first, second)
+    cover(xp, point, blend(xp, others, nearest, xp.channel(first)), coverage)
     point.notes["lichen"] = coverage
 
 
