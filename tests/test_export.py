@@ -338,6 +338,31 @@ def test_a_stones_textures_are_the_model_per_texel(tmp_path, masonry):
     assert np.abs(srgb(soiled) - srgb(unreceptive)).max() > 0.05
 
 
+def test_a_stone_exports_at_its_scenes_unit(tmp_path, monkeypatch):
+    """A stone wall made in metres, then modelled in millimetres (the unit scale set to 0.001 and
+    the wall 1000 units across), exports the textures it exported in metres: the bake material
+    takes the object's scene's unit (docs/model.md §8.2); at the unit as made it would not."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    wall = make_wall(stone="LIMESTONE")
+
+    def clean_base(name):
+        save(tmp_path, f"{name}.blend")
+        result = export.export_variants([wall], (1.0,), size=SIZE, out_dir=str(tmp_path / name))
+        gltf, binary = read_glb(result.path)
+        return material_values(variant_materials(gltf)["clean"], gltf, binary, tmp_path)[0]
+
+    in_metres = clean_base("metres")
+    bpy.context.scene.unit_settings.scale_length = 0.001
+    wall.data.transform(np.diag([1000.0, 1000.0, 1000.0, 1.0]))
+    wall.data.update()
+    in_millimetres = clean_base("millimetres")
+    assert in_metres.std(axis=(0, 1)).min() > 0.005  # the stone shows
+    assert (np.abs(in_millimetres - in_metres).max(axis=-1) <= 1.5 / 255).mean() > 0.99
+    monkeypatch.setattr(export, "object_metres_per_unit", lambda obj: 1.0)  # the stone 1000 times too large
+    stale = clean_base("stale")
+    assert np.abs(stale - in_metres).max() > 0.02
+
+
 def test_a_stones_rivulets_are_the_models_in_the_textures(tmp_path):
     """A wall standing up, of a stone, whose soiling reads a run-off map: its run-off gathers into
     the stone's rivulets (docs/model.md §8.8), and its t = 1 textures are the model's with them at

@@ -42,13 +42,20 @@ def meshes(scene):
 
 
 def summary(path):
-    """What must not change between builds: objects, their sizes and materials, the node groups."""
+    """What must not change between builds: objects, their sizes and materials, the materials'
+    drivers (the key light's, the unit's), the node groups."""
     bpy.ops.wm.open_mainfile(filepath=str(path))
     objects = [
         (obj.name, len(obj.data.vertices), len(obj.data.polygons), [m.name for m in obj.data.materials])
         for obj in meshes(bpy.context.scene)
     ]
-    return objects, sorted((group.name, len(group.nodes)) for group in bpy.data.node_groups)
+    drivers = sorted(
+        (material.name, fcurve.data_path, fcurve.array_index)
+        for material in bpy.data.materials
+        if material.node_tree and material.node_tree.animation_data
+        for fcurve in material.node_tree.animation_data.drivers
+    )
+    return objects, drivers, sorted((group.name, len(group.nodes)) for group in bpy.data.node_groups)
 
 
 @pytest.mark.parametrize("name", build_samples.SAMPLES)

@@ -33,6 +33,7 @@ from helpers import (
     stone_probe,
     stone_shifted,
 )
+from porous_weathering.blender import render
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model, porous, stones
 from porous_weathering.core.backends import NumpyOps
@@ -588,6 +589,39 @@ def test_rivulets_in_millimetres_and_metres(fresh_scene):
     assert covered.mean() > 0.5 and in_metres[..., :3][covered].std() > 0.02
     close = np.abs(in_metres - in_millimetres)[covered].max(axis=-1) < 1e-3
     assert close.mean() > 0.99, f"{(~close).sum()} pixels differ"
+
+
+def test_a_unit_set_after_make_rescales_the_stone(fresh_scene, tmp_path):
+    """A stone material made in metres follows the scene's unit once it is set to millimetres, also
+    in the file saved and reopened with auto-run off: its stone and rivulets render as a material
+    made in millimetres (docs/model.md §8.2: the unit's drivers need no Python)."""
+    plane = tilted_plane(fresh_scene, size=24)
+    made_in_metres = rivulet_material("M", plane)
+    in_metres = plane.render(made_in_metres)
+    names = plane.plane.name, made_in_metres.name
+    made_in_metres.use_fake_user = True  # saved while the plane shows the other
+    to_millimetres(fresh_scene, plane)
+    in_millimetres = plane.render(rivulet_material("MM", plane))
+    path = tmp_path / "unit.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    bpy.context.preferences.filepaths.use_scripts_auto_execute = False
+    bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False, use_scripts=False)
+    material = bpy.data.materials[names[1]]
+    studio.assign(bpy.data.objects[names[0]], material)
+    followed = render.render_array(bpy.context.scene)
+    covered = in_metres[..., 3] > 0.999
+    close = np.abs(followed - in_millimetres)[covered].max(axis=-1) < 1e-3
+    assert close.mean() > 0.99, f"{(~close).sum()} pixels differ"
+    drivers = material.node_tree.animation_data.drivers
+    unit_drivers = [fcurve for fcurve in drivers if fcurve.driver.variables[0].type == "CONTEXT_PROP"]
+    assert len(unit_drivers) == 2  # the stone's and the weathered group's
+    for fcurve in unit_drivers:  # the unit as made, without its drivers
+        fcurve.mute = True
+    for node in material.node_tree.nodes:
+        if nodes.METRES_PER_UNIT in node.inputs:
+            node.inputs[nodes.METRES_PER_UNIT].default_value = 1.0
+    stale = render.render_array(bpy.context.scene)
+    assert np.abs(stale - in_millimetres)[covered].max() > 0.05
 
 
 def test_stone_names_are_checked():

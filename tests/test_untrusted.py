@@ -55,8 +55,12 @@ def test_no_material_or_node_group_needs_a_python_driver(fresh_scene):
                 driver = fcurve.driver
                 assert driver.type != "SCRIPTED" or driver.is_simple_expression, (block.name, driver.expression)
                 assert driver.is_valid, (block.name, fcurve.data_path)
+                # none names a scene: a material appended elsewhere brings none along
+                assert all(variable.targets[0].id_type != "SCENE" for variable in driver.variables)
                 checked += 1
-    assert checked == 3 * (4 + len(presets.PRESETS))  # three per key-light material, none elsewhere
+    stones = sum(preset.structure is not None for preset in presets.PRESETS.values())
+    # three per key-light material, one per stone (its unit scale), none elsewhere
+    assert checked == 3 * (4 + len(presets.PRESETS)) + stones
 
 
 def test_registered_extension_adds_no_handlers_and_no_driver_functions():

@@ -368,7 +368,8 @@ def plausible_size(size: float, metres_per_unit: float) -> str | None:
     advice = "set Scene > Units > Unit Scale to its unit in metres" + (f" ({', '.join(fits)})" if fits else "")
     return (
         f"is {metres:.3g} m across at the scene's unit scale {metres_per_unit:g} m per unit, "
-        f"implausible for stone ({low:g}–{high:g} m): {advice}, then Make again"
+        f"implausible for stone ({low:g}–{high:g} m): {advice} (its materials follow the unit; "
+        "a rising-damp map needs baking again)"
     )
 
 

@@ -98,11 +98,6 @@ class DampSettings:
         )
 
 
-def metres_per_unit(obj: bpy.types.Object) -> float:
-    """The unit scale of ``obj``'s scene (the first that holds it; else the context's)."""
-    return material.metres_per_unit(obj.users_scene[0] if obj.users_scene else None)
-
-
 @dataclass(frozen=True)
 class _Body:
     """The object as rendered in world space: its triangles' BVH about the centre of its surface,
@@ -133,7 +128,7 @@ def _body(obj, seen):
     tree = BVHTree.FromPolygons((points - frame.centre).tolist(), triangles.tolist(), all_triangles=True)
     ground = float(points[triangles, 2].min())  # the lowest point a face uses
     start = RAY_START_FRACTION * max(edges.size_of_box(box, matrix), 1e-12)
-    return _Body(tree, ground, metres_per_unit(obj), start, frame)
+    return _Body(tree, ground, material.object_metres_per_unit(obj), start, frame)
 
 
 def damp_at(body: _Body, points: np.ndarray, normals: np.ndarray, settings: DampSettings) -> np.ndarray:
@@ -201,7 +196,7 @@ def _attribute(obj, options):
 
 def _hash(obj, options, digests):
     # heights and thicknesses are read in metres: the same object at another unit scale is another map
-    return dict(metres_per_unit=metres_per_unit(obj))
+    return dict(metres_per_unit=material.object_metres_per_unit(obj))
 
 
 MAP = MapKind(

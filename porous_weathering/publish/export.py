@@ -43,6 +43,7 @@ from ..contracts import MODES_PROPERTY, TEMPORARY_PREFIX, safe_file_name
 from ..core import modes as weathering_modes
 from ..maps import bake, lightmap
 from ..maps.provenance import OverwriteRefused  # noqa: F401  (raised here: docs/api.md)
+from ..shading.material import object_metres_per_unit
 from . import gltf, paradata, textures
 from .gltf import GLTF_ADDON
 from .mapping import pbr_from_weights
@@ -511,8 +512,9 @@ class _Scratch:
         for done in self.copies:  # alone in the scene, the copy bakes without syncing the others
             if done.name in self.scene.collection.objects:
                 self.scene.collection.objects.unlink(done)
+        unit = object_metres_per_unit(obj)
         materials = [
-            self.made.add(textures.bake_material(slot, f"PW Export {obj.name} {slot.index}")) for slot in slots
+            self.made.add(textures.bake_material(slot, f"PW Export {obj.name} {slot.index}", unit)) for slot in slots
         ]
         copy = scratch_scene.placed_copy(obj, self.scene, materials[0], own_mesh=True, ledger=self.made)
         copy.data.materials.clear()

@@ -70,14 +70,18 @@ def bake_uv_map(mesh: "bpy.types.Mesh", size: int) -> tuple[str, bool]:
 # --- the bake materials ---------------------------------------------------------------------
 
 
-def bake_material(slot, name: str) -> "bpy.types.Material":
+def bake_material(slot, name: str, metres_per_unit: float) -> "bpy.types.Material":
     """A copy of the slot's weathered material in the ambient mode (and with the water-lobe
     modes when the slot needs them), whose output is an Emission probe (Probe) and whose active
-    node is an Image Texture (the bake's target)."""
+    node is an Image Texture (the bake's target); its structure at ``metres_per_unit``, the
+    object's scene's (the bake's scene has a unit of its own)."""
     material = slot.material.copy()
     material.name = name
     tree = material.node_tree
-    tree.animation_data_clear()  # the key light's drivers and any keyframed age
+    tree.animation_data_clear()  # the key light's and the unit's drivers, and any keyframed age
+    for node in tree.nodes:
+        if nodes.METRES_PER_UNIT in node.inputs:
+            node.inputs[nodes.METRES_PER_UNIT].default_value = metres_per_unit
     old = tree.nodes[GROUP_NODE]
     group = tree.nodes.new("ShaderNodeGroup")
     # a stone's structure feeds its receptivity to a receptive group (docs/model.md §8.3), its

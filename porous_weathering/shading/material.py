@@ -56,7 +56,7 @@ def make_porous_material(
     ambient mode.  ``stone`` (a preset key, e.g. "LIMESTONE") gives the material that stone's
     structure (docs/model.md §8): k_d, alpha, s_p and m vary from point to point around the values
     given, by ``variation`` in [0, 1] (1: as the stone shows it), at physical sizes in the scene's
-    unit (``unit_settings.scale_length`` when the material is made); ``stone=None`` or
+    unit (``unit_settings.scale_length``, followed by a driver); ``stone=None`` or
     ``variation=0`` builds the uniform material.  ``masonry`` (a ``stones.Ashlar``, with a
     ``stone``) lays the stone as coursed ashlar, each block its own draw of the stone's
     parameters, its joints the mortar preset's (docs/model.md §8.5); a ``stones.MeshBlocks`` takes
@@ -142,6 +142,28 @@ def metres_per_unit(scene: "bpy.types.Scene | None" = None) -> float:
     return float(scene.unit_settings.scale_length) if scene is not None else 1.0
 
 
+def object_metres_per_unit(obj: bpy.types.Object) -> float:
+    """The unit scale of ``obj``'s scene (the first that holds it; else the context's)."""
+    return metres_per_unit(obj.users_scene[0] if obj.users_scene else None)
+
+
+def follow_unit_scale(socket: bpy.types.NodeSocket) -> None:
+    """Feed a Metres Per Unit input the unit scale of the scene being rendered, by a plain driver
+    (a SUM of one context property: Blender evaluates it without Python, so it follows with
+    script auto-execution off, and it names no scene, so a material appended elsewhere brings
+    none along): changing the unit rescales the stone's structure, its rivulets and lichens
+    (docs/model.md §8.2).  The value is set now too, for what reads it before an evaluation."""
+    socket.default_value = metres_per_unit()
+    driver = socket.driver_add("default_value").driver
+    driver.type = "SUM"
+    variable = driver.variables.new()
+    variable.name = "unit_scale"
+    variable.type = "CONTEXT_PROP"
+    target = variable.targets[0]
+    target.context_property = "ACTIVE_SCENE"
+    target.data_path = "unit_settings.scale_length"
+
+
 def connect_stone(graph, group_node, key, structure, variation, masonry, base_color):
     """The stone group of ``key`` between the material's values and ``group_node``: it takes the
     base colour (or image), porosity, pore depth and roughness set on ``group_node`` as its means
@@ -165,7 +187,7 @@ def connect_stone(graph, group_node, key, structure, variation, masonry, base_co
     else:
         node.inputs["Base Color"].default_value = inputs["Base Color"].default_value
     node.inputs["Variation"].default_value = variation
-    node.inputs["Metres Per Unit"].default_value = metres_per_unit()
+    follow_unit_scale(node.inputs[nodes.METRES_PER_UNIT])
     if isinstance(masonry, stones.Ashlar):
         for name, length in stones.ASHLAR_LENGTHS.items():
             node.inputs[length.label].default_value = getattr(masonry, name)

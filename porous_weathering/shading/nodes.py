@@ -251,9 +251,11 @@ def weathered_group_name(modes, light_mode, receptive=False, rivulets=False):
     return f"PW Weathered {'+'.join(mode.title() for mode in modes)}{receptive} ({light_mode.title()})"
 
 
-#: The scene's unit scale: what a group that reads the point's place in metres needs.
+#: The scene's unit scale: what a group that reads the point's place in metres needs (fed by a
+#: driver that follows the scene's unit, ``material.follow_unit_scale``).
+METRES_PER_UNIT = "Metres Per Unit"
 METRES_PER_UNIT_INPUT = {
-    "Metres Per Unit": (
+    METRES_PER_UNIT: (
         "NodeSocketFloat",
         1.0,
         1e-9,
@@ -467,7 +469,7 @@ def point_in_metres(graph, inputs):
     """Where the shading point lies from its object's origin, in metres, along the world's axes
     (docs/model.md §8.2): physical whatever the object's scale, and the beds and courses level
     (along Z) whatever way the object was modelled or turned."""
-    return point_from_origin(graph) * inputs["Metres Per Unit"]
+    return point_from_origin(graph) * inputs[METRES_PER_UNIT]
 
 
 def point_from_origin(graph):
@@ -497,7 +499,7 @@ def stone_body(graph, inputs, stone, block_draw_at=None):
     block's own draw b (docs/model.md §8.5) mixed into its fields, and the "Block Field" output."""
     # the textures take the place in the scene's unit and their scales per unit: the unit's metres
     # fold into each scale, where scaling the place would cost a node per point
-    place, metres_per_unit = point_from_origin(graph), inputs["Metres Per Unit"]
+    place, metres_per_unit = point_from_origin(graph), inputs[METRES_PER_UNIT]
     values = [texture_value(graph, place, texture, metres_per_unit) for texture in stone.textures]
     draw = block_draw_at(graph, place * metres_per_unit) if block_draw_at else None
     z_p, z_c = stones.fields(NODE_OPS, stone, values)

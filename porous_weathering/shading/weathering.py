@@ -96,8 +96,8 @@ def make_weathered_material(
         graph = Graph(new.node_tree)
         for input_socket, value in values.items():
             group_node.inputs[input_socket].default_value = value
-        if "Metres Per Unit" in group_node.inputs:  # the point's place is read (docs/model.md §8.8, §9.3)
-            group_node.inputs["Metres Per Unit"].default_value = material.metres_per_unit()
+        if nodes.METRES_PER_UNIT in group_node.inputs:  # the point's place is read (docs/model.md §8.8, §9.3)
+            material.follow_unit_scale(group_node.inputs[nodes.METRES_PER_UNIT])
         if nodes.RIVULET_SPACING in group_node.inputs:
             group_node.inputs[nodes.RIVULET_SPACING].default_value = structure[0].rivulet_spacing
         for input_name, value in state.items():
