@@ -673,3 +673,6 @@ def test_make_and_the_bake_warn_of_an_implausible_unit(fresh_scene, size, unit, 
     assert len(made) == len(baked) == int(warned)
     if warned:
         assert "0.001 if it is modelled in millimetres" in made[0] and made[0] == baked[0]
+        # as docs/troubleshooting.md quotes it
+        assert "is 300 m across at the scene's unit scale 1 m per unit, implausible for stone" in made[0]
+        assert "its materials follow the unit" in made[0]
