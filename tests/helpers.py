@@ -537,3 +537,31 @@ def presets_row(section: str, label: str) -> list[str]:
     text = (ROOT / "docs" / "presets.md").read_text(encoding="utf-8")
     row = next(line for line in text.split(section, 1)[1].splitlines() if line.startswith(f"| {label} |"))
     return [cell.strip() for cell in row.strip("|").split("|")]
+
+
+class _Recorder:
+    """A stand-in for a panel's layout that records what is drawn (no window is open here)."""
+
+    def __init__(self, calls):
+        object.__setattr__(self, "calls", calls)
+
+    def __getattr__(self, name):
+        def draw(*args, **kwargs):
+            self.calls.append((name, args))
+            return _Recorder(self.calls)
+
+        return draw
+
+    def __setattr__(self, name, value):  # use_property_split, an operator's properties, ...
+        pass
+
+
+def panel_calls(context=None):
+    """[(layout call, its positional arguments)] of the panel drawn for ``context`` (default: the
+    current one), e.g. ("operator", ("porous_weathering.export_variants",)) or ("prop", (socket,
+    "default_value"))."""
+    from porous_weathering.ui import panel
+
+    calls = []
+    panel.draw_panel(_Recorder(calls), context or bpy.context)
+    return calls

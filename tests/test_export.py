@@ -17,7 +17,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import position_texels, rivulets_of, run_cli, stone_texels
+from helpers import panel_calls, position_texels, rivulets_of, run_cli, stone_texels
 from porous_weathering.contracts import GROUP_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.maps import lightmap
@@ -731,26 +731,8 @@ def test_command_line(tmp_path):
     assert done.returncode == 1 and len(errors) == 1 and "broken.blend" in errors[0], done.stderr
 
 
-class Recorder:
-    """A stand-in for a panel's layout that records what is drawn (no window is open here)."""
-
-    def __init__(self, calls):
-        object.__setattr__(self, "calls", calls)
-
-    def __getattr__(self, name):
-        def draw(*args, **kwargs):
-            self.calls.append((name, args))
-            return Recorder(self.calls)
-
-        return draw
-
-    def __setattr__(self, name, value):  # use_property_split, an operator's properties, ...
-        pass
-
-
 def test_operator_and_panel_button(tmp_path):
     import porous_weathering
-    from porous_weathering.ui import panel as ui
 
     porous_weathering.register()
     try:
@@ -758,8 +740,7 @@ def test_operator_and_panel_button(tmp_path):
         save(tmp_path)
         wall.select_set(True)
         bpy.context.view_layer.objects.active = wall
-        calls = []
-        ui.draw_panel(Recorder(calls), bpy.context)
+        calls = panel_calls()
         assert ("operator", ("porous_weathering.export_variants",)) in calls
         operator = bpy.ops.porous_weathering.export_variants
         declared = {entry.dest for entry in export.option_entries() if entry.option.ui}

@@ -9,7 +9,9 @@ import bpy
 import numpy as np
 import pytest
 
+from helpers import panel_calls
 from porous_weathering import ui
+from porous_weathering.blender import render
 from porous_weathering.common import imageio
 from porous_weathering.contracts import STONE_NODE
 from porous_weathering.core import modes as weathering_modes
@@ -230,6 +232,32 @@ def test_the_variation_slider_gives_the_stone_its_structure_or_none(registered, 
     settings.variation = 0.0
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
     assert STONE_NODE not in plane.active_material.node_tree.nodes
+
+
+def test_the_made_materials_stone_varies_live_from_the_panel(registered, fresh_scene):
+    """After Make, the panel shows the active material's own Variation (its stone node's input),
+    so the structure is dialled without Make: at 0 the material renders as the uniform one Make
+    gives at 0; a uniform material shows no such slider."""
+    settings = fresh_scene.porous_weathering
+    plane = studio.add_plane(fresh_scene)
+    studio.add_sun(fresh_scene, (0.5, 0.3, 0.8))
+    studio.add_ortho_camera(fresh_scene)
+    render.use_cycles(fresh_scene, size=16, samples=1)
+    bpy.context.view_layer.objects.active = plane
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    structured = plane.active_material
+    socket = ui_settings.variation_socket(structured)
+    assert ("prop", (socket, "default_value")) in panel_calls()
+    varied = render.render_array(fresh_scene)
+    socket.default_value = 0.0
+    dialled_down = render.render_array(fresh_scene)
+    settings.variation = 0.0
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    uniform = render.render_array(fresh_scene)
+    assert ui_settings.variation_socket(plane.active_material) is None
+    assert not any(call[0] == "prop" and call[1][0] == socket for call in panel_calls())
+    assert np.abs(varied - uniform).max() > 0.01
+    assert np.abs(dialled_down - uniform).max() < 1e-5
 
 
 def test_the_masonry_choice_lays_the_stone_in_blocks(registered, fresh_scene):

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
-from helpers import run_cli
+from helpers import panel_calls, run_cli
 from porous_weathering import survey
 from porous_weathering.core import aging, colorimetry, condition, environments, model, patterns, solar
 from porous_weathering.core import modes as weathering_modes
@@ -518,31 +518,11 @@ def test_docs_model_tables_the_patterns_as_the_records_say():
     assert list(tabled) == [patterns.NO_VISIBLE_CHANGE.name]
 
 
-class Recorder:
-    """Records what a panel draws: (layout call, its positional arguments)."""
-
-    def __init__(self, calls):
-        object.__setattr__(self, "calls", calls)
-
-    def __getattr__(self, name):
-        def draw(*args, **kwargs):
-            self.calls.append((name, args))
-            return Recorder(self.calls)
-
-        return draw
-
-    def __setattr__(self, name, value):
-        pass
-
-
 def test_the_condition_survey_button_runs_the_survey(registered, tmp_path):
-    from porous_weathering.ui import panel
-
     obj = box(1.0, {"efflorescence_map": "height"}, modes=("efflorescence",))
     obj.select_set(True)
     bpy.context.view_layer.objects.active = obj
-    calls = []
-    panel.draw_panel(Recorder(calls), bpy.context)
+    calls = panel_calls()
     assert ("operator", ("porous_weathering.condition_survey",)) in calls
     operator = bpy.ops.porous_weathering.condition_survey
     declared = {entry.dest for entry in survey.condition.option_entries() if entry.option.ui}

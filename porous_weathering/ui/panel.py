@@ -14,7 +14,7 @@ from . import bake_operator as ops_bake
 from . import export_operator as ops_export
 from . import operators
 from . import survey_operator as ops_survey
-from .settings import ASHLAR, active_material, scene_sun, time_socket
+from .settings import ASHLAR, active_material, scene_sun, time_socket, variation_socket
 
 
 def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> None:
@@ -71,6 +71,11 @@ def draw_panel(layout: "bpy.types.UILayout", context: "bpy.types.Context") -> No
     bake_button.maps = set(maps.names())
     for make_map in operators.make_map_operators():
         col.operator(make_map.bl_idname, icon="IMAGE_DATA")
+
+    variation = variation_socket(active_material(context))
+    if variation is not None:  # the made material's own stone, varied live
+        col = layout.column(heading="Its Stone")
+        col.prop(variation, "default_value", text="Variation", slider=True)
 
     col = layout.column(heading="Age")
     socket = time_socket(active_material(context))

@@ -9,7 +9,7 @@ import bpy
 
 import numpy as np
 
-from ..contracts import BLOCK_ATTRIBUTE, GROUP_NODE, socket_name
+from ..contracts import BLOCK_ATTRIBUTE, GROUP_NODE, STONE_NODE, socket_name
 from ..core import aging, environments, stones
 from ..core import modes as weathering_modes
 from ..shading import presets
@@ -45,6 +45,13 @@ def active_material(context: "bpy.types.Context") -> "bpy.types.Material | None"
     """The material the panel shows: the Properties editor's, else the active object's."""
     obj = context.active_object
     return getattr(context, "material", None) or (obj.active_material if obj is not None else None)
+
+
+def variation_socket(mat: "bpy.types.Material | None") -> "bpy.types.NodeSocket | None":
+    """The Variation input of ``mat``'s stone node (docs/model.md §8.2); None for a material
+    without a stone (made uniform: no stone node to vary)."""
+    stone = mat.node_tree.nodes.get(STONE_NODE) if mat and mat.node_tree else None
+    return stone.inputs["Variation"] if stone is not None else None
 
 
 def time_socket(mat: "bpy.types.Material | None") -> "bpy.types.NodeSocket | None":
