@@ -260,6 +260,31 @@ def test_the_made_materials_stone_varies_live_from_the_panel(registered, fresh_s
     assert np.abs(dialled_down - uniform).max() < 1e-5
 
 
+def test_make_gives_every_selected_object_its_own_material(registered, fresh_scene):
+    """Make, as Bake and Export, takes the selected objects (the active one first): each gets a
+    material of its own, on its own maps; one it cannot make for gives none of them anything."""
+    settings = fresh_scene.porous_weathering
+    planes = [studio.add_plane(fresh_scene, name) for name in ("First", "Second", "Third")]
+    for plane, x in zip(planes, (0.0, 3.0, 6.0)):
+        plane.location.x = x
+        plane.select_set(plane.name != "Third")
+    bpy.context.view_layer.objects.active = planes[1]
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    first, second, third = (plane.active_material for plane in planes)
+    assert third is None and first is not second
+    assert first.name.startswith("First") and second.name.startswith("Second")
+    assert STONE_NODE in first.node_tree.nodes and STONE_NODE in second.node_tree.nodes
+
+    materials = len(bpy.data.materials)
+    settings.masonry = "FACE_SETS"  # the active one has face sets, the other selected one none
+    planes[1].data.attributes.new(presets.FACE_SET_ATTRIBUTE, "INT", "FACE")
+    with pytest.raises(RuntimeError, match="'First' has no face sets"):
+        bpy.ops.porous_weathering.make_material()
+    assert [plane.active_material for plane in planes] == [first, second, None]
+    assert len(bpy.data.materials) == materials  # the active one's, made first, removed
+    assert stones.MeshBlocks().attribute not in planes[1].data.attributes
+
+
 def test_the_masonry_choice_lays_the_stone_in_blocks(registered, fresh_scene):
     """Make lays the stone in the panel's Masonry (docs/model.md §8.5): coursed ashlar at the
     panel's lengths (metres), or the blocks of the mesh's loose parts, which Make writes into its

@@ -30,6 +30,18 @@ class NeedsMaterialObject:
         return True
 
 
+def material_targets(context: "bpy.types.Context") -> "list[bpy.types.Object]":
+    """What Make gives a material: the active object, then every other selected object that can
+    have materials (as Bake, Export and the survey take the selected meshes), each its own; an
+    object whose mesh an earlier one shares has it through that mesh's slot."""
+    targets, meshes = [], set()
+    for obj in (context.active_object, *context.selected_objects):
+        if obj.type in scratch_scene.GEOMETRY_TYPES and obj.data.name_full not in meshes:
+            targets.append(obj)
+            meshes.add(obj.data.name_full)
+    return targets
+
+
 class PW_OT_add_porous_material(NeedsMaterialObject, bpy.types.Operator):
     """Give the active object a new porous material (docs/model.md §2), lit by the scene's key light or ambient"""
 
@@ -189,41 +201,46 @@ class MakeMaterial(NeedsMaterialObject):
 
     def execute(self, context):
         settings = context.scene.porous_weathering
-        obj = context.active_object
         modes = settings.modes()
+        made = []  # (object, its new material, its blocks, the warnings)
         try:
-            masonry, blocks = settings.masonry_for(obj)
-            with warnings.catch_warnings(record=True) as caught:
-                warnings.simplefilter("always", model.PorousInputWarning)
-                new = linking.weathered_material_for(
-                    obj,
-                    modes,
-                    preset=settings.preset(),
-                    key_light=key_light(context.scene, settings),
-                    values={**settings.weathering_values(modes), **self.measured_values(settings, modes)},
-                    environment=settings.environment,
-                    stone=self.measured_stone(settings),
-                    variation=settings.variation,
-                    masonry=masonry,
-                )
-        except ValueError as error:
+            for obj in material_targets(context):
+                masonry, blocks = settings.masonry_for(obj)
+                with warnings.catch_warnings(record=True) as caught:
+                    warnings.simplefilter("always", model.PorousInputWarning)
+                    new = linking.weathered_material_for(
+                        obj,
+                        modes,
+                        preset=settings.preset(),
+                        key_light=key_light(context.scene, settings),
+                        values={**settings.weathering_values(modes), **self.measured_values(settings, modes)},
+                        environment=settings.environment,
+                        stone=self.measured_stone(settings),
+                        variation=settings.variation,
+                        masonry=masonry,
+                    )
+                made.append((obj, new, blocks, caught))
+        except ValueError as error:  # nothing is given to any object: the materials made so far go
+            for _, new, _, _ in made:
+                bpy.data.materials.remove(new)
             self.report({"ERROR"}, f"object '{obj.name}': {error}")
             return {"CANCELLED"}
-        if blocks is not None:
-            presets.write_blocks(obj, blocks)
-        for warning in caught:
-            self.report({"WARNING"}, str(warning.message))
         labels = {kind.name: kind.label for kind in linking.known_maps()}
-        for map_name in linking.missing_maps(obj, modes):
-            self.report(
-                {"WARNING"},
-                f"object '{obj.name}' has no {labels[map_name]} map: its input stays "
-                f"constant until you make it ({map_button(map_name)}) and Make again",
-            )
-        if obj.material_slots:
-            obj.material_slots[obj.active_material_index].material = new
-        else:
-            obj.data.materials.append(new)
+        for obj, new, blocks, caught in made:
+            if blocks is not None:
+                presets.write_blocks(obj, blocks)
+            for warning in caught:
+                self.report({"WARNING"}, str(warning.message))
+            for map_name in linking.missing_maps(obj, modes):
+                self.report(
+                    {"WARNING"},
+                    f"object '{obj.name}' has no {labels[map_name]} map: its input stays "
+                    f"constant until you make it ({map_button(map_name)}) and Make again",
+                )
+            if obj.material_slots:
+                obj.material_slots[obj.active_material_index].material = new
+            else:
+                obj.data.materials.append(new)
         return {"FINISHED"}
 
     def measured_values(self, settings, modes) -> dict:
@@ -236,7 +253,7 @@ class MakeMaterial(NeedsMaterialObject):
 
 
 class PW_OT_make_material(MakeMaterial, bpy.types.Operator):
-    """Give the active object a porous material from the chosen stone, light and weathering modes, wired to its maps"""
+    """Give the selected objects each a porous material of the chosen stone, light and modes, wired to its maps"""
 
     bl_idname = "porous_weathering.make_material"
     bl_label = "Make Porous Material"
