@@ -285,6 +285,23 @@ def test_make_gives_every_selected_object_its_own_material(registered, fresh_sce
     assert stones.MeshBlocks().attribute not in planes[1].data.attributes
 
 
+def test_keyframe_aging_ages_every_selected_objects_material(registered, fresh_scene):
+    """Keyframe Aging animates the materials one Make gave the selected objects, each once."""
+    settings = fresh_scene.porous_weathering
+    settings.soiling = True
+    planes = [studio.add_plane(fresh_scene, name) for name in ("First", "Second")]
+    for plane in planes:
+        plane.select_set(True)
+    bpy.context.view_layer.objects.active = planes[0]
+    assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    fresh_scene.frame_start, fresh_scene.frame_end = 1, 11
+    assert bpy.ops.porous_weathering.keyframe_aging() == {"FINISHED"}
+    fresh_scene.frame_set(6)
+    times = [ui_settings.time_socket(plane.active_material).default_value for plane in planes]
+    assert times == pytest.approx([0.5, 0.5])
+    assert planes[0].active_material is not planes[1].active_material
+
+
 def test_the_masonry_choice_lays_the_stone_in_blocks(registered, fresh_scene):
     """Make lays the stone in the panel's Masonry (docs/model.md §8.5): coursed ashlar at the
     panel's lengths (metres), or the blocks of the mesh's loose parts, which Make writes into its

@@ -282,7 +282,7 @@ class PW_OT_make_from_colorimetry(MakeMaterial, bpy.types.Operator):
 
 
 class PW_OT_keyframe_aging(bpy.types.Operator):
-    """Animate the active material from new (time 0, first frame) to weathered (time 1, last frame) or over years"""
+    """Animate the selected objects' materials from new (time 0, first frame) to weathered (1, last) or over years"""
 
     bl_idname = "porous_weathering.keyframe_aging"
     bl_label = "Keyframe Aging"
@@ -305,21 +305,35 @@ class PW_OT_keyframe_aging(bpy.types.Operator):
 
     def execute(self, context):
         scene = context.scene
-        if self.years == 0.0 and time_socket(active_material(context)) is None:
-            self.report({"ERROR"}, "this material ages in years (its modes have no Time): give Years")
+        aged = aging_targets(context)
+        in_years = [mat.name for mat in aged if time_socket(mat) is None]
+        if self.years == 0.0 and in_years:
+            self.report({"ERROR"}, f"material '{in_years[0]}' ages in years (its modes have no Time): give Years")
             return {"CANCELLED"}
         try:
-            if self.years == 0.0:
-                weathering.animate_weathering(active_material(context), scene.frame_start, scene.frame_end)
-            else:
-                weathering.animate_years(
-                    active_material(context),
-                    scene.frame_start,
-                    scene.frame_end,
-                    self.years,
-                    scene.porous_weathering.elemental_carbon(),
-                )
+            for mat in aged:
+                if self.years == 0.0:
+                    weathering.animate_weathering(mat, scene.frame_start, scene.frame_end)
+                else:
+                    weathering.animate_years(
+                        mat,
+                        scene.frame_start,
+                        scene.frame_end,
+                        self.years,
+                        scene.porous_weathering.elemental_carbon(),
+                    )
         except ValueError as error:
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         return {"FINISHED"}
+
+
+def aging_targets(context: "bpy.types.Context") -> "list[bpy.types.Material]":
+    """What Keyframe Aging animates: the active material, then the active material of every other
+    selected object that ages (what one Make gave the selected objects), each once."""
+    found = [active_material(context), *(obj.active_material for obj in context.selected_objects)]
+    targets = []
+    for mat in found:
+        if mat is not None and clock_sockets(mat) and mat not in targets:
+            targets.append(mat)
+    return targets
