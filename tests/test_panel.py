@@ -286,7 +286,7 @@ def test_make_gives_every_selected_object_its_own_material(registered, fresh_sce
 
 
 def test_keyframe_aging_ages_every_selected_objects_material(registered, fresh_scene):
-    """Keyframe Aging animates the materials one Make gave the selected objects, each once."""
+    """Years and Keyframe Aging age the materials one Make gave the selected objects, each once."""
     settings = fresh_scene.porous_weathering
     settings.soiling = True
     planes = [studio.add_plane(fresh_scene, name) for name in ("First", "Second")]
@@ -294,6 +294,9 @@ def test_keyframe_aging_ages_every_selected_objects_material(registered, fresh_s
         plane.select_set(True)
     bpy.context.view_layer.objects.active = planes[0]
     assert bpy.ops.porous_weathering.make_material() == {"FINISHED"}
+    settings.years = 12.0
+    times = [ui_settings.time_socket(plane.active_material).default_value for plane in planes]
+    assert 0.0 < times[0] < 1.0 and times[1] == times[0]
     fresh_scene.frame_start, fresh_scene.frame_end = 1, 11
     assert bpy.ops.porous_weathering.keyframe_aging() == {"FINISHED"}
     fresh_scene.frame_set(6)

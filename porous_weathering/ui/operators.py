@@ -15,7 +15,7 @@ from ..maps import registry as maps
 from ..maps.provenance import OverwriteRefused
 from ..shading import material, presets, weathering
 from . import bake_operator as ops_bake
-from .settings import active_material, clock_sockets, key_light, time_socket
+from .settings import active_material, aging_targets, clock_sockets, key_light, time_socket
 
 
 class NeedsMaterialObject:
@@ -326,14 +326,3 @@ class PW_OT_keyframe_aging(bpy.types.Operator):
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         return {"FINISHED"}
-
-
-def aging_targets(context: "bpy.types.Context") -> "list[bpy.types.Material]":
-    """What Keyframe Aging animates: the active material, then the active material of every other
-    selected object that ages (what one Make gave the selected objects), each once."""
-    found = [active_material(context), *(obj.active_material for obj in context.selected_objects)]
-    targets = []
-    for mat in found:
-        if mat is not None and clock_sockets(mat) and mat not in targets:
-            targets.append(mat)
-    return targets

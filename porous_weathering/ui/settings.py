@@ -70,12 +70,24 @@ def clock_sockets(mat: "bpy.types.Material | None") -> "dict[str, bpy.types.Node
     return {name: group.inputs[socket_name(name)] for name in clocks if socket_name(name) in group.inputs}
 
 
+def aging_targets(context: "bpy.types.Context") -> "list[bpy.types.Material]":
+    """The materials Years and Keyframe Aging age: the active material, then the active material
+    of every other selected object that ages (what one Make gave the selected objects), each once."""
+    found = [active_material(context), *(obj.active_material for obj in context.selected_objects)]
+    targets = []
+    for mat in found:
+        if mat is not None and clock_sockets(mat) and mat not in targets:
+            targets.append(mat)
+    return targets
+
+
 def _apply_years(settings, context):
-    """Setting Years sets the active material's clocks: Time by the soiling law at the
-    environment's soot, and the clocks counted in years (docs/model.md §9.4)."""
+    """Setting Years sets the clocks of the materials it ages (``aging_targets``): Time by the
+    soiling law at the environment's soot, and the clocks counted in years (docs/model.md §9.4)."""
     ages = aging.ages_for_years(settings.years, settings.elemental_carbon())
-    for name, socket in clock_sockets(active_material(context)).items():
-        socket.default_value = ages[name]
+    for mat in aging_targets(context):
+        for name, socket in clock_sockets(mat).items():
+            socket.default_value = ages[name]
 
 
 class SettingsBase:
@@ -174,9 +186,9 @@ def settings_class() -> type:
         ),
         "years": bpy.props.FloatProperty(
             name="Years",
-            description="Years of exposure: sets the active material's Time by the soiling law of sheltered stone "
-            "at the environment's soot concentration (t = 1: 30% of the reflectance lost); Keyframe Years "
-            "spans the frame range over them",
+            description="Years of exposure: sets the Time of the selected objects' materials by the soiling law of "
+            "sheltered stone at the environment's soot concentration (t = 1: 30% of the reflectance lost); "
+            "Keyframe Years spans the frame range over them",
             default=0.0,
             min=0.0,
             soft_max=200.0,
