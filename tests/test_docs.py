@@ -425,6 +425,39 @@ def test_collects_the_block_kinds(tmp_path):
     ]
 
 
+def heading_anchor(heading: str) -> str:
+    """The anchor GitHub gives a Markdown heading: lower case, punctuation dropped, spaces to hyphens."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+def anchors_of(path: pathlib.Path) -> set:
+    """The anchors of ``path``'s headings (outside code fences)."""
+    found, fenced = set(), False
+    for line in path.read_text(encoding="utf-8").splitlines():
+        fenced ^= bool(FENCE.match(line))
+        if not fenced and line.startswith("#"):
+            found.add(heading_anchor(line.lstrip("#")))
+    return found
+
+
+def test_every_link_between_the_docs_reaches_its_file_and_heading():
+    broken = []
+    for doc in DOCS:
+        for link in re.findall(r"\]\(([^)\s]+)\)", doc.read_text(encoding="utf-8")):
+            if re.match(r"[a-z]+:", link):
+                continue
+            path, _, anchor = link.partition("#")
+            target = (doc.parent / path).resolve() if path else doc
+            if not target.exists():
+                broken.append(f"{doc.name}: {link} (no such file)")
+            elif anchor and target.suffix == ".md" and anchor not in anchors_of(target):
+                broken.append(f"{doc.name}: {link} (no such heading)")
+    assert not broken, "\n".join(broken)
+    assert heading_anchor(" 8.2 The parameters at a point, and the physical scale") == (
+        "82-the-parameters-at-a-point-and-the-physical-scale"
+    )
+
+
 if __name__ == "__main__":
     for block in BLOCKS:
         what = f"illustration: {block.illustration}" if block.illustration is not None else "run"
