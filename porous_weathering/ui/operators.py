@@ -203,22 +203,20 @@ class MakeMaterial(NeedsMaterialObject):
         settings = context.scene.porous_weathering
         modes = settings.modes()
         made = []  # (object, its new material, its blocks, the warnings)
+        chosen = dict(  # what every object's material is made of: the panel's, found once
+            preset=settings.preset(),
+            key_light=key_light(context.scene, settings),
+            values={**settings.weathering_values(modes), **self.measured_values(settings, modes)},
+            environment=settings.environment,
+            stone=self.measured_stone(settings),
+            variation=settings.variation,
+        )
         try:
             for obj in material_targets(context):
                 masonry, blocks = settings.masonry_for(obj)
                 with warnings.catch_warnings(record=True) as caught:
                     warnings.simplefilter("always", model.PorousInputWarning)
-                    new = linking.weathered_material_for(
-                        obj,
-                        modes,
-                        preset=settings.preset(),
-                        key_light=key_light(context.scene, settings),
-                        values={**settings.weathering_values(modes), **self.measured_values(settings, modes)},
-                        environment=settings.environment,
-                        stone=self.measured_stone(settings),
-                        variation=settings.variation,
-                        masonry=masonry,
-                    )
+                    new = linking.weathered_material_for(obj, modes, masonry=masonry, **chosen)
                 made.append((obj, new, blocks, caught))
         except ValueError as error:  # nothing is given to any object: the materials made so far go
             for _, new, _, _ in made:
