@@ -28,6 +28,7 @@ import numpy as np
 from ..blender import mesh_arrays
 from ..core import stones
 from ..core.vectors import cross
+from ..shading.material import object_metres_per_unit
 
 
 class ScanWarning(UserWarning):
@@ -79,9 +80,7 @@ def problems(obj, rain: bool = True) -> list[str]:
 def unit_problem(obj) -> str | None:
     """The warning when ``obj``'s size is implausible for a stone object at its scene's unit
     scale (docs/model.md §8.4: ``stones.plausible_size``), else None."""
-    scenes = getattr(obj, "users_scene", ())
-    scale = float(scenes[0].unit_settings.scale_length) if scenes else 1.0
-    advice = stones.plausible_size(float(max(obj.dimensions)), scale)
+    advice = stones.plausible_size(float(max(obj.dimensions)), object_metres_per_unit(obj))
     return f"object '{obj.name}' {advice}" if advice else None
 
 
