@@ -346,6 +346,15 @@ def stone_parameters(render_with, material, extra=()):
     return dict(kd=kd, alpha=alpha, m=m, sp=sp, r=r, **{name: value for name, value in zip(extra, others)})
 
 
+def stone_weights(stone, ks, n_dot_l, n_dot_v, modes, variation, **state):
+    """model.weathered_coefficients at the stone's per-point values read back from a render
+    (``stone_parameters`` with its porosity field as ``z_p``: ``stone_shifted``)."""
+    return model.weathered_coefficients(
+        stone["kd"], ks, stone["m"], stone["alpha"], stone["sp"], n_dot_l, n_dot_v, modes,
+        receptivity=stone["r"], field=stone["z_p"], variation=variation, **state,
+    )  # fmt: skip
+
+
 def stone_texels(obj, outputs, size, shift=0.0):
     """(size, size, 3), top row first: the ``outputs`` of the stone node of ``obj``'s material
     (as ``stone_probe`` emits them) at the texel centres of its active UV map (``texel_bake``);

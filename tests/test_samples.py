@@ -16,7 +16,15 @@ import numpy as np
 import pytest
 
 import porous_weathering
-from helpers import assert_matches, expected_image, rivulets_of, stone_glossy_lobe, stone_parameters, stone_shifted
+from helpers import (
+    assert_matches,
+    expected_image,
+    rivulets_of,
+    stone_glossy_lobe,
+    stone_parameters,
+    stone_shifted,
+    stone_weights,
+)
 from porous_weathering.blender import render
 from porous_weathering.contracts import GROUP_NODE, socket_name
 from porous_weathering.core import model, stones
@@ -141,18 +149,13 @@ class Weathered:
         rivulets = rivulets_of(sample.material(mode), self.position, normals, whole, scene)
 
         def diffuse(time):
-            weights = model.weathered_coefficients(
-                stone["kd"],
+            weights = stone_weights(
+                stone,
                 ks,
-                stone["m"],
-                stone["alpha"],
-                stone["sp"],
                 n_dot_l,
                 n_dot_v,
                 (mode,),
-                receptivity=stone["r"],
-                field=stone["z_p"],
-                variation=stones.DEFAULT_VARIATION,
+                stones.DEFAULT_VARIATION,
                 rivulets=rivulets,
                 **{**self.inputs, "time": time, **self.maps},
             )
@@ -395,18 +398,13 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
                 widen_rivulets(sample.material(mode, **changes))
                 image = render.render_array(scene)
                 late += [image] if age == 1.0 else []
-                weights = model.weathered_coefficients(
-                    stone["kd"],
+                weights = stone_weights(
+                    stone,
                     ks,
-                    stone["m"],
-                    stone["alpha"],
-                    stone["sp"],
                     n_dot_l,
                     n_dot_v,
                     (mode,),
-                    receptivity=stone["r"],
-                    field=stone["z_p"],
-                    variation=stones.DEFAULT_VARIATION,
+                    stones.DEFAULT_VARIATION,
                     rivulets=rivulets_of(sample.material(mode, **changes), points, normals, whole, scene),
                     **{**inputs, **changes, "time": age, **values},
                 )

@@ -32,6 +32,7 @@ from helpers import (
     stone_parameters,
     stone_probe,
     stone_shifted,
+    stone_weights,
 )
 from porous_weathering.blender import render
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
@@ -445,10 +446,7 @@ def test_weathered_fronts_follow_the_stone(fresh_scene, variation):
     diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
     glossy = glossy_lobe(plane, material)
     n_dot_l, n_dot_v = cosines(plane)
-    kd_w, ks_w, _ = model.weathered_coefficients(
-        got["kd"], STONE["ks"], got["m"], got["alpha"], got["sp"], n_dot_l, n_dot_v, ("soiling",),
-        receptivity=got["r"], field=got["z_p"], variation=variation, **state,
-    )  # fmt: skip
+    kd_w, ks_w, _ = stone_weights(got, STONE["ks"], n_dot_l, n_dot_v, ("soiling",), variation, **state)
     covered = image[..., 3] > 0.999
     assert_matches(image, kd_w * diffuse + ks_w[..., None] * glossy, covered)
     fill = model.pore_fill(0.55, np.minimum(0.5 * got["r"], 1.0), 1.0, 0.1)
@@ -475,10 +473,9 @@ def test_life_follows_the_stone(fresh_scene):
     image = plane.render(material)
     diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
     n_dot_l, n_dot_v = cosines(plane)
-    kd_w, ks_w, _ = model.weathered_coefficients(
-        got["kd"], STONE["ks"], got["m"], got["alpha"], got["sp"], n_dot_l, n_dot_v, ("biological",),
-        receptivity=got["r"], field=got["z_p"], variation=1.0, fields={biological.LICHEN_SEEDS: seeds}, **state,
-    )  # fmt: skip
+    kd_w, ks_w, _ = stone_weights(
+        got, STONE["ks"], n_dot_l, n_dot_v, ("biological",), 1.0, fields={biological.LICHEN_SEEDS: seeds}, **state
+    )
     covered = image[..., 3] > 0.999
     assert_matches(image, kd_w * diffuse + ks_w[..., None] * glossy_lobe(plane, material), covered)
     full = model.weathering_state("biological", state)
@@ -567,10 +564,9 @@ def test_rivulets_render_as_the_model_per_pixel(fresh_scene):
     n_dot_l, n_dot_v = normal @ towards, normal @ np.array(studio.VIEW_DIRECTION)
 
     def expected(**rivulets):
-        kd_w, ks_w, _ = model.weathered_coefficients(
-            got["kd"], STONE["ks"], got["m"], got["alpha"], got["sp"], n_dot_l, n_dot_v, ("soiling",),
-            receptivity=got["r"], field=got["z_p"], variation=1.0, **RIVULET_STATE, **rivulets,
-        )  # fmt: skip
+        kd_w, ks_w, _ = stone_weights(
+            got, STONE["ks"], n_dot_l, n_dot_v, ("soiling",), 1.0, **RIVULET_STATE, **rivulets
+        )
         return kd_w * diffuse + ks_w[..., None] * glossy
 
     covered = image[..., 3] > 0.999
