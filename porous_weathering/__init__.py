@@ -4,12 +4,13 @@ The public API (docs/api.md):
     porous_weathering.model                 the model of docs/model.md in plain numpy (no bpy)
     porous_weathering.make_porous_material  a porous material for EEVEE and Cycles
     porous_weathering.make_base_material    the same Diffuse + Glossy without porosity
-    porous_weathering.make_weathered_material  soiling / wet / efflorescence over time
+    porous_weathering.make_weathered_material  how it weathers over time (every mode: soiling, wet, ...)
     porous_weathering.make_preset_material  a porous material from a preset (docs/presets.md)
     porous_weathering.ColorAttribute        a base colour read from a colour attribute (a scan's vertex colours)
 and the modules of ``PUBLIC_MODULES`` at their documented places (``porous_weathering.bake``,
-``porous_weathering.export``, ...): each is the module of its layer (docs/architecture.md), served
-from that table by a finder this package installs; no file stands in for them.
+``porous_weathering.export``, ...) and each map's module (``porous_weathering.rain``,
+``porous_weathering.sun``, ...: the map registry's ``maps.modules()``): each is the module of its
+layer (docs/architecture.md), served by a finder this package installs; no file stands in for them.
 
 Importing this package does not import bpy; the names that need it load on first use,
 so ``porous_weathering.model`` works in plain Python too.
@@ -21,22 +22,19 @@ import importlib.abc
 import importlib.util
 import sys
 
-#: The documented modules (docs/api.md): each public name at the top of the package and the
-#: module of its layer it is (docs/architecture.md, "The public API"). ``porous_weathering.uv``
+#: The documented modules (docs/api.md) but the maps' own, which the map registry names: each public
+#: name at the top of the package and the module of its layer it is (docs/architecture.md, "The
+#: public API"). ``porous_weathering.uv``
 #: *is* ``porous_weathering.maps.lightmap``: one module with one state under both names.
 PUBLIC_MODULES = {
     "bake": "maps.bake",
     "demo": "samples.demo",
-    "edges": "maps.edges",
-    "efflorescence_map": "maps.efflorescence_map",
     "export": "publish.export",
     "maps": "maps",
     "model": "core.model",
     "modes": "core.modes",
     "options": "common.options",
     "presets": "shading.presets",
-    "rain": "maps.rain",
-    "runoff": "maps.runoff",
     "runoff_flow": "maps.runoff_flow",
     "scan_checks": "maps.scan_checks",
     "survey": "survey",
@@ -53,6 +51,17 @@ _LAZY = {
 }
 
 
+def _layer_module(package: str, name: str) -> str | None:
+    """The module of its layer that ``<package>.<name>`` is: ``PUBLIC_MODULES``'s, or a map's own
+    module (its record's, ``maps.modules()``: ``porous_weathering.sun`` is ``maps.sun``, with its
+    settings), else None."""
+    if name in PUBLIC_MODULES:
+        return PUBLIC_MODULES[name]
+    if importlib.util.find_spec(f"{package}.maps.{name}") is None:  # no map's module: nothing imported
+        return None
+    return f"maps.{name}" if name in importlib.import_module(f"{package}.maps").modules() else None
+
+
 class _PublicModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     """Imports ``<package>.<public name>`` (``import porous_weathering.uv``, ``from
     porous_weathering.bake import X``) as the module of its layer, loaded on first use: the
@@ -64,13 +73,13 @@ class _PublicModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 
     def find_spec(self, fullname, path=None, target=None):
         package, _, name = fullname.rpartition(".")
-        if package != self.package or PUBLIC_MODULES.get(name, name) == name:
+        if package != self.package or _layer_module(package, name) in (None, name):
             return None
         return importlib.util.spec_from_loader(fullname, self)
 
     def exec_module(self, module):
         name = module.__name__.rpartition(".")[2]
-        sys.modules[module.__name__] = importlib.import_module(f"{self.package}.{PUBLIC_MODULES[name]}")
+        sys.modules[module.__name__] = importlib.import_module(f"{self.package}.{_layer_module(self.package, name)}")
 
 
 # one finder for this package, also when the add-on is loaded again
@@ -81,7 +90,7 @@ sys.meta_path.append(_PublicModules(__name__))
 def __getattr__(name):
     if name in _LAZY:
         return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
-    if name in PUBLIC_MODULES:
+    if _layer_module(__name__, name) is not None:
         return importlib.import_module(f".{name}", __name__)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 

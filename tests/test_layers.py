@@ -134,8 +134,10 @@ def import_graph():
         edges = graph.setdefault(module, {})
         for line, name in imports(path):
             top, _, rest = name.partition(".")
-            if top == "porous_weathering" and rest in porous_weathering.PUBLIC_MODULES:
-                name = f"porous_weathering.{porous_weathering.PUBLIC_MODULES[rest]}"
+            public = top == "porous_weathering" and rest and "." not in rest  # a name at the package's top
+            served = porous_weathering._layer_module(top, rest) if public else None
+            if served is not None:
+                name = f"porous_weathering.{served}"
             if name in MODULES and name != module:
                 edges.setdefault(name, line)
     return graph

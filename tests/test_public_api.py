@@ -133,17 +133,28 @@ ALIASES = {
     "runoff": "maps.runoff",
     "runoff_flow": "maps.runoff_flow",
     "scan_checks": "maps.scan_checks",
+    "sun": "maps.sun",
+    "damp": "maps.damp",
     "uv": "maps.lightmap",
     "weathering": "shading.weathering",
 }
 
 
 def test_every_alias_module_is_listed():
-    # the package's table serves them (and names the maps and survey subpackages); no file stands in for one
-    assert set(porous_weathering.PUBLIC_MODULES) == set(ALIASES) | {"maps", "survey"}
+    # the package's table serves them (and names the maps and survey subpackages), and the map
+    # registry each map's own module; no file stands in for one
+    served = set(porous_weathering.PUBLIC_MODULES) | set(porous_weathering.maps.modules())
+    assert served == set(ALIASES) | {"maps", "survey"}
     assert {path.stem for path in (ROOT / PACKAGE).glob("*.py")} == {"__init__", "__main__", "contracts"}
     top = {module.split(".")[1] for _, module in MODULES if module.count(".") == 1}
-    assert top <= set(porous_weathering.PUBLIC_MODULES), "docs/api.md names a module the table does not serve"
+    assert top <= served, "docs/api.md names a module the package does not serve"
+
+
+def test_only_a_maps_own_module_is_served_beside_the_table():
+    # a module of the maps package that holds no map's record is not public
+    with pytest.raises(ImportError):
+        importlib.import_module(f"{PACKAGE}.contacts")
+    assert not hasattr(porous_weathering, "scan_checks_of_nothing")
 
 
 @pytest.mark.parametrize("alias, layer_module", ALIASES.items())

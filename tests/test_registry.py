@@ -8,6 +8,7 @@ the docs tables' check sees them too (tests/test_docs_tables.py)."""
 
 import ast
 import contextlib
+import importlib.util
 import io
 import json
 import pathlib
@@ -47,6 +48,7 @@ def test_a_module_is_all_a_mode_and_a_map_need(toys):
     assert maps.names() == ("rain", "edges", "runoff", "sun", "damp", "toy")
     assert weathering_modes.get("grime") is sys.modules["porous_weathering.core.modes.grime"].MODE
     assert maps.get("toy") is sys.modules["porous_weathering.maps.toy"].MAP
+    assert importlib.util.find_spec("porous_weathering.toy"), "public, as porous_weathering.rain is"
     for toy in (TOYS / "modes" / "grime.py", TOYS / "maps" / "toy.py"):
         names = [name.id for name in ast.walk(ast.parse(toy.read_text())) if isinstance(name, ast.Name)]
         assert "register" not in names, f"{toy.name}: a module needs no register call"
@@ -54,6 +56,7 @@ def test_a_module_is_all_a_mode_and_a_map_need(toys):
 
 def test_the_toys_go_with_their_modules():
     assert "grime" not in weathering_modes.names() and "toy" not in maps.names()
+    assert importlib.util.find_spec("porous_weathering.toy") is None
 
 
 def test_a_group_of_an_older_build_without_the_toy_input_is_built_again(toys, fresh_scene):

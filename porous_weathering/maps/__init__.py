@@ -29,6 +29,7 @@ __all__ = [
     "feeding",
     "get",
     "made_kinds",
+    "modules",
     "names",
     "register",
     "register_made",

@@ -87,6 +87,7 @@ class MadeMap:
 
 
 _DISCOVERED: dict[str, MapKind | MadeMap] | None = None  #: the modules' records, once found
+_MODULES: tuple[str, ...] = ()  #: the modules of the maps package that hold them
 _REGISTERED: dict[str, MapKind | MadeMap] = {}  #: the records given to ``register``
 _DISCOVERING = False
 
@@ -94,9 +95,9 @@ _DISCOVERING = False
 def discover() -> None:
     """Find the records again: the ``MAP`` of every module of the ``maps`` package (its
     ``__path__``). Done on first use; again only after a module was added to the package's path."""
-    global _DISCOVERED, _DISCOVERING
+    global _DISCOVERED, _DISCOVERING, _MODULES
     _DISCOVERED, _DISCOVERING = None, True
-    found = {}
+    found, modules = {}, []
     try:
         for module in pkgutil.iter_modules(importlib.import_module(__package__).__path__):
             record = getattr(importlib.import_module(f"{__package__}.{module.name}"), "MAP", None)
@@ -104,9 +105,10 @@ def discover() -> None:
                 if record.name in found or record.name in _REGISTERED:
                     raise ValueError(f"two maps are named {record.name!r}")
                 found[record.name] = record
+                modules.append(module.name)
     finally:
         _DISCOVERING = False
-    _DISCOVERED = found
+    _DISCOVERED, _MODULES = found, tuple(modules)
 
 
 def _records() -> dict[str, MapKind | MadeMap]:
@@ -134,6 +136,14 @@ register_made = register
 
 def unregister(name: str) -> None:
     del _REGISTERED[name]
+
+
+def modules() -> tuple[str, ...]:
+    """The modules of the maps package that hold a map's record (``"rain"``, ``"sun"``, ...): the
+    package serves each at its top, ``porous_weathering.sun`` with its settings, as it serves the
+    documented modules (docs/api.md)."""
+    _records()
+    return _MODULES
 
 
 def names() -> tuple[str, ...]:
