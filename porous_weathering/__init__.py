@@ -1,4 +1,4 @@
-"""Porous Weathering: porous stone, brick and plaster, and how they soil, wet and salt.
+"""Porous Weathering: porous stone, brick and plaster, and how they soil, wet, salt and green.
 
 The public API (docs/api.md):
     porous_weathering.model                 the model of docs/model.md in plain numpy (no bpy)
