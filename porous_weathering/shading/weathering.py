@@ -49,11 +49,11 @@ def make_weathered_material(
 ) -> "bpy.types.Material":
     """A new material: the porous BRDF (as make_porous_material) weathered by ``modes``.
 
-    ``modes`` is any of the registered modes ("soiling", "wet", "efflorescence", "biological"); the
+    ``modes`` is any of the registered modes (``modes.names()``: "soiling", "wet", ...); the
     material has the nodes of those modes only.  ``weathering`` sets their inputs (``time``, the
     levels, colours, thresholds, and the extensions beyond the paper ``crust`` and ``wet_darkening``,
-    whose 0 renders the paper's equations exactly); each mask input (``rain_map``, ``runoff_map``,
-    ``edge_map``, ``efflorescence_map``, ``damp_map``, ``sun_map``) is a number, a
+    whose 0 renders the paper's equations exactly); each mask input (``rain_map``, ``edge_map``, ...:
+    the inputs that name a map, docs/api.md) is a number, a
     ``bpy.types.Image``, an image file path (a string ending in an image extension or containing a
     path separator) or the name of a colour attribute.  Out-of-range values are clamped and a
     missing image becomes the mask's default constant, each with a PorousInputWarning; the
