@@ -185,3 +185,42 @@ def test_platform_zips_with_wheels(tmp_path):
     _, unpacked = install(linux, tmp_path / "user")
     assert "OpenImageIO" in unpacked and "embreex" in unpacked, unpacked
     assert any(name.startswith("xatlas") for name in unpacked), unpacked
+
+
+def test_pip_installs_the_package_alone(tmp_path):
+    """``pip install .`` (a Dask worker's image, docs/batch.md) builds a wheel of the package and
+    nothing else of the repository; the build backend comes from PyPI (pyproject.toml)."""
+    # the repository as it is, every top-level folder beside the package, in a copy (the build
+    # leaves its egg-info and build/ beside the sources); hidden folders (.venv-*, .git) left out
+    source = tmp_path / "source"
+    shutil.copytree(ROOT, source, ignore=shutil.ignore_patterns(".*", "__pycache__", "wheels", "build", "dist", "out"))
+    built = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", str(source), "--no-deps", "-q", "-w", str(tmp_path / "dist")],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    if built.returncode and re.search(r"(No matching distribution|Could not find a version).*setuptools", built.stderr):
+        pytest.skip("the build backend (setuptools) cannot be fetched from PyPI here")
+    assert built.returncode == 0, built.stderr[-3000:]
+    (wheel,) = (tmp_path / "dist").glob("porous_weathering-*.whl")
+    names = zipfile.ZipFile(wheel).namelist()
+    assert {name.split("/")[0] for name in names} == {
+        "porous_weathering",
+        f"porous_weathering-{MANIFEST['version']}.dist-info",
+    }
+    packages = {str(path.parent.relative_to(ROOT)) for path in (ROOT / "porous_weathering").rglob("__init__.py")}
+    assert packages <= {os.path.dirname(name) for name in names}, "every subpackage is in the wheel"
+
+
+def test_the_demo_without_its_sample_scenes_says_so_in_one_line(monkeypatch, tmp_path, capsys):
+    """A package installed alone has no sample scenes: the demo says so before any work."""
+    from porous_weathering.cli import entry
+    from porous_weathering.samples import demo
+
+    monkeypatch.setattr(demo, "SAMPLES_DIR", str(tmp_path / "sample_blends"))
+    out = tmp_path / "out"
+    assert entry.main(["demo", "--out", str(out)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith("error: no sample scene ") and "limestone_facade.blend" in line
+    assert not out.exists()

@@ -38,7 +38,7 @@ from mathutils import Vector
 
 from ..blender import render
 from ..common.progress import ProgressBar
-from ..contracts import EXTENSION_ROOT, GROUP_NODE, SAMPLES_DIR, socket_name
+from ..contracts import EXIT_USAGE, EXTENSION_ROOT, GROUP_NODE, SAMPLES_DIR, socket_name
 from ..core import aging, environments, model
 from ..core import modes as weathering_modes
 from ..maps import bake, efflorescence_map, rain, sun
@@ -209,7 +209,7 @@ class Sample:
     at any age."""
 
     def __init__(self, name, *, map_dir, bake_samples=32, progress=False, recipe=None):
-        bpy.ops.wm.open_mainfile(filepath=os.path.join(SAMPLES_DIR, f"{name}.blend"), load_ui=False)
+        bpy.ops.wm.open_mainfile(filepath=sample_path(name), load_ui=False)
         self.name, self.recipe = name, recipe or RECIPES[name]
         self.scene = bpy.context.scene
         self.sun = next(obj for obj in self.scene.objects if obj.type == "LIGHT")
@@ -405,8 +405,22 @@ def configure_parser(parser):
     parser.add_argument("--bake-samples", type=int, default=32, help="rain samples per face corner (default: 32)")
 
 
+def sample_path(name: str) -> str:
+    """The bundled sample scene ``name`` (a key of RECIPES), beside the package."""
+    return os.path.join(SAMPLES_DIR, f"{name}.blend")
+
+
 def run(args):
     started = time.time()
+    # the samples ship with the repository and the extension's zip, not with `pip install .`
+    missing = [name for name in (RECIPES if args.docs else (FACADE,)) if not os.path.isfile(sample_path(name))]
+    if missing:
+        print(
+            f"error: no sample scene {sample_path(missing[0])}: the demo runs from the repository or the "
+            "installed extension, which hold the sample scenes",
+            file=sys.stderr,
+        )
+        return EXIT_USAGE
     if args.docs:
         written = docs_pictures(args)
     else:
