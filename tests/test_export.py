@@ -11,6 +11,7 @@ import shutil
 import struct
 import subprocess
 import sys
+import tomllib
 
 import bpy
 
@@ -529,6 +530,24 @@ def test_validator_catches_a_broken_file(tmp_path, exported):
 
 
 # --- paradata ---------------------------------------------------------------------------------
+
+
+def test_the_version_comes_from_the_manifest_else_the_installed_package(monkeypatch, tmp_path):
+    import importlib.metadata
+
+    from porous_weathering.publish import paradata
+
+    with open(paradata.MANIFEST, "rb") as stream:
+        assert paradata.extension_version() == tomllib.load(stream)["version"]
+    monkeypatch.setattr(paradata, "MANIFEST", str(tmp_path / "none.toml"))  # installed by pip: no manifest
+    monkeypatch.setattr(importlib.metadata, "version", lambda name: {"porous-weathering": "7.8.9"}[name])
+    assert paradata.extension_version() == "7.8.9"
+
+    def not_installed(name):
+        raise importlib.metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(importlib.metadata, "version", not_installed)
+    assert paradata.extension_version() == "unknown"
 
 
 def test_paradata_says_what_made_it(exported):

@@ -5,6 +5,7 @@ written as a JSON sidecar beside it; and the refusal to replace a pair made from
 
 import datetime
 import hashlib
+import importlib.metadata
 import json
 import math
 import numbers
@@ -160,12 +161,16 @@ def sha256(path: str) -> str:
 
 
 def extension_version() -> str:
-    """The extension's version, from its blender_manifest.toml (beside this package)."""
-    manifest = MANIFEST
+    """The extension's version, from its blender_manifest.toml (beside this package), else from
+    the installed distribution (``pip install .``: docs/packaging.md), else "unknown"."""
     try:
-        with open(manifest, "rb") as stream:
+        with open(MANIFEST, "rb") as stream:
             return str(tomllib.load(stream)["version"])
     except (OSError, KeyError, tomllib.TOMLDecodeError):
+        pass
+    try:
+        return importlib.metadata.version("porous-weathering")
+    except importlib.metadata.PackageNotFoundError:
         return "unknown"
 
 
