@@ -62,29 +62,42 @@ def _layer_module(package: str, name: str) -> str | None:
     return f"maps.{name}" if name in importlib.import_module(f"{package}.maps").modules() else None
 
 
+def _served(package: str, dotted: str) -> str | None:
+    """The layer module that ``<package>.<dotted>`` is: a public name's (``_layer_module``), or a
+    submodule of a public package (``porous_weathering.modes.soiling`` is ``core.modes.soiling``),
+    else None (a module of the package's own, or none)."""
+    name, _, rest = dotted.partition(".")
+    layer = _layer_module(package, name)
+    if layer in (None, name):
+        return None
+    return f"{layer}.{rest}" if rest else layer
+
+
 class _PublicModules(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     """Imports ``<package>.<public name>`` (``import porous_weathering.uv``, ``from
-    porous_weathering.bake import X``) as the module of its layer, loaded on first use: the
-    placeholder module the import makes puts the layer's module in its place in ``sys.modules``,
-    which the import then returns and sets on the package."""
+    porous_weathering.bake import X``, ``import porous_weathering.modes.soiling``) as the module of
+    its layer, loaded on first use: the placeholder module the import makes puts the layer's module
+    in its place in ``sys.modules``, which the import then returns and sets on its parent. First
+    on ``sys.meta_path``, so that a public package's submodule is not loaded a second time from the
+    package's folder under the public name, where its relative imports would fail."""
 
     def __init__(self, package: str):
         self.package = package
 
     def find_spec(self, fullname, path=None, target=None):
-        package, _, name = fullname.rpartition(".")
-        if package != self.package or _layer_module(package, name) in (None, name):
+        prefix = self.package + "."
+        if not fullname.startswith(prefix) or _served(self.package, fullname[len(prefix) :]) is None:
             return None
         return importlib.util.spec_from_loader(fullname, self)
 
     def exec_module(self, module):
-        name = module.__name__.rpartition(".")[2]
-        sys.modules[module.__name__] = importlib.import_module(f"{self.package}.{_layer_module(self.package, name)}")
+        served = _served(self.package, module.__name__[len(self.package) + 1 :])
+        sys.modules[module.__name__] = importlib.import_module(f"{self.package}.{served}")
 
 
 # one finder for this package, also when the add-on is loaded again
 sys.meta_path[:] = [finder for finder in sys.meta_path if getattr(finder, "package", None) != __name__]
-sys.meta_path.append(_PublicModules(__name__))
+sys.meta_path.insert(0, _PublicModules(__name__))
 
 
 def __getattr__(name):

@@ -15,6 +15,7 @@ a neighbour in the same cell is qualified with (``bake.option_entries()``,
 import importlib
 import pathlib
 import re
+import sys
 
 import pytest
 
@@ -148,6 +149,15 @@ def test_every_alias_module_is_listed():
     assert {path.stem for path in (ROOT / PACKAGE).glob("*.py")} == {"__init__", "__main__", "contracts"}
     top = {module.split(".")[1] for _, module in MODULES if module.count(".") == 1}
     assert top <= served, "docs/api.md names a module the package does not serve"
+
+
+def test_a_public_packages_submodule_is_its_layers(monkeypatch):
+    # docs/api.md's modes.soiling.CRUST_DEFAULT, imported as a user writes it: the module of
+    # core/modes/, not a second copy loaded under the public name (whose relative imports fail)
+    monkeypatch.delitem(sys.modules, f"{PACKAGE}.modes.soiling", raising=False)
+    soiling = importlib.import_module(f"{PACKAGE}.modes.soiling")
+    assert soiling is importlib.import_module(f"{PACKAGE}.core.modes.soiling")
+    assert soiling.CRUST_DEFAULT == porous_weathering.modes.soiling.CRUST_DEFAULT
 
 
 def test_only_a_maps_own_module_is_served_beside_the_table():
