@@ -159,6 +159,21 @@ def test_bake_options_refuse_bad_numbers_up_front(options):
         bake.BakeOptions(**options)
 
 
+@pytest.mark.parametrize(
+    "words, named",
+    [(["--samples", "0"], "samples"), (["--size", "-5"], "size"), (["--bake-samples", "70000"], "bake samples")],
+)
+def test_the_demo_refuses_bad_numbers_before_any_work(words, named, tmp_path, capsys):
+    # it rendered with them (a 14-picture run at --size -5) or failed after Fig. 11
+    from porous_weathering.cli import entry
+
+    out = tmp_path / "out"
+    assert entry.main(["demo", "--out", str(out), *words]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line.startswith(f"error: {named} must be a whole number from ") and line.endswith(f"not {words[1]}")
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("target", ["image", "attribute"])
 def test_runoff_with_an_absorption_length_near_the_largest_float_is_the_runoff_without_absorption(
     fresh_scene, tmp_path, target

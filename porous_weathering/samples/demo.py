@@ -37,11 +37,13 @@ import numpy as np
 from mathutils import Vector
 
 from ..blender import render
+from ..common import options
+from ..common.options import option
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_USAGE, EXTENSION_ROOT, GROUP_NODE, SAMPLES_DIR, socket_name
 from ..core import aging, environments, model
 from ..core import modes as weathering_modes
-from ..maps import bake, efflorescence_map, rain, sun
+from ..maps import bake, efflorescence_map, rain, sky_bake, sun
 from ..maps import registry as maps
 from ..shading import material, presets, weathering
 from ..survey import condition_survey
@@ -248,14 +250,14 @@ class Sample:
         baked = tuple(map_name for map_name in maps.names() if map_name in used)
         sources = {map_name: maps.get(map_name).attribute for map_name in baked}
         if baked:
-            options = bake.BakeOptions(
+            bake_options = bake.BakeOptions(
                 maps=baked,
                 target="attribute",
                 rain_settings=rain.RainSettings(samples=bake_samples, **self.recipe.rain),
                 sun_settings=sun.SunSettings(samples=bake_samples, **self.recipe.sun),
             )
             bar = ProgressBar(f"baking the maps of {self.name}") if progress else None
-            bake.bake_maps([*self.objects, *self.parts], options, progress=bar)
+            bake.bake_maps([*self.objects, *self.parts], bake_options, progress=bar)
             if bar:
                 bar.finish()
         if "joints" in used:  # a file, as a user's own location map would be
@@ -398,11 +400,47 @@ def configure_parser(parser):
         help=f"regenerate the documentation's pictures in {os.path.relpath(DOCS_IMAGES, EXTENSION_ROOT)}/ "
         "instead (--out is ignored)",
     )
-    parser.add_argument(
-        "--samples", type=int, default=4, help="Cycles samples per pixel, denoised (default: 4; Fig. 11: 2x)"
+    options.add_arguments(parser, options.entries(DemoOptions))
+
+
+@dataclass(frozen=True)
+class DemoOptions:
+    """The pictures' quality, the command's flags (``options.add_arguments``): checked on creation,
+    before any work (ValueError naming the option)."""
+
+    samples: int = option(
+        4,
+        label="Samples",
+        flag="--samples",
+        low=1,
+        high=(1 << 24) // 2,  # Cycles takes at most 2^24, and Fig. 11 renders twice as many
+        whole=True,
+        metavar="N",
+        tooltip="Cycles samples per pixel, denoised (Fig. 11: twice as many)",
     )
-    parser.add_argument("--size", type=int, default=540, help="picture height in pixels (default: 540)")
-    parser.add_argument("--bake-samples", type=int, default=32, help="rain samples per face corner (default: 32)")
+    size: int = option(
+        540,
+        label="Size",
+        flag="--size",
+        low=16,
+        high=16384,
+        whole=True,
+        metavar="PX",
+        tooltip="picture height in pixels",
+    )
+    bake_samples: int = option(
+        32,
+        label="Bake Samples",
+        flag="--bake-samples",
+        low=1,
+        high=min(sky_bake.MAX_SAMPLES, sun.MAX_SAMPLES),  # the rain's and the sun's
+        whole=True,
+        metavar="N",
+        tooltip="rain and sun samples per face corner",
+    )
+
+    def __post_init__(self):
+        options.check(self)
 
 
 def sample_path(name: str) -> str:
@@ -412,6 +450,11 @@ def sample_path(name: str) -> str:
 
 def run(args):
     started = time.time()
+    try:
+        DemoOptions(**{entry.name: getattr(args, entry.dest) for entry in options.entries(DemoOptions)})
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
     # the samples ship with the repository and the extension's zip, not with `pip install .`
     missing = [name for name in (RECIPES if args.docs else (FACADE,)) if not os.path.isfile(sample_path(name))]
     if missing:
