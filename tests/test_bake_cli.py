@@ -1,5 +1,6 @@
 """``python -m porous_weathering bake``, run as users run it: a subprocess on a tiny .blend."""
 
+import hashlib
 import os
 
 import bpy
@@ -9,7 +10,7 @@ import pytest
 
 from helpers import run_cli
 from porous_weathering.common import imageio
-from porous_weathering.maps import bake, edges
+from porous_weathering.maps import bake, edges, lightmap
 from porous_weathering.maps import registry as maps
 from porous_weathering.samples import studio
 
@@ -53,6 +54,41 @@ def test_maps_are_written_and_a_rerun_skips_them(blend, tmp_path):
     assert sorted(statuses(changed)) == sorted(
         ["written" if name in on_rain else "unchanged" for name in maps.names()] * 2
     )
+
+
+def digest(path):
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+@pytest.mark.parametrize("target", ["attribute", "image"])
+def test_a_save_run_again_leaves_the_file_and_its_backup(blend, tmp_path, target):
+    """Run twice, the second finds every map up to date and linked: the file is not saved again,
+    so Blender's backup (FILE.blend1) still holds the file as it was before the first bake."""
+    words = ["bake", blend, "--objects", "Cube", "--target", target, "--out", tmp_path / "maps", "--save", *FAST]
+    if target == "image":  # no UV map of its own: the bake lays out its lightmap
+        bpy.ops.wm.open_mainfile(filepath=str(blend))
+        uv_maps = bpy.data.objects["Cube"].data.uv_layers
+        while uv_maps:
+            uv_maps.remove(uv_maps[0])
+        bpy.ops.wm.save_mainfile()
+        os.remove(blend.with_name(blend.name + "1"))
+    original = digest(blend)
+    first = run_cli(*words)
+    assert first.returncode == 0 and f"saved     {blend}" in first.stdout, first.stderr
+    baked = digest(blend)
+    again = run_cli(*words)
+    assert again.returncode == 0 and f"unchanged {blend}" in again.stdout, again.stderr
+    assert set(statuses(again)) == {"unchanged"} and "saved" not in again.stdout
+    assert digest(blend) == baked and digest(blend.with_name(blend.name + "1")) == original
+    if target == "image":  # the lightmap laid out again, the maps on it unchanged: saved, or the file lacks it
+        bpy.ops.wm.open_mainfile(filepath=str(blend))
+        uv_maps = bpy.data.objects["Cube"].data.uv_layers
+        uv_maps.remove(uv_maps[lightmap.LIGHTMAP_UV])
+        bpy.ops.wm.save_mainfile()
+        relaid = run_cli(*words)
+        assert relaid.returncode == 0 and f"saved     {blend}" in relaid.stdout, relaid.stderr
+        bpy.ops.wm.open_mainfile(filepath=str(blend))
+        assert lightmap.LIGHTMAP_UV in bpy.data.objects["Cube"].data.uv_layers
 
 
 def test_dry_run_writes_nothing(blend, tmp_path):

@@ -24,6 +24,7 @@ from ..maps.bake import (
     ForeignInput,
     OverwriteRefused,
     Provenance,
+    changes_the_file,
     check_targets,
     check_writable_folder,
     image_path,
@@ -196,7 +197,7 @@ def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
     if bake_options.target == "image" and not args.force:
         _refuse_claimed(objects, bake_options, claimed)
     stored_in_blend = bake_options.target == "attribute" and run.save
-    unsaved, outcomes = [], []
+    unsaved, outcomes, layout = [], [], _layout(objects)
     try:
         for step in iter_bake(objects, bake_options, dry_run=args.dry_run, force=args.force):
             outcome = step.outcome
@@ -215,8 +216,17 @@ def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
         if run.save and any(outcome.status == "written" for outcome in outcomes):  # keep what was baked
             _save(path, outcomes, bake_options, unsaved, run)
         raise
-    if run.save:
+    if run.save and (changes_the_file(outcomes) or _layout(objects) != layout):
         _save(path, outcomes, bake_options, unsaved, run)
+    elif run.save:  # every map up to date and linked: saving again would only turn the backup over
+        run.saved = True
+        run.bar.print(f"unchanged {path}")
+
+
+def _layout(objects):
+    """What a bake adds to the objects besides its maps: their UV maps and modifiers (a lightmap
+    laid out again, whose maps may be found unchanged)."""
+    return [(tuple(obj.data.uv_layers.keys()), tuple(obj.modifiers.keys())) for obj in objects]
 
 
 def _refuse_claimed(objects, bake_options, claimed):

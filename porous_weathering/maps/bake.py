@@ -642,12 +642,32 @@ def link_images(objects: Sequence["bpy.types.Object"], options: BakeOptions) -> 
             link_image(obj, map_name, image_path(options.out_dir, obj.name, map_name))
 
 
+def _image_maps(outcomes: Sequence[Outcome]) -> list[Outcome]:
+    """The image maps ``outcomes`` wrote or found up to date."""
+    return [o for o in outcomes if o.status in ("written", "unchanged") and o.where.endswith(".exr")]
+
+
 def link_outcomes(outcomes: Sequence[Outcome]) -> None:
     """Point each object at the image maps ``outcomes`` wrote or found up to date (those of a
     bake that stopped part-way included), as ``link_images`` does."""
-    for outcome in outcomes:
-        if outcome.status in ("written", "unchanged") and outcome.where.endswith(".exr"):
-            link_image(bpy.data.objects[outcome.object], outcome.map, outcome.where)
+    for outcome in _image_maps(outcomes):
+        link_image(bpy.data.objects[outcome.object], outcome.map, outcome.where)
+
+
+def changes_the_file(outcomes: Sequence[Outcome]) -> bool:
+    """Whether storing ``outcomes`` in the .blend changes it: a map written (an attribute, or an
+    image's lightmap and header), or an image map its object does not point at yet
+    (``link_outcomes`` would link it). A bake that found every map up to date and linked has
+    nothing to save."""
+    if any(outcome.status == "written" for outcome in outcomes):
+        return True
+    return any(_linked(bpy.data.objects[o.object], o.map, o.where) is None for o in _image_maps(outcomes))
+
+
+def _linked(obj: "bpy.types.Object", map_name: str, path: str) -> "bpy.types.Image | None":
+    """The Image ``obj`` is pointed at for ``map_name`` if it reads the file ``path``, else None."""
+    image = bpy.data.images.get(obj.get(map_image_property(map_name), ""))
+    return image if image is not None and image.packed_file is None and _reads(image, path) else None
 
 
 def link_image(obj: "bpy.types.Object", map_name: str, path: str) -> "bpy.types.Image":
@@ -656,9 +676,7 @@ def link_image(obj: "bpy.types.Object", map_name: str, path: str) -> "bpy.types.
     That Image is the one the property already names if it reads ``path``, else a new one
     (named after the file, with Blender's ".001" if a user's image has that name): an Image of
     the user's is never changed."""
-    image = bpy.data.images.get(obj.get(map_image_property(map_name), ""))
-    if image is None or image.packed_file is not None or not _reads(image, path):
-        image = bpy.data.images.load(path, check_existing=False)
+    image = _linked(obj, map_name, path) or bpy.data.images.load(path, check_existing=False)
     image.filepath = bpy.path.relpath(path)
     image.colorspace_settings.name = "Non-Color"
     image.use_fake_user = True  # an image nothing uses yet is not saved otherwise
