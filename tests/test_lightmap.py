@@ -189,18 +189,18 @@ def test_a_second_bake_of_a_saved_scan_reuses_its_lightmap_and_is_unchanged(bust
 
 
 def test_the_command_line_rebakes_a_saved_scan_as_unchanged(bust, tmp_path):
-    """The same command again on the --save'd bust reports "unchanged": the extension's own
-    lightmap is reused (docs/maps.md, "The lightmap")."""
+    """The same command again on the --save'd bust reports "unchanged", and has nothing to save: the
+    extension's own lightmap is reused (docs/maps.md, "The lightmap")."""
     bust(TRIANGLES)
     path = tmp_path / "bust.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
     command = [sys.executable, "-m", "porous_weathering", "bake", str(path), "--save", "--out", str(tmp_path / "maps")]
     command += ["--resolution", "256", "--samples", "1"]
-    for expected in ("written", "unchanged"):
+    for expected, file_line in (("written", f"saved     {path}"), ("unchanged", f"unchanged {path}")):
         run = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=300)
         assert run.returncode == 0, run.stderr
-        lines = [line.split()[0] for line in run.stdout.splitlines() if line.startswith(("written", "unchanged"))]
-        assert lines == [expected] * len(maps.names()), run.stdout
+        lines = [line.split()[0] for line in run.stdout.splitlines() if " -> " in line]  # a line per map
+        assert lines == [expected] * len(maps.names()) and file_line in run.stdout, run.stdout
 
 
 def test_the_own_lightmap_that_no_longer_fits_is_refused_with_why(bust, tmp_path):
