@@ -70,7 +70,7 @@ def run(args):
                 f"--name names the files of one survey, and {len(args.files)} .blend files were given: "
                 "leave --name out (each survey is named after its .blend) or survey one file"
             )
-        values = {entry.name: getattr(args, entry.dest) for entry in condition.option_entries()}
+        values = options.argument_values(args, condition.option_entries())
         chosen = condition.SurveyOptions(**{**values, "out_dir": os.path.abspath(args.out_dir)})
         batch.check_paths(args.files)
         _check_files(args, chosen)

@@ -215,6 +215,12 @@ def operator_value(opt: Option, value: Any) -> Any:
     return None if opt.auto is not None and value == opt.auto else value
 
 
+def argument_values(namespace: argparse.Namespace, items: list[Entry]) -> dict:
+    """{field name: value} of the entries, as the parser ``add_arguments`` gave them parsed them
+    into ``namespace``: the keywords of their dataclass."""
+    return {entry.name: getattr(namespace, entry.dest) for entry in items}
+
+
 def operator_values(operator: Any, items: list[Entry]) -> dict:
     """{dest: value} of the entries ``operator_properties`` gave ``operator``, each as
     ``operator_value`` reads it."""

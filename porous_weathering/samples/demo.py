@@ -413,7 +413,7 @@ class DemoOptions:
         label="Samples",
         flag="--samples",
         low=1,
-        high=(1 << 24) // 2,  # Cycles takes at most 2^24, and Fig. 11 renders twice as many
+        high=sky_bake.MAX_SAMPLES // 2,  # Cycles' bound, and Fig. 11 renders twice as many
         whole=True,
         metavar="N",
         tooltip="Cycles samples per pixel, denoised (Fig. 11: twice as many)",
@@ -451,7 +451,7 @@ def sample_path(name: str) -> str:
 def run(args):
     started = time.time()
     try:
-        DemoOptions(**{entry.name: getattr(args, entry.dest) for entry in options.entries(DemoOptions)})
+        DemoOptions(**options.argument_values(args, options.entries(DemoOptions)))
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_USAGE
