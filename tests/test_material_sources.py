@@ -29,10 +29,18 @@ def image_feeding(socket):
     return socket.links[0].from_node.image if socket.is_linked else None
 
 
-def test_keeps_base_colour_and_roughness_images():
+def dressed_plane(scene, source):
+    """A plane whose own material is ``source``, as Make finds an artist's object or a scan."""
+    plane = studio.add_plane(scene, "Dressed")
+    plane.data.materials.append(source)
+    return plane
+
+
+def test_keeps_base_colour_and_roughness_images(fresh_scene):
     source = textured_principled()
     nodes_before = len(source.node_tree.nodes)
-    porous = material.make_porous_from_material(source, porosity=0.3)
+    plane = dressed_plane(fresh_scene, source)
+    porous = linking.weathered_material_for(plane, (), preset=None, stone={"porosity": 0.3})
     group = porous.node_tree.nodes["Porous"]
     assert image_feeding(group.inputs["Base Color"]) is bpy.data.images["Scan Base Color"]
     assert image_feeding(group.inputs["Roughness"]) is bpy.data.images["Scan Roughness"]
@@ -40,9 +48,9 @@ def test_keeps_base_colour_and_roughness_images():
     assert len(source.node_tree.nodes) == nodes_before and porous.name == "Scan Porous"
 
 
-def test_material_without_images_uses_the_given_colour():
-    source = compat.new_material("Plain")
-    porous = material.make_porous_from_material(source, base_color=(0.2, 0.3, 0.4))
+def test_material_without_images_uses_the_given_colour(fresh_scene):
+    plane = dressed_plane(fresh_scene, compat.new_material("Plain"))
+    porous = linking.weathered_material_for(plane, (), preset=None, stone={"base_color": (0.2, 0.3, 0.4)})
     group = porous.node_tree.nodes["Porous"]
     assert not group.inputs["Base Color"].is_linked and not group.inputs["Roughness"].is_linked
     assert tuple(group.inputs["Base Color"].default_value)[:3] == pytest.approx((0.2, 0.3, 0.4))
@@ -67,7 +75,7 @@ def attribute_feeding(material_made):
 
 
 @pytest.mark.parametrize("reader", ["ShaderNodeVertexColor", "ShaderNodeAttribute"])
-def test_keeps_the_vertex_colours_a_material_reads(reader):
+def test_keeps_the_vertex_colours_a_material_reads(fresh_scene, reader):
     source = compat.new_material("Scan")
     tree = source.node_tree
     bsdf = next(node for node in tree.nodes if node.type == "BSDF_PRINCIPLED")
@@ -75,7 +83,9 @@ def test_keeps_the_vertex_colours_a_material_reads(reader):
     setattr(node, "layer_name" if reader == "ShaderNodeVertexColor" else "attribute_name", "Col")
     tree.links.new(node.outputs["Color"], bsdf.inputs["Base Color"])
     assert material.principled_textures(source) == {"Base Color": material.ColorAttribute("Col")}
-    assert attribute_feeding(material.make_porous_from_material(source)) == "Col"
+    assert (
+        attribute_feeding(linking.weathered_material_for(dressed_plane(fresh_scene, source), (), preset=None)) == "Col"
+    )
 
 
 def test_make_on_a_scan_with_vertex_colours_and_no_material_reads_them(fresh_scene):

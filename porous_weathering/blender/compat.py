@@ -23,13 +23,6 @@ def new_material(name):
     return material
 
 
-def compositor_tree(scene):
-    """The scene's compositor node tree (scene.node_tree before 5.0), or None."""
-    if BLENDER_5:
-        return scene.compositing_node_group
-    return scene.node_tree if scene.use_nodes else None
-
-
 def use_world_nodes(world):
     """Give ``world`` a node tree (use_nodes is implied, and deprecated, from 5.0)."""
     if not BLENDER_5:

@@ -378,22 +378,6 @@ def principled_textures(material: bpy.types.Material) -> dict[str, bpy.types.Ima
     return found
 
 
-def make_porous_from_material(source: "bpy.types.Material", name: str | None = None, **params) -> "bpy.types.Material":
-    """A porous material that keeps ``source``'s base colour and roughness images.
-
-    ``params`` are make_porous_material's (base_color, ks, roughness, porosity,
-    pore_depth_ratio, key_light); the images found on ``source``'s Principled BSDF replace
-    base_color and roughness.  ``source`` itself is left untouched.
-    """
-    textures = principled_textures(source)
-    if "Base Color" in textures:
-        params["base_color"] = textures["Base Color"]
-    material = make_porous_material(name or f"{source.name} Porous", **params)
-    if "Roughness" in textures:
-        connect_roughness_image(material, textures["Roughness"])
-    return material
-
-
 def connect_roughness_image(material: bpy.types.Material, image: bpy.types.Image) -> None:
     """Drive the porous group's roughness m of ``material`` by ``image`` (with a stone: the mean
     roughness its structure varies around)."""
