@@ -52,7 +52,7 @@ import numpy as np  # noqa: E402
 import scan_generator  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-from benchmarks import corpus_regions, machine  # noqa: E402
+from benchmarks import corpus_regions, machine, probes  # noqa: E402
 from porous_weathering.blender import compat, mesh_arrays, render  # noqa: E402
 from porous_weathering.contracts import GROUP_NODE  # noqa: E402
 from porous_weathering.core import model, stones  # noqa: E402
@@ -173,7 +173,7 @@ def write_concavity(obj):
 
 def probe(scene, obj, source):
     """The attribute ``source`` as the material reads it, per pixel (one sample: an emission)."""
-    material = studio.emission_probe("Probe", lambda graph, geometry: weathering.mask_socket(graph, source))
+    material = probes.emission_probe("Probe", lambda graph, geometry: weathering.mask_socket(graph, source))
     studio.assign(obj, material)
     samples, scene.cycles.samples = scene.cycles.samples, 1
     try:

@@ -65,7 +65,7 @@ import numpy as np  # noqa: E402
 import scan_generator  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
-from benchmarks import bench_corpus, corpus_regions, machine  # noqa: E402
+from benchmarks import bench_corpus, corpus_regions, machine, probes  # noqa: E402
 from porous_weathering.blender import compat, render  # noqa: E402
 from porous_weathering.contracts import GROUP_NODE, SAMPLES_DIR, socket_name  # noqa: E402
 from porous_weathering.core import aging, colorimetry, environments, solar  # noqa: E402
@@ -210,13 +210,13 @@ def probe_render(scene, objects, material):
         scene.cycles.samples = samples
 
 
-def probes(scene, objects):
+def probe_fields(scene, objects):
     """{quantity: (H, W) array}: n_x, n_y, n_z (scene), E, R, S, D and the coverage alpha."""
-    normal = probe_render(scene, objects, studio.normal_probe())
+    normal = probe_render(scene, objects, probes.normal_probe())
     found = linking.discover_maps(objects[0])
     out = {"alpha": normal[..., 3], "normal": normal[..., :3] * 2.0 - 1.0}
     for name in ("rain", "runoff", "sun", "damp"):
-        material = studio.emission_probe(
+        material = probes.emission_probe(
             f"Probe {name}", lambda graph, geometry, source=found[name]: weathering.mask_socket(graph, source)
         )
         out[name] = probe_render(scene, objects, material)[..., 0]
@@ -271,7 +271,7 @@ def renders(scene, objects, masonry, args):
     pictures, probed = {}, {}
     for view, cam in args.cameras.items():
         scene.camera = cam
-        probed[view] = probes(scene, objects)
+        probed[view] = probe_fields(scene, objects)
         pictures[view] = {}
         for condition, material in materials.items():
             assign(objects, material)

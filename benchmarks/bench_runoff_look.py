@@ -40,6 +40,7 @@ import bench_visible  # noqa: E402  (benchmarks/: the maps' probes, luminance)
 import corpus_regions  # noqa: E402  (benchmarks/: the streaks' regions)
 import numpy as np  # noqa: E402
 
+from benchmarks import probes  # noqa: E402
 from porous_weathering.blender import render  # noqa: E402
 from porous_weathering.core import model  # noqa: E402
 from porous_weathering.core import modes as weathering_modes  # noqa: E402
@@ -89,7 +90,7 @@ def measure(sample, changes):
 
 def object_only(sample):
     """Hold every other mesh (the ground) out of the renders: only the object's pixels are lit."""
-    holdout = studio.holdout_material()
+    holdout = probes.holdout_material()
     for obj in sample.scene.objects:
         if obj.type == "MESH" and obj not in sample.objects:
             studio.assign(obj, holdout)

@@ -58,6 +58,7 @@ import machine  # noqa: E402
 import numpy as np  # noqa: E402
 import texture_spectrum  # noqa: E402
 
+from benchmarks import probes  # noqa: E402
 from porous_weathering.blender import render  # noqa: E402
 from porous_weathering.contracts import GROUP_NODE  # noqa: E402
 from porous_weathering.core import model  # noqa: E402
@@ -92,7 +93,7 @@ def open_sample(name, args, work):
     which the recipe does not weather (the sculpted stone's plinth), are rendered."""
     sample = demo.Sample(name, map_dir=work, bake_samples=args.bake_samples, progress=True)
     ground = sample.scene.objects["Ground"]
-    studio.assign(ground, studio.holdout_material())
+    studio.assign(ground, probes.holdout_material())
     others = [
         obj
         for obj in sample.scene.objects

@@ -44,6 +44,7 @@ import machine  # noqa: E402  (benchmarks/machine.py)
 import numpy as np  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
+from benchmarks import probes
 from porous_weathering.blender import render  # noqa: E402
 from porous_weathering.core import model
 from porous_weathering.samples import demo, studio
@@ -302,7 +303,7 @@ def luminance(image):
 def probe_geometry(sample):
     """Position and normal probes of the weathered objects (others held out)."""
     scene = sample.scene
-    holdout = studio.holdout_material()
+    holdout = probes.holdout_material()
     originals = {obj.name: list(obj.data.materials) for obj in scene.objects if obj.type == "MESH"}
     for obj in scene.objects:
         if obj.type == "MESH" and obj not in sample.objects:
@@ -317,12 +318,12 @@ def probe_geometry(sample):
             studio.assign(obj, material)
         return render.render_array(scene)
 
-    position_material = studio.emission_probe(
+    position_material = probes.emission_probe(
         "Position Probe",
         lambda graph, geometry: (graph.wrap(geometry.outputs["Position"]) - tuple(centre)) * scale + 0.5,
     )
     positions = probe(position_material)
-    normals = probe(studio.normal_probe())
+    normals = probe(probes.normal_probe())
     for obj in scene.objects:  # the materials as they were
         if obj.type == "MESH":
             obj.data.materials.clear()
@@ -342,7 +343,7 @@ def probe_maps(sample, mode):
     values = {}
     for mask, map_name in sample.recipe.masks[mode].items():
         source = weathering.mask_source(mask, sample.sources[map_name])
-        material = studio.emission_probe(
+        material = probes.emission_probe(
             "Mask Probe", lambda graph, geometry, s=source: weathering.mask_socket(graph, s)
         )
         for obj in sample.objects:

@@ -210,7 +210,7 @@ class Sun:
 
 @dataclass(frozen=True)
 class PointLight:
-    """A point light of zero radius (studio.add_point_light)."""
+    """A point light of zero radius (probes.add_point_light)."""
 
     location: tuple = (0.0, 0.0, 3.0)
     power: float = 1000.0
@@ -223,7 +223,7 @@ class PointLight:
 
 @dataclass(frozen=True)
 class AreaLight:
-    """A square area light facing down -Z (studio.add_point_light(kind="AREA"), unrotated),
+    """A square area light facing down -Z (probes.add_point_light(kind="AREA"), unrotated),
     integrated by the midpoint rule on ``resolution``^2 patches (error O(resolution^-2))."""
 
     location: tuple = (0.0, 0.0, 3.0)

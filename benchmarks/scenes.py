@@ -12,7 +12,7 @@ import pathlib
 import bpy
 
 import porous_weathering as pw
-from benchmarks import reference
+from benchmarks import probes, reference
 from porous_weathering.samples import studio
 
 #: Tessellation of the rendered sphere: fine enough that the smooth-shaded mesh's normals
@@ -76,7 +76,7 @@ def add_v_groove(scene, slope_degrees, name="VGroove"):
 def add_light(scene, light):
     if isinstance(light, reference.Sun):
         return studio.add_sun(scene, light.towards, strength=light.strength)
-    lamp = studio.add_point_light(
+    lamp = probes.add_point_light(
         scene, light.location, power=light.power, kind="AREA" if isinstance(light, reference.AreaLight) else "POINT"
     )
     if isinstance(light, reference.AreaLight):

@@ -40,6 +40,7 @@ import numpy as np
 
 import porous_weathering as pw
 import porous_weathering.maps as maps_package
+from benchmarks import probes
 from porous_weathering.blender import mesh_arrays, render, scratch_scene
 from porous_weathering.contracts import GROUP_NODE, STONE_NODE
 from porous_weathering.core import model
@@ -89,7 +90,7 @@ class LitSphere:
 
     def probe_normals(self):
         """(H, W, 3) unit shading normals and an (H, W) mask of the covered pixels."""
-        probe = self.render(studio.normal_probe())
+        probe = self.render(probes.normal_probe())
         self.covered = probe[..., 3] > 0.999
         normals = probe[..., :3] * 2.0 - 1.0
         return normals / np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-9)
@@ -97,7 +98,7 @@ class LitSphere:
     def cosines(self):
         """(N.S, N.V) per pixel for the current sun direction."""
         towards = np.array(self.sun.matrix_world.to_3x3().col[2])
-        return self.normals @ towards, self.normals @ np.array(studio.VIEW_DIRECTION)
+        return self.normals @ towards, self.normals @ np.array(probes.VIEW_DIRECTION)
 
     def lobes(self, roughness):
         """Renders of the white Lambert lobe D and the white GGX lobe G."""
@@ -130,7 +131,7 @@ class MaskedPlane:
 
     def probe(self, source):
         """Per-pixel values of a mask source, read through the same nodes the material uses."""
-        probe = studio.emission_probe("Mask Probe", lambda graph, geometry: weathering.mask_socket(graph, source))
+        probe = probes.emission_probe("Mask Probe", lambda graph, geometry: weathering.mask_socket(graph, source))
         return self.render(probe)[..., 0]
 
 
@@ -293,7 +294,7 @@ def lichen_seed_probe(plane, density):
             emitted = {"X": voronoi.outputs["Distance"], "Y": draws.outputs["Red"], "Z": draws.outputs["Blue"]}
             return graph.node("ShaderNodeCombineXYZ", emitted).outputs[0]
 
-        seeds = plane.render(studio.emission_probe(f"Seed Probe {feature}", build))
+        seeds = plane.render(probes.emission_probe(f"Seed Probe {feature}", build))
         return seeds[..., 0], seeds[..., 1], seeds[..., 2]
 
     return (*probe("F1"), *probe("F2"))

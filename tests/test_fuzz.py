@@ -11,6 +11,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from benchmarks import probes
 from porous_weathering.blender import render
 from porous_weathering.core import model
 from porous_weathering.core.model import PorousInputWarning
@@ -78,7 +79,7 @@ class WeightProbe:
         self.sphere = studio.add_sphere(scene, segments=32, rings=16)
         studio.add_ortho_camera(scene)
         render.use_cycles(scene, size=self.SIZE, samples=1)
-        probe = self.shot(studio.normal_probe())
+        probe = self.shot(probes.normal_probe())
         self.covered = probe[..., 3] > 0.999
         normals = probe[..., :3] * 2.0 - 1.0
         self.normals = normals / np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-9)
@@ -101,14 +102,14 @@ class WeightProbe:
                     node.inputs[socket].default_value = value
                 return node.outputs[name]
 
-            return self.shot(studio.emission_probe(f"Probe {name}", build))
+            return self.shot(probes.emission_probe(f"Probe {name}", build))
 
         return output_of("Diffuse Weight")[..., :3], output_of("Specular Weight")[..., 0]
 
 
 def test_node_group_weights_agree_with_the_model(fresh_scene):
     probe = WeightProbe(fresh_scene)  # one scene for every example: its normals are rendered once
-    view = probe.normals @ np.array(studio.VIEW_DIRECTION)
+    view = probe.normals @ np.array(probes.VIEW_DIRECTION)
 
     @settings(max_examples=12, derandomize=True, deadline=None)
     @given(params=porous_parameters(), light=st.one_of(st.none(), st.tuples(cosine, cosine, st.floats(0.2, 1.0))))

@@ -10,11 +10,11 @@ import bpy
 import numpy as np
 import pytest
 
+from benchmarks import probes
 from helpers import STONE, MaskedPlane, assert_matches, expected_image, lobes, model_weights, weathered
 from porous_weathering.common import imageio
 from porous_weathering.core import model
 from porous_weathering.maps import bake, lightmap
-from porous_weathering.samples import studio
 from porous_weathering.shading import weathering
 
 #: The lightmap maps the plane's x, y in [-1, 1] to u, v in [LOW, HIGH]: inside the ramp's texel
@@ -48,14 +48,14 @@ def lightmap_u(plane):
     """Per pixel the lightmap u of the plane point seen there, from its world x (clipped to
     [0, 1] where no point is seen)."""
     scale = 0.1
-    x = (plane.render(studio.position_probe(scale))[..., 0] - 0.5) / scale
+    x = (plane.render(probes.position_probe(scale))[..., 0] - 0.5) / scale
     return np.clip(LOW + (HIGH - LOW) * (x + 1) / 2, 0.0, 1.0)
 
 
 def test_baked_image_mask_is_read_through_its_uv_map(plane, tmp_path):
     source = weathering.mask_source("rain_map", ramp_map(tmp_path / "Plane.rain.exr"))
     assert weathering.image_uv_map(source) == lightmap.LIGHTMAP_UV
-    covered = plane.render(studio.position_probe())[..., 3] > 0.999
+    covered = plane.render(probes.position_probe())[..., 3] > 0.999
     expected_mask = lightmap_u(plane)
     assert np.ptp(expected_mask[covered]) > 0.6
     assert np.abs(plane.probe(source) - expected_mask)[covered].max() < 1e-3

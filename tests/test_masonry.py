@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
+from benchmarks import probes
 from benchmarks.scenes import through_gltf
 from helpers import assert_matches, presets_row, stone_glossy_lobe, stone_parameters, stone_probe, stone_shifted
 from porous_weathering.blender import mesh_arrays, render
@@ -167,7 +168,7 @@ class Wall:
 
     def metres(self):
         """(H, W, 3) object coordinates of each pixel, in metres."""
-        probe = studio.position_probe(scale=0.1 * self.unit)
+        probe = probes.position_probe(scale=0.1 * self.unit)
         return (self.render(probe)[..., :3] - 0.5) / 0.1
 
 

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
+from benchmarks import probes
 from benchmarks.scenes import porous_material
 from helpers import TOLERANCE, LitSphere, assert_matches
 from porous_weathering.blender import render
@@ -95,7 +96,7 @@ def test_group_sockets_outside_their_range_stay_finite(fresh_scene):
 def test_point_light_position_drives_the_shading(fresh_scene):
     """Point-like key lights: S runs from the shading point to the light (docs/model.md §3)."""
     plane = studio.add_plane(fresh_scene, size=2.0)
-    lamp = studio.add_point_light(fresh_scene, (0.6, -0.3, 0.8))
+    lamp = probes.add_point_light(fresh_scene, (0.6, -0.3, 0.8))
     studio.add_ortho_camera(fresh_scene, scale=2.0)
     render.use_cycles(fresh_scene, size=32, samples=1)
 
@@ -103,7 +104,7 @@ def test_point_light_position_drives_the_shading(fresh_scene):
         studio.assign(plane, material)
         return render.render_array(fresh_scene)
 
-    positions = (shot(studio.position_probe(scale=0.1))[..., :3] - 0.5) / 0.1
+    positions = (shot(probes.position_probe(scale=0.1))[..., :3] - 0.5) / 0.1
     to_light = np.array(lamp.location) - positions
     n_dot_l = to_light[..., 2] / np.linalg.norm(to_light, axis=-1)
     p = BASE

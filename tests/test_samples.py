@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import porous_weathering
+from benchmarks import probes
 from helpers import (
     assert_matches,
     expected_image,
@@ -126,7 +127,7 @@ class Weathered:
         clean = render.render_array(scene)
         sample.show(mode, age)
         self.ratio = luminance(render.render_array(scene)) / np.maximum(luminance(clean), 1e-4)
-        holdout = studio.holdout_material()
+        holdout = probes.holdout_material()
         for obj in scene.objects:
             if obj.type == "MESH" and obj not in sample.objects:
                 studio.assign(obj, holdout)
@@ -134,10 +135,10 @@ class Weathered:
             mask: self.probe(sample, mask_probe(sample.sources[map_name]))[..., 0]
             for mask, map_name in sample.recipe.masks[mode].items()
         }
-        position = self.probe(sample, studio.position_probe())
+        position = self.probe(sample, probes.position_probe())
         self.covered, self.position = position[..., 3] > 0.999, (position[..., :3] - 0.5) * 10.0
         self.lit = self.covered & (luminance(clean) > 0.02)
-        normals = self.probe(sample, studio.normal_probe())[..., :3] * 2.0 - 1.0
+        normals = self.probe(sample, probes.normal_probe())[..., :3] * 2.0 - 1.0
         towards_camera = np.array(scene.camera.location) - self.position
         n_dot_v = (normals * towards_camera).sum(-1) / np.linalg.norm(towards_camera, axis=-1)
         n_dot_l = normals @ np.array(sample.sun.matrix_world.to_3x3().col[2])
@@ -193,7 +194,7 @@ class Weathered:
 def mask_probe(source):
     """Emits a mask source (an attribute name or an image path) as the material reads it."""
     mask = weathering.mask_source("efflorescence_map", source)
-    return studio.emission_probe("Mask Probe", lambda graph, geometry: weathering.mask_socket(graph, mask))
+    return probes.emission_probe("Mask Probe", lambda graph, geometry: weathering.mask_socket(graph, mask))
 
 
 def luminance(image):
@@ -262,14 +263,14 @@ def test_brick_wall_is_laid_brick_by_brick(tmp_path):
     render.use_cycles(scene, size=96, samples=1)
     for obj in scene.objects:
         if obj.type == "MESH" and obj not in sample.objects:
-            studio.assign(obj, studio.holdout_material())
+            studio.assign(obj, probes.holdout_material())
 
     def shade(material):
         for obj in sample.objects:
             studio.assign(obj, material)
         return render.render_array(scene)
 
-    probe = shade(studio.position_probe())
+    probe = shade(probes.position_probe())
     position = (probe[..., :3] - 0.5) * 10.0
     alpha = stone_parameters(shade, sample.material(model.SOILING))["alpha"]
     x, z = position[..., 0], position[..., 2]
@@ -349,7 +350,7 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
     scene.world = None
     render.use_cycles(scene, size=48, samples=1)
     scene.render.resolution_x = 64
-    holdout = studio.holdout_material()
+    holdout = probes.holdout_material()
     for obj in scene.objects:
         if obj.type == "MESH" and obj not in sample.objects:
             studio.assign(obj, holdout)
@@ -359,10 +360,10 @@ def test_sample_renders_equal_the_model_pixel_by_pixel(name, tmp_path):
             studio.assign(obj, material)
         return render.render_array(scene)
 
-    position = shade(studio.position_probe(0.05))
+    position = shade(probes.position_probe(0.05))
     covered = position[..., 3] > 0.999
     points = (position[..., :3] - 0.5) / 0.05
-    normals = shade(studio.normal_probe())[..., :3] * 2.0 - 1.0
+    normals = shade(probes.normal_probe())[..., :3] * 2.0 - 1.0
     normals /= np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-9)
     towards_camera = np.array(scene.camera.matrix_world.translation) - points
     n_dot_v = (normals * towards_camera).sum(-1) / np.linalg.norm(towards_camera, axis=-1)
@@ -527,9 +528,9 @@ def test_bust_bakes_on_the_command_line_and_weathers_from_the_panel(tmp_path):
         for age in (0.0, 1.0):
             weathering.set_input(group, "time", age)
             images[age] = luminance(render.render_array(scene))
-        studio.assign(bust, studio.position_probe(0.001))
+        studio.assign(bust, probes.position_probe(0.001))
         where = render.render_array(scene)
-        studio.assign(bust, studio.normal_probe())
+        studio.assign(bust, probes.normal_probe())
         up = render.render_array(scene)[..., 2] * 2.0 - 1.0
     finally:
         porous_weathering.unregister()

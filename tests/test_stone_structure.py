@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
+from benchmarks import probes
 from helpers import (
     MaskedPlane,
     assert_matches,
@@ -554,14 +555,14 @@ def test_rivulets_render_as_the_model_per_pixel(fresh_scene):
     material = rivulet_material("Rivulets", plane, spacing)
     got = read_back(plane, material)
     got["z_p"] = stone_shifted(plane.render, material, "Porosity Field")
-    normal = plane.render(studio.normal_probe())[..., :3] * 2.0 - 1.0
-    place = studio.emission_probe("Place", lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) + 2.0)
+    normal = plane.render(probes.normal_probe())[..., :3] * 2.0 - 1.0
+    place = probes.emission_probe("Place", lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) + 2.0)
     across, horizontal = base.fall_line(SCALAR, plane.render(place)[..., :3] - 2.0, normal)
     image = plane.render(material)
     diffuse = plane.render(pw.make_base_material("D", base_color=(1, 1, 1), ks=0.0))[..., :3]
     glossy = glossy_lobe(plane, material)
     towards = np.array(plane.sun.matrix_world.to_3x3().col[2])
-    n_dot_l, n_dot_v = normal @ towards, normal @ np.array(studio.VIEW_DIRECTION)
+    n_dot_l, n_dot_v = normal @ towards, normal @ np.array(probes.VIEW_DIRECTION)
 
     def expected(**rivulets):
         kd_w, ks_w, _ = stone_weights(

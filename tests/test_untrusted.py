@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 
 import porous_weathering
+from benchmarks import probes
 from porous_weathering.blender import render
 from porous_weathering.maps import bake, rain
 from porous_weathering.samples import studio
@@ -33,7 +34,7 @@ def every_material_kind(scene):
     """One material of each kind the extension makes, in the current file."""
     studio.add_sun(scene, (0.3, 0.2, 0.9))
     for kind in ("POINT", "SPOT", "AREA"):
-        studio.add_point_light(scene, (1.0, 1.0, 3.0), name=kind.title(), kind=kind)
+        probes.add_point_light(scene, (1.0, 1.0, 3.0), name=kind.title(), kind=kind)
     made = [porous_weathering.make_porous_material("Ambient"), porous_weathering.make_base_material("Base")]
     made += [porous_weathering.make_porous_material(name, key_light=name) for name in ("Sun", "Point", "Spot", "Area")]
     made += [material.make_preset_material(name, key_light="Sun") for name in presets.PRESETS]

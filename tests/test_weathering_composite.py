@@ -21,6 +21,7 @@ import pytest
 from mathutils import Vector
 
 import porous_weathering as pw
+from benchmarks import probes
 from helpers import assert_matches, expected_image
 from porous_weathering.blender import render
 from porous_weathering.core import model
@@ -95,11 +96,11 @@ class Composite:
         )
         render.use_cycles(scene, size=SIZE, samples=1)
         self.masks = {"rain_map": self.probe(bake.ATTRIBUTES["rain"]), "edge_map": self.probe(bake.ATTRIBUTES["edges"])}
-        normals = self.render(studio.normal_probe())
+        normals = self.render(probes.normal_probe())
         self.covered = normals[..., 3] > 0.999
         self.normals = normals[..., :3] * 2.0 - 1.0
         self.normals /= np.maximum(np.linalg.norm(self.normals, axis=-1, keepdims=True), 1e-9)
-        self.positions = (self.render(studio.position_probe())[..., :3] - 0.5) / 0.1
+        self.positions = (self.render(probes.position_probe())[..., :3] - 0.5) / 0.1
 
     def render(self, material):
         studio.assign(self.wall, material)
@@ -107,7 +108,7 @@ class Composite:
 
     def probe(self, attribute):
         return self.render(
-            studio.emission_probe(attribute, lambda graph, geometry: weathering.mask_socket(graph, attribute))
+            probes.emission_probe(attribute, lambda graph, geometry: weathering.mask_socket(graph, attribute))
         )[..., 0]
 
     def cosines(self):

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import porous_weathering as pw
+from benchmarks import probes
 from helpers import (
     STONE,
     TOLERANCE,
@@ -277,7 +278,7 @@ def test_the_numpy_lichen_seeds_are_the_renders(fresh_scene):
     distances within 1e-5 cells, the seeds' values and size draws bit for bit."""
     plane = MaskedPlane(fresh_scene)
     seeds = lichen_seed_probe(plane, BIOLOGICAL_STATE["lichen_density"])
-    place = plane.render(studio.emission_probe("Place Probe", lambda graph, geometry: geometry.outputs["Position"]))
+    place = plane.render(probes.emission_probe("Place Probe", lambda graph, geometry: geometry.outputs["Position"]))
     covered = place[..., 3] > 0.999
     metres = place[..., :3][covered]
     normals = np.broadcast_to((0.0, 0.0, 1.0), metres.shape)
@@ -303,8 +304,8 @@ def test_the_numpy_white_noise_is_the_renders(fresh_scene):
         cell = shader_math.floor(graph.wrap(position.outputs["X"]) * cells_per_metre)
         return graph.node("ShaderNodeTexWhiteNoise", {"W": cell}, noise_dimensions="1D").outputs["Color"]
 
-    colour = plane.render(studio.emission_probe("White Noise Probe", build))
-    place = plane.render(studio.emission_probe("Place Probe", lambda graph, geometry: geometry.outputs["Position"]))
+    colour = plane.render(probes.emission_probe("White Noise Probe", build))
+    place = plane.render(probes.emission_probe("Place Probe", lambda graph, geometry: geometry.outputs["Position"]))
     covered = place[..., 3] > 0.999
     cells = np.floor(place[..., 0][covered].astype(np.float32) * np.float32(cells_per_metre))
     assert cells.min() < 0.0 < cells.max()

@@ -246,11 +246,6 @@ def emission_probe(name, build):
     return material
 
 
-def normal_probe():
-    """Emits the world-space shading normal, encoded as N / 2 + 1/2."""
-    return emission_probe("Normal Probe", lambda graph, geometry: graph.wrap(geometry.outputs["Normal"]) * 0.5 + 0.5)
-
-
 def bake_point_values(obj, uv_map_name, resolution, values, *, margin=0):
     """(image, islands): ``values`` (one per vertex of ``obj``'s mesh) drawn into a float32
     (H, W) image of ``uv_map_name``, each texel interpolating its triangle's corners, and the

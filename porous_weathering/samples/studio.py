@@ -1,14 +1,11 @@
-"""Small analytic scenes for checks, benchmarks and pictures: a sphere or a plane under one
-light, seen by an orthographic camera looking down -Z, and emission probes that read
-shading quantities out as pixels."""
+"""Small analytic scenes for the demo's pictures, the checks and the benchmarks: a sphere or a
+plane under one light, seen by an orthographic camera looking down -Z. The probes that read
+shading quantities out as pixels are the checks' kit, outside the package
+(``benchmarks/probes.py``)."""
 
 import bpy
 
-from ..blender import compat
-from ..blender.scratch_scene import aim_sun, emission_probe, normal_probe  # noqa: F401  (part of the kit)
-
-#: The camera looks down -Z, so the unit vector towards the viewer is +Z everywhere.
-VIEW_DIRECTION = (0.0, 0.0, 1.0)
+from ..blender.scratch_scene import aim_sun  # noqa: F401  (part of the kit: the demo aims its sun)
 
 
 def link(scene, obj):
@@ -50,16 +47,6 @@ def add_sun(scene, towards=(0.0, 0.0, 1.0), strength=3.0, name="Sun"):
     return sun
 
 
-def add_point_light(scene, location, power=1000.0, name="Lamp", kind="POINT"):
-    light = bpy.data.lights.new(name, kind)
-    light.energy = power
-    if kind in ("POINT", "SPOT"):
-        light.shadow_soft_size = 0.0
-    lamp = link(scene, bpy.data.objects.new(name, light))
-    lamp.location = location
-    return lamp
-
-
 def add_ortho_camera(scene, scale=2.2, height=5.0):
     data = bpy.data.cameras.new("Camera")
     data.type = "ORTHO"
@@ -73,20 +60,3 @@ def add_ortho_camera(scene, scale=2.2, height=5.0):
 def assign(obj, material):
     obj.data.materials.clear()
     obj.data.materials.append(material)
-
-
-def position_probe(scale=0.1):
-    """Emits the world-space position times ``scale``, plus 1/2."""
-    return emission_probe(
-        "Position Probe", lambda graph, geometry: graph.wrap(geometry.outputs["Position"]) * scale + 0.5
-    )
-
-
-def holdout_material():
-    """Cuts what it covers out of a render (alpha 0): to see one object of a scene alone."""
-    material = compat.new_material("Holdout")
-    material.node_tree.nodes.clear()
-    holdout = material.node_tree.nodes.new("ShaderNodeHoldout")
-    output = material.node_tree.nodes.new("ShaderNodeOutputMaterial")
-    material.node_tree.links.new(holdout.outputs[0], output.inputs["Surface"])
-    return material
