@@ -333,7 +333,7 @@ def test_the_water_lobe_reflects_as_water_does():
     Schlick's form, within 0.01 of the exact Fresnel for N.V >= 0.5 and 0.06 at grazing angles,
     2% face on, the paper's weight at N.V = 0 (docs/model.md)."""
     cosines = np.linspace(0.0, 1.0, 2001)
-    schlick = 1.0 - wet.water_transmittance(NumpyOps(colour=False), cosines)
+    schlick = wet.fresnel_weight(NumpyOps(colour=False), cosines, 1.0)  # the weight at d = 1: F
     exact = fresnel(cosines, wet.WATER_INDEX)
     assert np.abs(schlick - exact)[cosines >= 0.5].max() < 0.01
     assert np.abs(schlick - exact).max() < 0.06

@@ -91,11 +91,6 @@ def fresnel_weight(xp, n_dot_v, strength):
     return xp.multiply_add(xp.power(1.0 - n_dot_v, 5.0), scale, 1.0 - scale)
 
 
-def water_transmittance(xp, n_dot_v):
-    """1 - F: the share of the light seen at N.V that water's surface does not reflect."""
-    return 1.0 - fresnel_weight(xp, n_dot_v, 1.0)
-
-
 def water_with_damp(xp, state):
     """The water the wet front sweeps: W from above (``water_of``) or rising damp D from below
     (docs/model.md §9.2), 1 - (1 - W)(1 - D), written as W + D (1 - W): one multiply-add of W,
