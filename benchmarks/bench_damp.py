@@ -15,9 +15,10 @@ the damp on the same object, each timed alone:
 import argparse
 import json
 import os
-import subprocess
 import sys
 import time
+
+import apart  # benchmarks/apart.py (the script's folder is on the path)
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 STAGES = ("facade", "scan")
@@ -73,7 +74,7 @@ def child(stage, args):
 
     with tempfile.TemporaryDirectory(prefix="pw_bench_damp_") as out_dir:
         result = facade(args.resolution, out_dir) if stage == "facade" else scan(args.triangles)
-    print(json.dumps(result))
+    apart.report(result)
 
 
 def main(argv=None):
@@ -87,11 +88,8 @@ def main(argv=None):
         return child(args.child, args)
     print(f"load average at the start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     for stage in args.stages:
-        command = [sys.executable, os.path.abspath(__file__), "--child", stage, "--resolution", str(args.resolution)]
-        command += ["--triangles", str(args.triangles)]
-        done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True)
-        output = done.stdout.strip().splitlines()
-        result = json.loads(output[-1]) if done.returncode == 0 and output else {"failed": done.stderr[-500:]}
+        done = apart.run(__file__, ["--child", stage, "--resolution", args.resolution, "--triangles", args.triangles])
+        result = done.result if done.result is not None else {"failed": done.errors}
         print(f"{stage}: {json.dumps(result)}")
 
 

@@ -22,9 +22,10 @@ own normals (vertical rain, no occlusion: what the flow costs does not depend on
 import argparse
 import json
 import os
-import subprocess
 import sys
 import time
+
+import apart  # benchmarks/apart.py (the script's folder is on the path)
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 MIB = 1024**2
@@ -169,7 +170,7 @@ def child(stage, args):
             result = scan(args.triangles)
         else:
             result = series()
-    print(json.dumps(result))
+    apart.report(result)
 
 
 def main(argv=None):
@@ -183,13 +184,9 @@ def main(argv=None):
         return child(args.child, args)
     print(f"load average at the start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
     for stage in args.stages:
-        command = [sys.executable, os.path.abspath(__file__), "--child", stage, "--resolution", str(args.resolution)]
-        command += ["--triangles", str(args.triangles)]
-        process = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-        _, status, usage = os.wait4(process.pid, 0)
-        output = process.stdout.read().strip().splitlines()
-        result = json.loads(output[-1]) if status == 0 and output else {"failed": status}
-        print(f"{stage}: {json.dumps(result)} peak {usage.ru_maxrss * 1024 / MIB:.0f} MiB")
+        done = apart.run(__file__, ["--child", stage, "--resolution", args.resolution, "--triangles", args.triangles])
+        result = done.result if done.result is not None else {"failed": done.errors}
+        print(f"{stage}: {json.dumps(result)} peak {done.peak_bytes / MIB:.0f} MiB")
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ through the real pipeline, ``bake.bake_maps``:
 the scan stages give the time of each step (the unwrap, each map) too. Then the curvature alone
 (``edges.curvature``) at growing sizes, to show it is linear.
 
-    /tmp/venv52/bin/python benchmarks/bench_scale.py [--triangles 2000000] [--samples 16]
+    .venv-5.2/bin/python benchmarks/bench_scale.py [--triangles 2000000] [--samples 16]
         [--resolution 4096] [--stages STAGE ...] [--sizes 125000 250000 500000 1000000 2000000]
         [--rounds 3] [--json out.json]
 
@@ -31,10 +31,11 @@ lightmaps alone.
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
 import time
+
+import apart  # benchmarks/apart.py (the script's folder is on the path)
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 GIB = 1024**3
@@ -110,7 +111,7 @@ def child(args):
     timings = [timing.wall_and_cpu_seconds(lambda: run_stage(args.child, obj, args, steps)) for _ in range(rounds)]
     result["stage_s"], result["stage_cpu_s"] = (min(seconds) for seconds in zip(*timings))
     result["steps"] = steps
-    print("RESULT " + json.dumps(result), flush=True)
+    apart.report(result)
 
 
 def run_stage(stage, obj, args, steps):
@@ -144,28 +145,11 @@ def run_stage(stage, obj, args, steps):
 
 def run_child(stage, triangles, args):
     """(timings dict, peak resident bytes) of one stage run in a fresh child process."""
-    command = [
-        sys.executable,
-        os.path.abspath(__file__),
-        "--child",
-        stage,
-        "--triangles",
-        str(triangles),
-        "--samples",
-        str(args.samples),
-        "--resolution",
-        str(args.resolution),
-        "--rounds",
-        str(args.rounds),
-    ]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    output = process.stdout.read()
-    _, status, usage = os.wait4(process.pid, 0)
-    process.returncode = os.waitstatus_to_exitcode(status)
-    lines = [line[7:] for line in output.splitlines() if line.startswith("RESULT ")]
-    if process.returncode != 0 or not lines:
-        raise RuntimeError(f"stage {stage} at {triangles} triangles failed (exit {process.returncode})")
-    return json.loads(lines[-1]), usage.ru_maxrss * 1024  # ru_maxrss is in KiB on Linux
+    arguments = ["--child", stage, "--triangles", triangles, "--samples", args.samples]
+    done = apart.run(__file__, [*arguments, "--resolution", args.resolution, "--rounds", args.rounds])
+    if done.result is None:
+        raise RuntimeError(f"stage {stage} at {triangles} triangles failed: {done.errors}")
+    return done.result, done.peak_bytes
 
 
 def main():

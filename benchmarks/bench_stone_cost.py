@@ -15,11 +15,9 @@ material "all three modes, key light, baked maps, the limestone's structure").
 """
 
 import argparse
-import json
 import os
 import pathlib
 import statistics
-import subprocess
 import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
@@ -27,7 +25,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 import bpy  # noqa: E402
 
 import porous_weathering as pw  # noqa: E402
-from benchmarks import scenes, speed, timing  # noqa: E402
+from benchmarks import apart, scenes, speed, timing  # noqa: E402
 from porous_weathering.blender import render  # noqa: E402
 from porous_weathering.core import model, stones  # noqa: E402
 from porous_weathering.samples import studio  # noqa: E402
@@ -81,9 +79,10 @@ def measure(label, size, samples, rounds, stone):
 
 def measure_apart(label):
     """``measure`` of ``label`` in a child process (this script, its options and --child)."""
-    command = [sys.executable, __file__, *sys.argv[1:], "--child", label]
-    output = subprocess.run(command, check=True, capture_output=True, text=True).stdout
-    return json.loads(output.strip().splitlines()[-1])
+    done = apart.run(__file__, [*sys.argv[1:], "--child", label])
+    if done.result is None:
+        raise RuntimeError(f"measuring {label!r} failed: {done.errors}")
+    return done.result
 
 
 def main():
@@ -95,7 +94,7 @@ def main():
     parser.add_argument("--child", help=argparse.SUPPRESS)  # measure this material alone, print its JSON
     args = parser.parse_args()
     if args.child:
-        print(json.dumps(measure(args.child, args.size, args.samples, args.rounds, args.stone)))
+        apart.report(measure(args.child, args.size, args.samples, args.rounds, args.stone))
         return
     load = os.getloadavg()[0]
     measured = {label: measure_apart(label) for label in structures(args.stone)}

@@ -29,9 +29,10 @@ import argparse
 import json
 import os
 import pathlib
-import subprocess
 import sys
 import time
+
+import apart  # benchmarks/apart.py (the script's folder is on the path)
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 GIB = 1024**3
@@ -109,7 +110,7 @@ def child(args):
         "problems": report.problems(),
         "load": (load + os.getloadavg()[0]) / 2,
     }
-    print("RESULT " + json.dumps(result), flush=True)
+    apart.report(result)
 
 
 def smart_project(scan_generator, positions, faces, resolution, padding):
@@ -132,16 +133,10 @@ def smart_project(scan_generator, positions, faces, resolution, padding):
 
 
 def run_child(method, triangles, resolution):
-    """(result dict, peak resident bytes) of one method at one size, in a fresh child process."""
-    command = [sys.executable, os.path.abspath(__file__), "--child", method]
-    command += ["--triangles", str(triangles), "--resolution", str(resolution)]
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    output = process.stdout.read()
-    _, status, usage = os.wait4(process.pid, 0)
-    lines = [line[7:] for line in output.splitlines() if line.startswith("RESULT ")]
-    if os.waitstatus_to_exitcode(status) != 0 or not lines:
-        return None, usage.ru_maxrss * 1024
-    return json.loads(lines[-1]), usage.ru_maxrss * 1024  # ru_maxrss is in KiB on Linux
+    """(result dict or None if it failed, peak resident bytes) of one method at one size, in a
+    fresh child process."""
+    done = apart.run(__file__, ["--child", method, "--triangles", triangles, "--resolution", resolution])
+    return done.result, done.peak_bytes
 
 
 def main():
