@@ -215,6 +215,51 @@ def test_a_sheltered_plinth_is_damp_all_the_same(fresh_scene):
     assert np.all(corner_values(sheltered, damp.DAMP_ATTRIBUTE)[plinth] > 0.99)
 
 
+@pytest.mark.parametrize("target", ["attribute", "image"])
+def test_a_wall_on_its_plinth_draws_its_water_from_the_ground(fresh_scene, tmp_path, target):
+    """A wall modelled as its own object on a plinth of 0.8 m, both on a ground plane: the wall's
+    height is taken above the ground the plinth stands on, not above its own foot, as if the two
+    were one body (before: the wall's foot at 0.8 m was its ground, damp up to 1.9 m); a block
+    that stands on nothing keeps its own foot."""
+    add_to_scene("Plinth", *box((0.0, 0.0, 0.0), (2.0, 0.5, 0.8), n=8))
+    wall = add_to_scene("Wall", *box((0.0, 0.0, 0.8), (2.0, 0.5, 2.4), n=16))
+    ground = add_to_scene("Ground", *quad((-2, -2, 0), (4, -2, 0), (-2, 3, 0), 1, (0, 0, 1)))
+    lone = add_to_scene("Lone", *box((6.0, 0.0, 3.0), (8.0, 0.5, 4.6), n=16))  # nothing below it
+    options = bake.BakeOptions(maps=("damp",), target=target, resolution=64, out_dir=str(tmp_path / "maps"))
+    assert [o.status for o in bake.bake_maps([wall, lone], options)] == ["written", "written"]
+    for obj, ground_m in ((wall, 0.0), (lone, 3.0)):
+        if target == "attribute":
+            points, normals = corners_and_normals(obj)
+            values = corner_values(obj, damp.DAMP_ATTRIBUTE)
+        else:
+            from porous_weathering.common import imageio
+
+            pixels = imageio.read_image(tmp_path / "maps" / f"{obj.name}.damp.exr")[0][..., 0]
+            positions, texel_normals, islands = edges.bake_texel_geometry(obj, "PW Lightmap", 64)
+            inner = islands & (np.max(np.abs(texel_normals), axis=-1) > 0.999)
+            points, normals, values = positions[inner].astype(np.float64), texel_normals[inner], pixels[inner]
+        expected = expected_damp(points, normals, (2.0, 0.5, 1.6), ground_m)
+        assert np.mean(np.abs(values - expected) < 0.02) > 0.97, obj.name
+        faces = np.abs(normals[:, 1]) > 0.9
+        assert np.all(values[faces & (points[:, 2] > ground_m + 1.2)] < 0.01), obj.name  # dry above its front
+    assert corner_values(wall, damp.DAMP_ATTRIBUTE).max() > 0.99 if target == "attribute" else True
+    ground.location.z = -0.5  # what it stands on moved: the map is baked again
+    assert [o.status for o in bake.bake_maps([wall], options)] == ["written"]
+
+
+def test_the_facades_parts_baked_as_they_are_are_damp_only_near_the_ground(fresh_scene):
+    """The bundled façade's parts, each its own object on its ground plane, baked as they come (no
+    union): the cornice, the capitals and the sills, 2 m and more up, are dry; the plinth and the
+    wall's foot are damp (before: every part was damp from its own foot up)."""
+    bpy.ops.wm.open_mainfile(filepath=os.path.join(demo.SAMPLES_DIR, "limestone_facade.blend"), load_ui=False)
+    parts = [o for o in bpy.data.objects if o.type == "MESH" and o.name != "Ground"]
+    bake.bake_maps(parts, bake.BakeOptions(maps=("damp",), target="attribute"))
+    means = {o.name: float(corner_values(o, damp.DAMP_ATTRIBUTE).mean()) for o in parts}
+    for name in ("Cornice Cap", "Cornice Corona", "Capitals", "Window Sills"):
+        assert means[name] == 0.0, name
+    assert means["Plinth"] == 1.0 and 0.05 < means["Wall"] < 0.5
+
+
 def test_the_image_map_is_the_model_at_its_texels(fresh_scene, tmp_path):
     from porous_weathering.common import imageio
 

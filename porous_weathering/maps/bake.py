@@ -148,7 +148,7 @@ class BakeOptions:
         kind="collection",
         metavar="COLLECTION",
         tooltip="Collection whose objects (children included) shelter the baked objects from "
-        "rain; empty: every other object of the scene",
+        "rain and sun, and hold the ground their rising damp comes up from; empty: every other object of the scene",
     )
     settings: Mapping[str, Any] = field(default_factory=dict)  #: map name -> its settings
 

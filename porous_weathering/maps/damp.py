@@ -1,14 +1,16 @@
 """The rising-damp map D (docs/model.md §9.2; docs/maps.md, "Rising damp"): the water drawn up from
 where the object meets the ground, to the steady height its local thickness allows.
 
-Per point: its height above the ground, the lowest point of the object's surface as rendered (world
-z), and the local thickness of the body, the distance along the inward normal to the opposite face
-(a ray cast through the mesh as rendered; a single sheet, whose ray meets nothing, is
-``sheet_thickness`` thick), both in metres through the scene's unit scale; then D of
-``core.rising_damp``. Only points below the highest front any thickness gives are cast: the
-others are dry whatever their thickness, so the casts are bounded by the damp band, not the mesh.
+Per point: its height above the ground (the lowest surface straight below the object's foot,
+through what stands under it: ``ground_below``), and the local thickness of the body, the
+distance along the inward normal to the opposite face (a ray cast through the mesh as rendered; a
+single sheet, whose ray meets nothing, is ``sheet_thickness`` thick), both in metres through the
+scene's unit scale; then D of ``core.rising_damp``. Only points below the highest front any
+thickness gives are cast: the others are dry whatever their thickness, so the casts are bounded by
+the damp band, not the mesh.
 """
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import bpy
@@ -21,7 +23,7 @@ from ..common.options import check, option
 from ..contracts import map_attribute
 from ..core import rising_damp
 from ..shading import material
-from . import edges
+from . import edges, neighbours
 from .registry import MapKind
 from .runoff import world_corner_normals
 
@@ -32,6 +34,11 @@ RAY_START_FRACTION = 1e-5
 #: Corners are read this fraction of the way from their vertex towards their face's centre, inside
 #: the face, so that a ray from a corner on the body's edge does not graze the faces beside it.
 CORNER_INSET = 1e-3
+#: The foot: the object's points within this fraction of its size of its lowest one; the ground is
+#: looked for straight below their middle (``ground_below``)...
+FOOT_FRACTION = 1e-3
+#: ... through at most this many surfaces of each object below it.
+GROUND_HITS = 64
 
 
 @dataclass(frozen=True)
@@ -112,23 +119,58 @@ class _Body:
     frame: edges.TexelFrame
 
 
-def _body(obj, seen):
-    mesh = seen.mesh
-    matrix = seen.matrix_world
+def _world_triangles(seen) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(positions in the object's space, the same in the world, triangles) of a mesh as rendered."""
+    mesh, matrix = seen.mesh, seen.matrix_world
     mesh.calc_loop_triangles()
     triangles = np.empty(len(mesh.loop_triangles) * 3, np.int32)
     mesh.loop_triangles.foreach_get("vertices", triangles)
-    triangles = triangles.reshape(-1, 3)
     positions = mesh_arrays.attribute(mesh, "position", np.float32, 3).astype(np.float64)
-    points = positions @ matrix[:3, :3].T + matrix[:3, 3]
+    return positions, positions @ matrix[:3, :3].T + matrix[:3, 3], triangles.reshape(-1, 3)
+
+
+def ground_below(foot: np.ndarray, occluders: Sequence[bpy.types.Object] = ()) -> float:
+    """The ground's height (world z) under an object whose lowest points are ``foot`` (n, 3), world:
+    the lowest surface of ``occluders`` (as rendered) on the vertical line through the foot's
+    middle, from just above the foot down, or the foot's own height where nothing lies below it
+    (docs/model.md §9.2). A wall standing on its plinth, a capital on its pilaster, a cornice over
+    the wall, all on a ground plane, draw their water from the ground plane, as one body would."""
+    lowest = float(foot[:, 2].min())
+    middle = foot.mean(axis=0)
+    for other in occluders:
+        low, high = neighbours.world_box(other)
+        if not (low[0] <= middle[0] <= high[0] and low[1] <= middle[1] <= high[1] and low[2] < lowest):
+            continue  # the line misses its box, or it lies wholly above the foot
+        with scratch_scene.rendered(other) as seen:
+            _, points, triangles = _world_triangles(seen)
+        if not len(triangles):
+            continue
+        # about the line's top, so that the BVH's single precision is of the objects' sizes
+        top = np.array([middle[0], middle[1], max(float(high[2]), lowest)])
+        size = float(np.ptp(points[triangles].reshape(-1, 3), axis=0).max())
+        tree = BVHTree.FromPolygons((points - top).tolist(), triangles.tolist(), all_triangles=True)
+        start, step = (lowest - top[2]) + RAY_START_FRACTION * size, RAY_START_FRACTION * size
+        for _ in range(GROUND_HITS):  # every surface the line crosses, down to the last
+            hit = tree.ray_cast((0.0, 0.0, start), (0.0, 0.0, -1.0))
+            if hit[0] is None:
+                break
+            lowest = min(lowest, top[2] + hit[0][2])
+            start = hit[0][2] - step
+    return lowest
+
+
+def _body(obj, seen, occluders):
+    positions, points, triangles = _world_triangles(seen)
     if not len(triangles):
         raise ValueError(f"object '{obj.name}' has no faces to draw damp up")
     box = edges.box_of_surface(positions, triangles)
-    frame = edges.texel_frame(box, matrix, mesh_arrays.is_inside_out(mesh))
+    frame = edges.texel_frame(box, seen.matrix_world, mesh_arrays.is_inside_out(seen.mesh))
     tree = BVHTree.FromPolygons((points - frame.centre).tolist(), triangles.tolist(), all_triangles=True)
-    ground = float(points[triangles, 2].min())  # the lowest point a face uses
-    start = RAY_START_FRACTION * max(edges.size_of_box(box, matrix), 1e-12)
-    return _Body(tree, ground, material.object_metres_per_unit(obj), start, frame)
+    size = max(edges.size_of_box(box, seen.matrix_world), 1e-12)
+    used = points[np.unique(triangles)]  # the points a face uses
+    foot = used[used[:, 2] <= used[:, 2].min() + FOOT_FRACTION * size]
+    start = RAY_START_FRACTION * size
+    return _Body(tree, ground_below(foot, occluders), material.object_metres_per_unit(obj), start, frame)
 
 
 def damp_at(body: _Body, points: np.ndarray, normals: np.ndarray, settings: DampSettings) -> np.ndarray:
@@ -147,13 +189,16 @@ def damp_at(body: _Body, points: np.ndarray, normals: np.ndarray, settings: Damp
     return values
 
 
-def bake_damp_corners(obj: bpy.types.Object, settings: DampSettings) -> np.ndarray:
+def bake_damp_corners(
+    obj: bpy.types.Object, settings: DampSettings, occluders: Sequence[bpy.types.Object] = ()
+) -> np.ndarray:
     """D at every face corner of ``obj`` (the bake refuses an attribute target whose modifiers change
     the corners, so the mesh as rendered has the mesh's corners): at the corner, a little inside its
     face (``CORNER_INSET``), along the corner's normal; once for the corners of a vertex that share
-    its normal (a smooth mesh: once per vertex)."""
+    its normal (a smooth mesh: once per vertex). The ground is found among ``occluders``
+    (``ground_below``)."""
     with scratch_scene.rendered(obj) as seen:
-        body = _body(obj, seen)
+        body = _body(obj, seen, occluders)
         mesh, matrix = seen.mesh, seen.matrix_world
         positions = mesh_arrays.attribute(mesh, "position", np.float32, 3).astype(np.float64)
         vertex_of = mesh_arrays.attribute(mesh, ".corner_vert", np.int32)
@@ -171,11 +216,18 @@ def bake_damp_corners(obj: bpy.types.Object, settings: DampSettings) -> np.ndarr
     return damp_at(body, points, normals[first], settings)[shared.ravel()]
 
 
-def bake_damp_image(obj: bpy.types.Object, uv_map: str, resolution: int, settings: DampSettings, margin: int):
+def bake_damp_image(
+    obj: bpy.types.Object,
+    uv_map: str,
+    resolution: int,
+    settings: DampSettings,
+    margin: int,
+    occluders: Sequence[bpy.types.Object] = (),
+):
     """D on ``uv_map`` at ``resolution``, texel by texel (its centre's position and normal as the render
-    sees them), the ``margin`` grown from the islands."""
+    sees them), the ``margin`` grown from the islands; the ground found among ``occluders``."""
     with scratch_scene.rendered(obj) as seen:
-        body = _body(obj, seen)
+        body = _body(obj, seen, occluders)
     positions, normals, islands = edges.bake_texel_geometry(obj, uv_map, resolution, frame=body.frame)
     found = edges.unit(normals[islands].astype(np.float64))
     values = np.zeros((resolution, resolution), np.float32)
@@ -187,16 +239,22 @@ def bake_damp_image(obj: bpy.types.Object, uv_map: str, resolution: int, setting
 
 
 def _image(obj, uv_map, options, margin):
-    return bake_damp_image(obj, uv_map, options.resolution, options.damp_settings, margin)
+    occluders = neighbours.options_occluders(obj, options)
+    return bake_damp_image(obj, uv_map, options.resolution, options.damp_settings, margin, occluders)
 
 
 def _attribute(obj, options):
-    mesh_arrays.write_corner_attribute(obj.data, DAMP_ATTRIBUTE, bake_damp_corners(obj, options.damp_settings))
+    values = bake_damp_corners(obj, options.damp_settings, neighbours.options_occluders(obj, options))
+    mesh_arrays.write_corner_attribute(obj.data, DAMP_ATTRIBUTE, values)
 
 
 def _hash(obj, options, digests):
-    # heights and thicknesses are read in metres: the same object at another unit scale is another map
-    return dict(metres_per_unit=material.object_metres_per_unit(obj))
+    # heights and thicknesses are read in metres: the same object at another unit scale is another map;
+    # the ground is what stands below it: moving what it stands on moves its front
+    return dict(
+        metres_per_unit=material.object_metres_per_unit(obj),
+        occluders=neighbours.occluders_digest(obj, options, digests),
+    )
 
 
 MAP = MapKind(
