@@ -37,7 +37,7 @@ def run(script, arguments) -> Apart:
         output = process.stdout.read()
         process.stdout.close()
         _, status, usage = os.wait4(process.pid, 0)
-        process.returncode = os.waitstatus_to_exitcode(status)
+        process.returncode = os.waitstatus_to_exitcode(status)  # reaped here: Popen must not wait again
         errors.seek(0)
         tail = errors.read()[-500:]
     lines = [line.removeprefix(RESULT) for line in output.splitlines() if line.startswith(RESULT)]

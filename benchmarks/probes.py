@@ -8,6 +8,7 @@ import bpy
 
 from porous_weathering.blender import compat
 from porous_weathering.blender.scratch_scene import emission_probe
+from porous_weathering.samples import studio
 
 #: studio.add_ortho_camera looks down -Z, so the unit vector towards the viewer is +Z everywhere.
 VIEW_DIRECTION = (0.0, 0.0, 1.0)
@@ -19,8 +20,7 @@ def add_point_light(scene, location, power=1000.0, name="Lamp", kind="POINT"):
     light.energy = power
     if kind in ("POINT", "SPOT"):
         light.shadow_soft_size = 0.0
-    lamp = bpy.data.objects.new(name, light)
-    scene.collection.objects.link(lamp)
+    lamp = studio.link(scene, bpy.data.objects.new(name, light))
     lamp.location = location
     return lamp
 

@@ -142,14 +142,15 @@ def ground_below(foot: np.ndarray, occluders: Sequence[bpy.types.Object] = ()) -
         if not (low[0] <= middle[0] <= high[0] and low[1] <= middle[1] <= high[1] and low[2] < lowest):
             continue  # the line misses its box, or it lies wholly above the foot
         with scratch_scene.rendered(other) as seen:
-            _, points, triangles = _world_triangles(seen)
-        if not len(triangles):
+            positions, points, triangles = _world_triangles(seen)
+            box = edges.box_of_surface(positions, triangles)
+            step = RAY_START_FRACTION * max(edges.size_of_box(box, seen.matrix_world), 1e-12)
+        if box is None:  # no face to stand on
             continue
         # about the line's top, so that the BVH's single precision is of the objects' sizes
         top = np.array([middle[0], middle[1], max(float(high[2]), lowest)])
-        size = float(np.ptp(points[triangles].reshape(-1, 3), axis=0).max())
         tree = BVHTree.FromPolygons((points - top).tolist(), triangles.tolist(), all_triangles=True)
-        start, step = (lowest - top[2]) + RAY_START_FRACTION * size, RAY_START_FRACTION * size
+        start = (lowest - top[2]) + step
         for _ in range(GROUND_HITS):  # every surface the line crosses, down to the last
             hit = tree.ray_cast((0.0, 0.0, start), (0.0, 0.0, -1.0))
             if hit[0] is None:
