@@ -2,7 +2,7 @@
 and made from the defaults, measured region by region (docs/benchmarks.md, "The untuned corpus").
 
     .venv-5.2/bin/python benchmarks/bench_corpus.py --out DIR [--shapes NAME ...] [--units mm m]
-        [--size 256] [--samples 16] [--fresh]
+        [--size 256] [--samples 16] [--fresh] [--scans FILE ... [--scan-up Y|Z] [--scan-unit mm|cm|m]]
 
 For each shape and unit:
 
@@ -72,6 +72,17 @@ SKY = ((0.42, 0.5, 0.62), 0.6)  # a uniform sky: colour, strength
 #: gargoyle, which juts out of its wall towards -Y, from its side.
 VIEW_FROM = (-0.35, -1.0, 0.3)
 VIEW_FROM_SHAPE = {"gargoyle": (-1.0, -0.45, 0.3)}
+#: ``--scans``: Blender's importer of each file kind and the up axes offered (docs/scans.md), and
+#: the units offered, metres per unit.
+SCAN_IMPORTERS = {
+    ".obj": bpy.ops.wm.obj_import,
+    ".ply": bpy.ops.wm.ply_import,
+    ".stl": bpy.ops.wm.stl_import,
+    ".glb": bpy.ops.import_scene.gltf,
+    ".gltf": bpy.ops.import_scene.gltf,
+}
+SCAN_AXES = {None: {}, "Y": dict(up_axis="Y", forward_axis="NEGATIVE_Z"), "Z": dict(up_axis="Z", forward_axis="Y")}
+SCAN_UNITS = {"mm": 0.001, "cm": 0.01, "m": 1.0}
 #: The concave-curvature attribute the probes read (the bench's own, never the product's).
 CONCAVE_ATTRIBUTE = "bench_concave"
 LIT = 1e-3
@@ -97,6 +108,62 @@ def build_scene(shape, unit):
     scene.unit_settings.scale_length, scene.unit_settings.length_unit = scan_generator.SCENE_UNITS[unit]
     vertices, triangles = corpus_generator.shape_mesh(shape, unit)
     obj = scan_generator.add_to_scene(shape, vertices, triangles, scene.collection)
+    light(scene, vertices, VIEW_FROM_SHAPE.get(shape, VIEW_FROM))
+    return obj
+
+
+def import_scan(scan, up, unit):
+    """A new file holding the scan at ``scan`` as docs/scans.md brings one in: its importer by
+    the file's suffix, read with ``up`` as its up axis (None: the importer's own), smooth shaded,
+    the scene's unit ``unit`` (a SCAN_UNITS key); lit and framed as a corpus shape. The object,
+    named after the file."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.unit_settings.system = "METRIC"
+    scene.unit_settings.scale_length = SCAN_UNITS[unit]
+    importer = SCAN_IMPORTERS[scan.suffix.lower()]
+    axes = {} if importer is bpy.ops.import_scene.gltf else SCAN_AXES[up]  # glTF is Y-up by its spec
+    importer(filepath=str(scan), **axes)
+    meshes = [obj for obj in bpy.context.selected_objects if obj.type == "MESH"]
+    if len(meshes) != 1:
+        raise RuntimeError(f"{scan} holds {len(meshes)} meshes, not one")
+    obj = meshes[0]
+    obj.name = scan.stem
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.shade_smooth()
+    matrix = np.array(obj.matrix_world)
+    corners = mesh_arrays.attribute(obj.data, "position", np.float64, 3) @ matrix[:3, :3].T + matrix[:3, 3]
+    light(scene, corners, VIEW_FROM)
+    return obj
+
+
+def scan_path(text):
+    """The path of a ``--scans`` file: one that exists, of a kind SCAN_IMPORTERS reads."""
+    path = pathlib.Path(text).resolve()
+    if path.suffix.lower() not in SCAN_IMPORTERS:
+        raise argparse.ArgumentTypeError(f"{text!r}: give a scan file ({', '.join(SCAN_IMPORTERS)})")
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"{text!r}: no such file")
+    return path
+
+
+def add_scan_options(parser):
+    """``--scans``, ``--scan-up`` and ``--scan-unit``, as both benchmarks that take scans read them."""
+    parser.add_argument(
+        "--scans",
+        nargs="+",
+        default=[],
+        type=scan_path,
+        metavar="FILE",
+        help=f"scan files ({', '.join(SCAN_IMPORTERS)}) measured in place of the bundled shapes (and them if named)",
+    )
+    parser.add_argument("--scan-up", choices=("Y", "Z"), help="the scans' up axis (default: their importer's)")
+    parser.add_argument("--scan-unit", choices=SCAN_UNITS, default="m", help="the scans' unit (default: m)")
+
+
+def light(scene, vertices, view_from):
+    """The corpus's fixed sun and uniform sky in ``scene``, and its camera looking at ``vertices``
+    (world) from ``view_from``."""
     studio.add_sun(scene, towards=SUN_TOWARDS, strength=SUN_STRENGTH)
     world = bpy.data.worlds.new("Sky")
     compat.use_world_nodes(world)
@@ -104,8 +171,7 @@ def build_scene(shape, unit):
     background.inputs["Color"].default_value = (*SKY[0], 1.0)
     background.inputs["Strength"].default_value = SKY[1]
     scene.world = world
-    frame(scene, vertices, VIEW_FROM_SHAPE.get(shape, VIEW_FROM))
-    return obj
+    frame(scene, vertices, view_from)
 
 
 def frame(scene, vertices, view_from, margin=1.08):
@@ -187,11 +253,17 @@ def luminance(image):
 
 
 def measure(shape, unit, args):
-    """(row of measures, {key: picture}: the three renders and the regions) of one shape in one unit."""
-    path = pathlib.Path(args.out) / f"{shape}_{unit}.blend"
+    """(row of measures, {key: picture}: the three renders and the regions) of one shape in one
+    unit: a corpus shape's name, or a scan's path (``--scans``, in ``--scan-unit``)."""
+    scan = isinstance(shape, pathlib.Path)
+    path = pathlib.Path(args.out) / f"{shape.stem if scan else shape}_{unit}.blend"
     if args.fresh or not path.exists():
-        build_scene(shape, unit)
+        if scan:
+            import_scan(shape, args.scan_up, unit)
+        else:
+            build_scene(shape, unit)
         bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
+    shape = shape.stem if scan else shape
     started = time.monotonic()
     bake(path)
     baked = time.monotonic() - started
@@ -321,22 +393,27 @@ def contact_sheet(tiles, path):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="folder for the .blend files, results.json and corpus.png")
-    parser.add_argument("--shapes", nargs="+", choices=corpus_generator.SHAPES, default=list(corpus_generator.SHAPES))
+    parser.add_argument(
+        "--shapes", nargs="+", choices=corpus_generator.SHAPES, help="default: every one, or none with --scans"
+    )
     parser.add_argument("--units", nargs="+", choices=UNITS, default=list(UNITS))
     parser.add_argument("--size", type=int, default=256, help="picture size in pixels (default: 256)")
     parser.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel (default: 16)")
     parser.add_argument("--environment", help="pass this environment to Make (default: the API's)")
     parser.add_argument("--fresh", action="store_true", help="make the .blend files again (default: reuse them)")
+    add_scan_options(parser)
     args = parser.parse_args(argv)
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     started = time.time()
     rows, tiles = [], []
-    for shape in args.shapes:
-        for unit in args.units:
+    shapes = args.shapes or ([] if args.scans else corpus_generator.SHAPES)
+    units = {shape: args.units for shape in shapes} | {scan: [args.scan_unit] for scan in args.scans}
+    for shape, its_units in units.items():
+        for unit in its_units:
             row, renders = measure(shape, unit, args)
             rows.append(row)
-            if unit == args.units[0]:  # one row per shape: the other unit renders the same picture
+            if unit == its_units[0]:  # one row per shape: the other unit renders the same picture
                 tiles.append([renders[key] for key in SHEET_COLUMNS])
             print(table([row]).splitlines()[-1], flush=True)  # progress
     print()

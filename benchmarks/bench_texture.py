@@ -4,6 +4,7 @@
 
     python benchmarks/bench_texture.py [--size 540] [--samples 48] [--bake-samples 32]
         [--only NAME ...] [--quick] [--work DIR] [--crops DIR] [--inputs NAME=VALUE ...]
+        [--scans FILE ... [--scan-up Y|Z] [--scan-unit mm|cm|m]]
 
 Each bundled sample is weathered as the main job weathers it (``demo.Sample``: its recipe's
 stone, environment, site rain, view and maps baked with the bake's defaults, its parts each as
@@ -31,7 +32,10 @@ Targets (the photographs of real decay): at t = 1, 1.8 <= β <= 3.0 and fine sha
 every shape; the façade's ratio image β <= 3.2. Prints a Markdown table with a verdict per cell
 and the machine line. ``--crops DIR`` writes each shape's crops (t = 0, t = 1, and the ratio at
 half grey = 1) and a picture of where the crop lies. ``--quick``: 8 samples, 8 rain samples,
-the façade and the head only (unless ``--only``). ``--inputs``: weathering inputs (and the stone's
+the façade and the head only (unless ``--only``). ``--scans``: scan files of your own (OBJ, PLY,
+STL, glTF) measured in place of the bundled shapes (with them: ``--only``), each brought in as
+docs/scans.md says (its importer, ``--scan-up``, smooth shaded, ``--scan-unit`` as the scene's
+unit) and then baked, made and lit as a corpus shape. ``--inputs``: weathering inputs (and the stone's
 ``variation``) given other values on every shape, to see what holds its figures (``runoff=0
 streaks=0``: the rain alone; ``variation=0``: no stone).
 """
@@ -109,9 +113,25 @@ def open_corpus_shape(shape, args, work):
     if not path.exists():
         bench_corpus.build_scene(shape, "mm")
         bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
+    return open_made(path, shape, args)
+
+
+def open_scan(scan, args, work):
+    """(scene, show(age), no other parts) of a scan file (``--scans``) in the corpus's light,
+    baked and made as a corpus shape is."""
+    path = pathlib.Path(work) / f"{scan.stem}_scan.blend"
+    if not path.exists():
+        bench_corpus.import_scan(scan, args.scan_up, args.scan_unit)
+        bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
+    return open_made(path, scan.stem, args)
+
+
+def open_made(path, name, args):
+    """(scene, show(age), no other parts) of the object ``name`` of the saved scene at ``path``,
+    baked by the command line and made by the panel's Make, as bench_corpus.py does."""
     bench_corpus.bake(path)
     bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
-    scene, obj = bpy.context.scene, bpy.data.objects[shape]
+    scene, obj = bpy.context.scene, bpy.data.objects[name]
     scene.render.resolution_x = scene.render.resolution_y  # bench_corpus.py's pictures are square
     material = bench_corpus.made_material(obj, (model.SOILING,), changes=args.inputs)
 
@@ -203,8 +223,13 @@ def render_crop(scene, top, left, seed=0):
 
 
 def measure(name, args, work):
-    """The row of one shape, and its pictures (crops and where the crop lies)."""
-    scene, show, others = (open_sample if name in SAMPLES else open_corpus_shape)(name, args, work)
+    """The row of one shape (a sample's or a corpus shape's name, or a scan's path), and its
+    pictures (crops and where the crop lies)."""
+    if isinstance(name, pathlib.Path):
+        scene, show, others = open_scan(name, args, work)
+        name = name.stem
+    else:
+        scene, show, others = (open_sample if name in SAMPLES else open_corpus_shape)(name, args, work)
     aspect = scene.render.resolution_x / scene.render.resolution_y
     height, (top, left), coverage, square = place_crop(scene, show, others, args, aspect)
     samples = args.samples
@@ -319,6 +344,7 @@ def main(argv=None):
     bench_visible.add_render_options(parser, size=540, samples=48)
     parser.add_argument("--only", nargs="+", choices=SHAPES, metavar="NAME", help=f"only these ({', '.join(SHAPES)})")
     parser.add_argument("--quick", action="store_true", help="a small check: 8 samples, 8 rain samples, 2 shapes")
+    bench_corpus.add_scan_options(parser)
     parser.add_argument("--work", help="keep the corpus scenes here, reused (default: a temporary folder)")
     parser.add_argument("--crops", metavar="DIR", help="write each shape's crops and where they lie here (PNG)")
     parser.add_argument(
@@ -333,7 +359,7 @@ def main(argv=None):
     args.inputs = dict(args.inputs)
     if args.quick:
         args.samples, args.bake_samples = 8, 8
-    names = args.only or (QUICK_SHAPES if args.quick else SHAPES)
+    names = [*(args.only or ([] if args.scans else QUICK_SHAPES if args.quick else SHAPES)), *args.scans]
     started = time.time()
     rows = []
     with tempfile.TemporaryDirectory(prefix="pw_texture_") as scratch:
@@ -344,7 +370,7 @@ def main(argv=None):
             rows.append(row)
             if args.crops:
                 os.makedirs(args.crops, exist_ok=True)
-                write_pictures(args.crops, name, pictures)
+                write_pictures(args.crops, row["shape"], pictures)
             print(table([row]).splitlines()[-1], flush=True)  # progress
     print()
     print(table(rows))

@@ -2,7 +2,7 @@
 
     python sample_blends/scan_generator.py [--triangles 200000] [--unit mm|m|normalised]
                                            [--seed 0] [--out FILE.blend] [--preview FILE.png]
-                                           [--material limestone|grey] [--check]
+                                           [--material limestone|grey] [--check] [--obj FILE.obj]
 
 ``bust_mesh(triangles, seed=...)`` is pure numpy: a closed, manifold, outward-oriented triangle
 mesh of about ``triangles`` faces, in millimetres, Z up, 500 mm tall, standing on z = 0, with no
@@ -44,6 +44,8 @@ The same seed gives the same faces on every numpy; vertices agree within 1e-4 mm
 ``add_to_scene`` builds the Blender mesh with foreach_set (no from_pydata: 2M faces in seconds),
 smooth shaded, with no UV map. ``build_scene`` makes the sample scene (bust, plinth ground, sun,
 camera from the front and slightly below, sky), with the conventions of build_samples.py.
+``--obj`` writes the bust alone as a scanner exports one (``write_obj``: an OBJ, Z up, without
+normals), to take through an import as a user does (docs/scans.md).
 """
 
 import argparse
@@ -699,6 +701,25 @@ def render_preview(scene, path, samples=16, threads=2):
     bpy.ops.render.render(write_still=True, scene=scene.name)
 
 
+def write_obj(path, triangles, unit, seed):
+    """The bust alone as a scanner exports one: an OBJ at ``path``, Z up (scanners' and GIS
+    exports' axis, docs/scans.md), in ``unit``, without normals, UVs or materials."""
+    import bpy
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    vertices, faces = bust_mesh(triangles, seed=seed)
+    add_to_scene("Bust", scaled(vertices, unit), faces)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    bpy.ops.wm.obj_export(
+        filepath=str(path.resolve()),
+        forward_axis="Y",
+        up_axis="Z",
+        export_normals=False,
+        export_uv=False,
+        export_materials=False,
+    )
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--triangles", type=int, default=200_000)
@@ -708,6 +729,7 @@ def main(argv=None):
     parser.add_argument("--out", type=pathlib.Path, help="save the scene to this .blend")
     parser.add_argument("--preview", type=pathlib.Path, help="render a 480 x 480 preview (grey material) here")
     parser.add_argument("--check", action="store_true", help="check the mesh (closed, manifold, oriented, areas)")
+    parser.add_argument("--obj", type=pathlib.Path, help="write the bust alone as a scan here: OBJ, Z up, in --unit")
     args = parser.parse_args(argv)
 
     if args.check:
@@ -717,9 +739,15 @@ def main(argv=None):
         print(f"{len(faces)} triangles in {time.perf_counter() - start:.2f} s: {report}")
         if not is_closed_manifold(report):
             sys.exit("the mesh is not closed, manifold and outward-oriented")
-    if not (args.out or args.preview):
+    if not (args.out or args.preview or args.obj):
         return
     import bpy
+
+    if args.obj:
+        write_obj(args.obj, args.triangles, args.unit, args.seed)
+        print(f"wrote {args.obj}")
+        if not (args.out or args.preview):
+            return
 
     bpy.ops.wm.read_factory_settings(use_empty=True)
     bpy.context.preferences.filepaths.save_version = 0
