@@ -115,8 +115,7 @@ def build_scene(shape, unit):
 def import_scan(scan, up, unit):
     """A new file holding the scan at ``scan`` as docs/scans.md brings one in: its importer by
     the file's suffix, read with ``up`` as its up axis (None: the importer's own), smooth shaded,
-    the scene's unit ``unit`` (a SCAN_UNITS key); lit and framed as a corpus shape. The object,
-    named after the file."""
+    the scene's unit ``unit`` (a SCAN_UNITS key). The object, named after the file."""
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.unit_settings.system = "METRIC"
@@ -131,9 +130,15 @@ def import_scan(scan, up, unit):
     obj.name = scan.stem
     bpy.context.view_layer.objects.active = obj
     bpy.ops.object.shade_smooth()
+    return obj
+
+
+def scan_scene(scan, up, unit):
+    """The scan's new file (``import_scan``), lit and framed as a corpus shape."""
+    obj = import_scan(scan, up, unit)
     matrix = np.array(obj.matrix_world)
     corners = mesh_arrays.attribute(obj.data, "position", np.float64, 3) @ matrix[:3, :3].T + matrix[:3, 3]
-    light(scene, corners, VIEW_FROM)
+    light(bpy.context.scene, corners, VIEW_FROM)
     return obj
 
 
@@ -259,7 +264,7 @@ def measure(shape, unit, args):
     path = pathlib.Path(args.out) / f"{shape.stem if scan else shape}_{unit}.blend"
     if args.fresh or not path.exists():
         if scan:
-            import_scan(shape, args.scan_up, unit)
+            scan_scene(shape, args.scan_up, unit)
         else:
             build_scene(shape, unit)
         bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)

@@ -2,14 +2,15 @@
 §9): a cube, the untuned corpus and the main job's façade, in RURAL at 50° N after 20 years.
 
     .venv-5.2/bin/python benchmarks/bench_life.py --out DIR [--objects cube head ... facade]
-        [--size 128] [--samples 16] [--no-timing]
+        [--size 128] [--samples 16] [--no-timing] [--scans FILE ... [--scan-up Y|Z] [--scan-unit mm|cm|m]]
 
 For each object:
 
 1. its scene: the cube (3 m, standing on z = 0, its faces cut into 0.1 m cells so that the
    per-corner maps resolve the damp's front), a corpus shape in metres
-   (sample_blends/corpus_generator.py) or the main job's façade, united and cut as the main
-   job prepares it (``demo.RECIPES[demo.FACADE]``);
+   (sample_blends/corpus_generator.py), the main job's façade, united and cut as the main
+   job prepares it (``demo.RECIPES[demo.FACADE]``), or a scan file of one's own (``--scans``,
+   brought in as bench_corpus.py brings one in, in place of those unless ``--objects`` names some);
 2. baked with the bake's defaults (every map, target attribute; the site the sun map's default,
    50° N, +Y north, unless the file sets one);
 3. made with the biological mode as the main job makes a material (``demo.Sample.material``:
@@ -142,8 +143,12 @@ def facade():
     return scene, [united], recipe.masonry
 
 
-def build(name):
-    """(scene, [objects], masonry or None) of one object, its maps not baked."""
+def build(name, args):
+    """(scene, [objects], masonry or None) of one object, its maps not baked: a scan's (``--scans``:
+    a path) as ``bench_corpus.import_scan`` brings it in."""
+    if isinstance(name, pathlib.Path):
+        scan = bench_corpus.import_scan(name, args.scan_up, args.scan_unit)  # a new file
+        return bpy.context.scene, [scan], None
     if name == "cube":
         return cube()
     if name == "facade":
@@ -312,7 +317,8 @@ def luminance_y(rgb):
 
 
 def measure(name, args):
-    scene, objects, masonry = build(name)
+    scene, objects, masonry = build(name, args)
+    name = name.stem if isinstance(name, pathlib.Path) else name
     started = time.monotonic()
     bake.bake_maps(objects, bake.BakeOptions(target="attribute"))
     baked = time.monotonic() - started
@@ -422,8 +428,9 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="folder for results.json")
     parser.add_argument(
-        "--objects", nargs="*", choices=OBJECTS, default=list(OBJECTS), help="none: the bake cost alone"
+        "--objects", nargs="*", choices=OBJECTS, help="default: all (none with --scans); none: the bake cost alone"
     )
+    bench_corpus.add_scan_options(parser)
     parser.add_argument("--size", type=int, default=128, help="picture size in pixels (default: 128)")
     parser.add_argument("--samples", type=int, default=16, help="Cycles samples per pixel (default: 16)")
     parser.add_argument("--no-timing", action="store_true", help="skip the façade's bake cost")
@@ -437,7 +444,8 @@ def main(argv=None):
         result["bake_cost"] = bake_cost()
         print(f"bake cost: {json.dumps(result['bake_cost'])}; {machine.describe(bpy.app.version_string)}", flush=True)
     rows = []
-    for name in args.objects:
+    objects = args.objects if args.objects is not None else [] if args.scans else OBJECTS
+    for name in [*objects, *args.scans]:
         rows.append(measure(name, args))
         print(table(rows[-1:]).splitlines()[-1], flush=True)
     result["rows"] = rows

@@ -121,7 +121,7 @@ def open_scan(scan, args, work):
     baked and made as a corpus shape is."""
     path = pathlib.Path(work) / f"{scan.stem}_scan.blend"
     if not path.exists():
-        bench_corpus.import_scan(scan, args.scan_up, args.scan_unit)
+        bench_corpus.scan_scene(scan, args.scan_up, args.scan_unit)
         bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)
     return open_made(path, scan.stem, args)
 
