@@ -2,6 +2,7 @@
 its own: the child reports its result as a line of JSON (``report``), the parent reads it and the
 child's peak resident memory (``run``: ``ru_maxrss`` from ``os.wait4``)."""
 
+import argparse
 import dataclasses
 import json
 import os
@@ -43,3 +44,22 @@ def run(script, arguments) -> Apart:
     lines = [line.removeprefix(RESULT) for line in output.splitlines() if line.startswith(RESULT)]
     result = json.loads(lines[-1]) if process.returncode == 0 and lines else None
     return Apart(result, usage.ru_maxrss * 1024, tail)  # ru_maxrss is in KiB on Linux
+
+
+def stages_main(script, description, stages, child, *, resolution, triangles, argv=None):
+    """The command of a benchmark of ``stages`` on an image of ``--resolution``² and a mesh of
+    ``--triangles``: each stage run apart (``run``), its result printed with the child's peak
+    memory; run as ``--child STAGE``, ``child(stage, args)`` measures it and ``report``s."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--stages", nargs="+", choices=stages, default=list(stages))
+    parser.add_argument("--resolution", type=int, default=resolution)
+    parser.add_argument("--triangles", type=int, default=triangles)
+    parser.add_argument("--child", choices=stages, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    if args.child:
+        return child(args.child, args)
+    print(f"load average at the start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
+    for stage in args.stages:
+        done = run(script, ["--child", stage, "--resolution", args.resolution, "--triangles", args.triangles])
+        result = done.result if done.result is not None else {"failed": done.errors}
+        print(f"{stage}: {json.dumps(result)} peak {done.peak_bytes / 1024**2:.0f} MiB")

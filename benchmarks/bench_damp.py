@@ -12,8 +12,6 @@ the damp on the same object, each timed alone:
     python benchmarks/bench_damp.py [--stages facade scan] [--resolution 1024] [--triangles 200000]
 """
 
-import argparse
-import json
 import os
 import sys
 import time
@@ -78,19 +76,9 @@ def child(stage, args):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--stages", nargs="+", choices=STAGES, default=list(STAGES))
-    parser.add_argument("--resolution", type=int, default=1024)
-    parser.add_argument("--triangles", type=int, default=200_000)
-    parser.add_argument("--child", choices=STAGES, help=argparse.SUPPRESS)
-    args = parser.parse_args(argv)
-    if args.child:
-        return child(args.child, args)
-    print(f"load average at the start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
-    for stage in args.stages:
-        done = apart.run(__file__, ["--child", stage, "--resolution", args.resolution, "--triangles", args.triangles])
-        result = done.result if done.result is not None else {"failed": done.errors}
-        print(f"{stage}: {json.dumps(result)}")
+    return apart.stages_main(
+        __file__, __doc__.splitlines()[0], STAGES, child, resolution=1024, triangles=200_000, argv=argv
+    )
 
 
 if __name__ == "__main__":

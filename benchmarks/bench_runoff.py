@@ -19,8 +19,6 @@ own normals (vertical rain, no occlusion: what the flow costs does not depend on
         [--triangles 2000000]
 """
 
-import argparse
-import json
 import os
 import sys
 import time
@@ -28,7 +26,6 @@ import time
 import apart  # benchmarks/apart.py (the script's folder is on the path)
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
-MIB = 1024**2
 STAGES = ("facade", "scan", "series")
 
 
@@ -174,19 +171,9 @@ def child(stage, args):
 
 
 def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--stages", nargs="+", choices=STAGES, default=list(STAGES))
-    parser.add_argument("--resolution", type=int, default=2048)
-    parser.add_argument("--triangles", type=int, default=2_000_000)
-    parser.add_argument("--child", choices=STAGES, help=argparse.SUPPRESS)
-    args = parser.parse_args(argv)
-    if args.child:
-        return child(args.child, args)
-    print(f"load average at the start: {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores")
-    for stage in args.stages:
-        done = apart.run(__file__, ["--child", stage, "--resolution", args.resolution, "--triangles", args.triangles])
-        result = done.result if done.result is not None else {"failed": done.errors}
-        print(f"{stage}: {json.dumps(result)} peak {done.peak_bytes / MIB:.0f} MiB")
+    return apart.stages_main(
+        __file__, __doc__.splitlines()[0], STAGES, child, resolution=2048, triangles=2_000_000, argv=argv
+    )
 
 
 if __name__ == "__main__":
