@@ -246,8 +246,12 @@ def test_a_second_survey_is_unchanged_and_another_blends_is_refused(tmp_path):
     (dict(years=(10, -1)), "years must be numbers >= 0, not -1"),
     (dict(), "give the years"),
     (dict(years=(10,), ages=(0.5,)), "give the years"),
+    (dict(years=(10,), views=("north", "up")), "views must be some of north, east, south, west, plan, each once"),
+    (dict(years=(10,), views="plan,plan"), "views must be some of"),
+    (dict(years=(10,), views=()), "views must be some of"),
+    (dict(years=(10,), scale=2.5), "scale must be a whole number"),
 ])  # fmt: skip
-def test_bad_ages_are_refused_before_any_work(bad, message, tmp_path):
+def test_bad_input_is_refused_before_any_work(bad, message, tmp_path):
     obj = box(1.0, {"efflorescence_map": "height"}, modes=("efflorescence",))
     with pytest.raises(ValueError, match=message):
         survey.condition_survey([obj], out_dir=tmp_path / "out", **bad)
@@ -265,7 +269,18 @@ def saved_box(tmp_path):
     return path
 
 
-@pytest.mark.parametrize("words", [["--ages", "0.5,1.2"], ["--years", "10,-5"], ["--ages", "x"], []])
+@pytest.mark.parametrize(
+    "words",
+    [
+        ["--ages", "0.5,1.2"],
+        ["--years", "10,-5"],
+        ["--ages", "x"],
+        [],
+        ["--years", "10", "--views", "north,up"],
+        ["--years", "10", "--views", "north,north"],
+        ["--years", "10", "--scale", "0"],
+    ],
+)
 def test_the_command_exits_2_for_bad_ages_with_nothing_written(saved_box, tmp_path, words):
     out = tmp_path / "out"
     done = run_cli("survey", saved_box, *words, "--out", out)
@@ -295,6 +310,22 @@ def test_the_command_writes_then_says_unchanged(saved_box, tmp_path):
     refused = run_cli("survey", saved_box, "--years", "10,25", "--out", out)
     assert refused.returncode == 3 and "--force" in refused.stderr
     assert run_cli("survey", saved_box, "--years", "10,25", "--out", out, "--force").returncode == 0
+
+
+def test_the_drawings_show_the_views_and_scale_asked_for(saved_box, tmp_path):
+    out = tmp_path / "out"
+    asked = ["--years", "10", "--out", out, "--views", "north,plan"]
+    done = run_cli("survey", saved_box, *asked, "--scale", "20")
+    assert done.returncode == 0, done.stderr
+    root = ET.parse(out / "box.Box.10y.svg").getroot()
+    drawn = {g.get("id"): g for g in root.iter("{http://www.w3.org/2000/svg}g")}
+    assert {name for name in drawn if name.startswith("outline-")} == {"outline-north", "outline-plan"}
+    assert "".join(drawn["title-scale"].itertext()).strip() == "1:20 on A3"
+    assert drawn_height_mm(out / "box.Box.10y.svg", "outline-north") == pytest.approx(EDGE * 1000 / 20, abs=0.5)
+    paradata = json.loads((out / "box.survey.json").read_text(encoding="utf-8"))
+    assert paradata["drawings"] == {"views": ["north", "plan"], "scale": 20}
+    assert outcomes(run_cli("survey", saved_box, *asked, "--scale", "20")) == ["unchanged"] * 5
+    assert outcomes(run_cli("survey", saved_box, *asked, "--scale", "10")) == ["written"] * 5  # drawn again
 
 
 CHILD_STOPPED_WRITING = r"""
@@ -400,7 +431,13 @@ def test_the_options_a_dask_worker_is_given_are_those_chosen():
     from porous_weathering.cli import entry
 
     chosen = survey.SurveyOptions(
-        years="25,10", environment="RURAL", out_dir="/data/out", north_angle=-12.5, force=True
+        years="25,10",
+        environment="RURAL",
+        out_dir="/data/out",
+        north_angle=-12.5,
+        views=("plan", "south"),
+        scale=20,
+        force=True,
     )
     args = entry.build_parser().parse_args(["survey", "a.blend", *chosen.to_argv()])
     values = {item.name: getattr(args, item.dest) for item in survey.condition.option_entries()}
@@ -526,13 +563,21 @@ def test_the_condition_survey_button_runs_the_survey(registered, tmp_path):
     assert ("operator", ("porous_weathering.condition_survey",)) in calls
     operator = bpy.ops.porous_weathering.condition_survey
     declared = {entry.dest for entry in survey.condition.option_entries() if entry.option.ui}
-    assert declared == {"years", "environment", "out_dir", "name", "north_angle", "force"}
-    assert declared <= {prop.identifier for prop in operator.get_rna_type().properties}
+    assert declared == {"years", "environment", "out_dir", "name", "north_angle", "views", "scale", "force"}
+    properties = operator.get_rna_type().properties
+    assert declared <= {prop.identifier for prop in properties}
+    assert properties["views"].is_enum_flag and properties["views"].default_flag == {"north", "east", "south", "west"}
     assert operator(years="10,25", out_dir=str(tmp_path / "out"), name="panel") == {"FINISHED"}
     drawings = [f"panel.Box.{years}y.{kind}" for years in (10, 25) for kind in ("png", "svg")]
     assert sorted(os.listdir(tmp_path / "out")) == sorted(
         ["panel.forecast.csv", "panel.survey.csv", "panel.survey.json", *drawings]
     )
+    assert operator(years="10", out_dir=str(tmp_path / "plan"), views={"plan", "north"}, scale=20) == {"FINISHED"}
+    paradata = json.loads(next((tmp_path / "plan").glob("*.survey.json")).read_text(encoding="utf-8"))
+    assert paradata["drawings"] == {"views": ["north", "plan"], "scale": 20}  # the choices' order
+    with pytest.raises(RuntimeError, match="views must be some of north, east, south, west, plan"):
+        operator(years="10", out_dir=str(tmp_path / "none"), views=set())
+    assert not (tmp_path / "none").exists()
     with pytest.raises(RuntimeError, match="years must be numbers >= 0, not -1"):  # its one-line report
         operator(years="10,-1", out_dir=str(tmp_path / "bad"))
     assert not (tmp_path / "bad").exists()

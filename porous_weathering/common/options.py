@@ -28,7 +28,9 @@ class Option:
     finite: bool = False  #: NaN and infinities are refused
     whole: bool = False  #: a whole number
     unit: str = ""  #: "degrees", "scene units", "texels": said in messages and --help
-    choices: tuple = ()  #: the allowed values (an enum in the operator)
+    #: The allowed values (an enum in the operator); with a tuple default, the value is some of
+    #: them, each once (comma-separated on the command line, a set of toggles in the operator).
+    choices: tuple = ()
     #: How front ends take the value: "value", "path" (a folder), "collection" (a collection's name).
     kind: str = "value"
     ui: bool = True  #: a property of the bake operator
@@ -59,8 +61,17 @@ def declared(cls_or_instance: Any) -> list[tuple[str, Option, Any]]:
     return found
 
 
+def is_several(opt: Option, default: Any) -> bool:
+    """Whether the option's value is some of its choices (a tuple), not one of them."""
+    return bool(opt.choices) and isinstance(default, tuple)
+
+
 def check_value(name: str, opt: Option, value: Any) -> None:
     """ValueError naming the option when ``value`` is outside its declared range."""
+    if is_several(opt, value):
+        if not value or len(set(value)) != len(value) or set(value) - set(opt.choices):
+            raise ValueError(f"{name} must be some of {', '.join(map(str, opt.choices))}, each once, not {value!r}")
+        return
     if opt.choices and value not in opt.choices:
         raise ValueError(f"{name} must be one of {', '.join(map(str, opt.choices))}, not {value!r}")
     if opt.low is None and opt.high is None and not opt.finite and not opt.whole:
@@ -80,6 +91,18 @@ def folder_path(name: str, value: Any) -> str:
     if not isinstance(value, str):
         raise ValueError(f"{name} must be a path (a str or os.PathLike), not {value!r}")
     return value
+
+
+def several_of(choices: tuple) -> Callable[[str], tuple]:
+    """The command line's parser of a comma-separated list of some of ``choices``, each once."""
+
+    def parse(text: str) -> tuple:
+        chosen = tuple(word.strip() for word in text.split(",") if word.strip())
+        if not chosen or len(set(chosen)) != len(chosen) or set(chosen) - set(choices):
+            raise argparse.ArgumentTypeError(f"expected some of {', '.join(choices)}, comma-separated, got {text!r}")
+        return chosen
+
+    return parse
 
 
 def describe_range(opt: Option) -> str:
@@ -145,8 +168,10 @@ def add_arguments(parser: argparse.ArgumentParser, items: list[Entry]) -> None:
             continue
         number = default if opt.auto is None else opt.auto
         kind = type(number) if isinstance(number, (int, float)) and not isinstance(number, bool) else str
-        if opt.parse is not None:
-            kind, shown = opt.parse, f" (default: {','.join(default)})" if default else ""
+        several = is_several(opt, default)
+        if opt.parse is not None or several:
+            kind = several_of(opt.choices) if several else opt.parse
+            shown = f" (default: {','.join(default)})" if default else ""
         elif isinstance(default, float):
             shown = f" (default: {default:g})"
         else:
@@ -157,7 +182,7 @@ def add_arguments(parser: argparse.ArgumentParser, items: list[Entry]) -> None:
             dest=entry.dest,
             default=default,
             type=kind,
-            choices=opt.choices or None,
+            choices=None if several else opt.choices or None,
             metavar=opt.metavar,
             help=f"{opt.tooltip}{unit}{shown}",
         )
@@ -190,7 +215,10 @@ def operator_properties(props: Any, items: list[Entry]) -> dict:
             continue
         default = next((value for value in (opt.ui_default, entry.default, opt.auto) if value is not None), None)
         common = dict(name=opt.label, description=opt.tooltip + (f" ({opt.unit})" if opt.unit else ""))
-        if opt.choices:
+        if is_several(opt, default):
+            items_ = [(str(choice), str(choice).title(), f"{opt.label}: {choice}") for choice in opt.choices]
+            prop = props.EnumProperty(items=items_, options={"ENUM_FLAG"}, default=set(default), **common)
+        elif opt.choices:
             items_ = [(str(choice), str(choice).title(), f"{opt.label}: {choice}") for choice in opt.choices]
             prop = props.EnumProperty(items=items_, default=str(default), **common)
         elif isinstance(default, bool):
@@ -211,7 +239,10 @@ def operator_properties(props: Any, items: list[Entry]) -> dict:
 
 
 def operator_value(opt: Option, value: Any) -> Any:
-    """``value`` as read from the operator: its stand-in for None (``opt.auto``) is None again."""
+    """``value`` as read from the operator: its stand-in for None (``opt.auto``) is None again, and
+    a set of toggles (some of the choices) the tuple of them in the choices' order."""
+    if opt.choices and isinstance(value, set):
+        return tuple(choice for choice in opt.choices if choice in value)
     return None if opt.auto is not None and value == opt.auto else value
 
 

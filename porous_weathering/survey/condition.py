@@ -115,6 +115,26 @@ class SurveyOptions:
         "for the forecast's faces and the drawings' views; unset (0 in the dialog): the north each object's sun map "
         "was baked with, else the scene's Sun Position north offset, else 0"
     )
+    views: tuple = option(
+        tuple(sheet.ELEVATIONS),
+        label="Views",
+        flag="--views",
+        choices=sheet.VIEWS,
+        metavar="VIEW,...",
+        tooltip="Comma-separated views the drawings show: the elevations north, east, south and west (each side seen "
+        "from where it faces) and the plan (from above)",
+    )
+    scale: int = option(
+        sheet.PRINT_SCALE,
+        label="Scale",
+        flag="--scale",
+        low=1,
+        high=sheet.STANDARD_SCALES[-1],
+        whole=True,
+        metavar="N",
+        tooltip="The drawings' print scale 1:N on A3 (1:50 for a building, 1:5 or 1:10 for a sculpture), or the next "
+        "standard scale at which their views fit",
+    )
     force: bool = option(
         False,
         label="Replace",
@@ -139,9 +159,14 @@ class SurveyOptions:
         object.__setattr__(self, "out_dir", os.fspath(self.out_dir))
         if self.name == "":
             object.__setattr__(self, "name", None)
+        if isinstance(self.views, str):  # a comma-separated text, as the years may be
+            object.__setattr__(self, "views", tuple(view.strip() for view in self.views.split(",") if view.strip()))
+        elif isinstance(self.views, list):
+            object.__setattr__(self, "views", tuple(self.views))
         if self.name is not None and (not isinstance(self.name, str) or "/" in self.name or self.name.startswith(".")):
             raise ValueError(f"name (--name) must be a file name without a folder, not {self.name!r}")
         check(self)
+        object.__setattr__(self, "scale", int(self.scale))  # a whole number (checked), as the sheet takes it
 
     def stages(self) -> tuple[tuple[float | None, float], ...]:
         """(years or None, t) of every age surveyed, in order."""
@@ -196,6 +221,8 @@ def condition_survey(
     environment: str = environments.DEFAULT_ENVIRONMENT,
     name: str | None = None,
     north_angle: float | None = None,
+    views: Sequence[str] | str = tuple(sheet.ELEVATIONS),
+    scale: int = sheet.PRINT_SCALE,
     force: bool = False,
     progress: Callable[[float, str], None] | None = None,
 ) -> SurveyResult:
@@ -203,8 +230,9 @@ def condition_survey(
     t directly): the area in m² of each pattern, per object and age, in ``OUT/<name>.survey.csv``,
     the forecast per face and pattern in ``OUT/<name>.forecast.csv`` and the paradata in
     ``OUT/<name>.survey.json`` (docs/survey.md); ``north_angle`` is north's angle from the scene's
-    +Y, clockwise seen from above, in degrees (None: each object's sun map's, else the scene's).
-    ValueError before any work for bad input (negative years, ages outside [0, 1], an object
+    +Y, clockwise seen from above, in degrees (None: each object's sun map's, else the scene's);
+    the drawings show ``views`` (of sheet.VIEWS) at 1:``scale`` on A3, or the next standard scale
+    at which they fit. ValueError before any work for bad input (negative years, ages outside [0, 1], an object
     without a Porous Weathering material); OverwriteRefused (a ValueError) when ``out_dir`` holds
     a survey of that name made from another .blend or other objects, unless ``force``."""
     options = SurveyOptions(
@@ -214,6 +242,8 @@ def condition_survey(
         out_dir=out_dir,
         name=name,
         north_angle=north_angle,
+        views=views,
+        scale=scale,
         force=force,
     )
     return run_steps(iter_survey(objects, options), progress)
@@ -305,8 +335,8 @@ def _steps(objects, options, out_dir, name, paths):
     created = datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")
     rows, ahead_rows = _rows(surveyed, stages), _forecast_rows(surveyed, options)
     texts = {"csv": files.csv_text(COLUMNS, rows), "forecast": files.csv_text(forecast.COLUMNS, ahead_rows)}
-    record = _paradata(options, stages, surveyed, created)
     drawings = _drawings(surveyed, options, stages, out_dir, name, created)
+    record = _paradata(options, stages, surveyed, created, drawn=bool(drawings))
     status = files.write_survey(
         out_dir, paths, texts, record, drawings, [item.obj.name for item in surveyed], options.force
     )
@@ -362,7 +392,7 @@ def _forecast_rows(surveyed, options):
     ]
 
 
-def _paradata(options, stages, surveyed, created):
+def _paradata(options, stages, surveyed, created, drawn):
     site = environments.get(options.environment)
     every = {pattern.name: pattern for item in surveyed for pattern in item.patterns}
     return json_value(
@@ -400,6 +430,8 @@ def _paradata(options, stages, surveyed, created):
                 for pattern in sorted(every.values(), key=lambda pattern: pattern.precedence)
             ],
             "objects": [_object_record(item, stages) for item in surveyed],
+            # as asked: a sheet whose views do not fit says the scale it is drawn at
+            "drawings": {"views": list(options.views), "scale": options.scale} if drawn else None,
         },
         "the survey's paradata",
     )
@@ -443,9 +475,7 @@ def _drawings(surveyed, options, stages, out_dir, name, created):
         if id(item) not in frames:
             frames.clear()  # one object's at a time
             triangles = points.small_triangles(item.surface, *counted.drawn_points, item.surface.splits())
-            frames[id(item)] = sheet.make_frame(
-                triangles, north_of[id(item)], tuple(sheet.ELEVATIONS), sheet.PRINT_SCALE
-            )
+            frames[id(item)] = sheet.make_frame(triangles, north_of[id(item)], options.views, options.scale)
         return frames[id(item)]
 
     found = {}
@@ -474,6 +504,8 @@ def _drawings(surveyed, options, stages, out_dir, name, created):
                     patterns=tuple((p.name, p.colour, p.hatch) for p in shown),
                     areas_m2=tuple(float(counted.areas[item.patterns.index(p)]) for p in shown),
                     north=north_of[id(item)],
+                    scale=options.scale,
+                    views=options.views,
                     forecast=ahead,
                 )
                 sheet.write_sheets(data, svg, png, frame)
