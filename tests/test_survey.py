@@ -10,6 +10,7 @@ import re
 import signal
 import subprocess
 import sys
+import warnings
 import xml.etree.ElementTree as ET
 
 import bpy
@@ -256,6 +257,23 @@ def test_bad_input_is_refused_before_any_work(bad, message, tmp_path):
     with pytest.raises(ValueError, match=message):
         survey.condition_survey([obj], out_dir=tmp_path / "out", **bad)
     assert not (tmp_path / "out").exists()
+
+
+def test_an_object_without_a_weathering_mode_is_surveyed_with_a_warning(tmp_path):
+    obj = box(1.0, {}, modes=())
+    obj.data.materials[0] = pw.make_porous_material("Clean")  # the porous stone alone, no mode
+    with pytest.warns(UserWarning, match="object 'Box': its materials have no weathering mode"):
+        result = survey.condition_survey([obj], years=(10,), out_dir=tmp_path)
+    assert [row["pattern"] for row in result.rows] == [patterns.NO_VISIBLE_CHANGE.name]
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "clean.blend"), copy=True)
+    done = run_cli("survey", tmp_path / "clean.blend", "--years", "10", "--out", tmp_path / "cli")
+    said = [line for line in done.stderr.replace("\r", "\n").splitlines() if "weathering mode" in line]
+    assert done.returncode == 0 and len(said) == 1, done.stderr  # once, as one line
+    assert said[0].startswith("warning: object 'Box': its materials have no weathering mode")
+    obj.data.materials[0] = pw.make_weathered_material("Soiled", modes=("soiling",))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)  # a material with a mode: no warning
+        survey.condition_survey([obj], years=(10,), out_dir=tmp_path / "soiled")
 
 
 # --- the command ------------------------------------------------------------------------------------

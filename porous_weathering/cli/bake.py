@@ -191,8 +191,6 @@ def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
     """Bake one file; its outcome lines go to stdout as its maps finish (attribute maps once the
     .blend is saved, as they exist only in it)."""
     bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
-    # a warning (a scan that looks set up wrongly, ...) is one line, above the progress bar
-    warnings.showwarning = lambda message, *_: run.bar.print(f"warning: {message}", file=sys.stderr)
     objects = _objects_to_bake(args)  # objects nobody named: one without faces to bake on is left out
     if bake_options.target == "image" and not args.force:
         _refuse_claimed(objects, bake_options, claimed)

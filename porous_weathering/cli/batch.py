@@ -5,6 +5,7 @@ files is ``contracts.batch_exit_code``; the same files on a Dask cluster are ``d
 
 import os
 import sys
+import warnings
 from collections.abc import Callable
 
 from ..common.progress import ProgressBar
@@ -38,13 +39,16 @@ def check_paths(files: list[str]) -> None:
 
 
 def run_file(bar: ProgressBar, force_hint: str, work: Callable[..., None], path: str, *arguments) -> int:
-    """``work(path, *arguments)``, one file of a batch; its exit code. An error is one line on
-    stderr below ``bar`` as it stopped, ``force_hint`` after a refusal (``OverwriteRefused``)."""
+    """``work(path, *arguments)``, one file of a batch; its exit code. A warning is one line on
+    stderr above ``bar``; an error one line below it as it stopped, ``force_hint`` after a refusal
+    (``OverwriteRefused``)."""
 
     def fail(line):
         bar.finish()
         print(line, file=sys.stderr)
 
+    # a warning (a scan that looks set up wrongly, ...) is one line, above the progress bar
+    warnings.showwarning = lambda message, *_: bar.print(f"warning: {message}", file=sys.stderr)
     try:
         work(path, *arguments)
     except OverwriteRefused as error:

@@ -11,6 +11,7 @@ not by the extension (``--force`` replaces it); 130 / 143 interrupted by SIGINT 
 
 import os
 import sys
+import warnings
 
 import bpy
 
@@ -95,7 +96,9 @@ def _check_files(args, chosen):
         except RuntimeError:
             continue
         try:
-            condition.iter_survey(_chosen_objects(args), chosen)  # its checks; its steps are not run
+            with warnings.catch_warnings():  # said again as the file is surveyed
+                warnings.simplefilter("ignore")
+                condition.iter_survey(_chosen_objects(args), chosen)  # its checks; its steps are not run
         except OverwriteRefused:
             continue
         except ValueError as error:

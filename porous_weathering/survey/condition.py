@@ -12,6 +12,7 @@ import hashlib
 import math
 import numbers
 import os
+import warnings
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, fields
 
@@ -313,6 +314,12 @@ def _steps(objects, options, out_dir, name, paths):
             for slot in sorted(set(found.slots.tolist()))
         }
         patterns = tally.union(materials.values())
+        if patterns == (NO_VISIBLE_CHANGE,):
+            warnings.warn(
+                f"object '{obj.name}': its materials have no weathering mode, so it shows no visible change at any "
+                "age; make its material with the modes to survey (the panel's Weathering switches, or modes=)",
+                stacklevel=2,
+            )
         north = options.north_of(obj)
         faces = condition.faces_of(found.normals, solar.site_to_scene(north)[:2, 1])
         done += 1

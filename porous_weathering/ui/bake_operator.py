@@ -5,8 +5,6 @@ and Esc stops it at once; a Cycles bake holds the UI until it ends (Blender give
 way to watch one). Its properties are generated from the bake's option declarations and the
 map registry."""
 
-import warnings
-
 import bpy
 
 from ..maps import bake
@@ -33,21 +31,6 @@ class BakeMapsOperator(SteppedOperator):
 
     def _cancelled_message(self):
         return f"Bake cancelled after {len(self._outcomes)} map(s)"
-
-    def _next_step(self):
-        """The next Step; the warnings the bake gave meanwhile (a scan set up wrongly, ...) are
-        reported as warnings of the operator."""
-        given = []
-        try:
-            with warnings.catch_warnings(record=True) as given:
-                warnings.simplefilter("always", UserWarning)
-                return super()._next_step()
-        finally:
-            for warning in given:
-                if issubclass(warning.category, UserWarning):
-                    self.report({"WARNING"}, str(warning.message))
-                else:  # not meant for the user: shown where it would have been
-                    warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
 
     def _show(self, context, step):
         context.window_manager.progress_update(step.fraction)

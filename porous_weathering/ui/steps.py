@@ -3,6 +3,8 @@ step per timer tick, progress in the window manager's progress bar, Esc closes t
 between steps), or to its end where there is no event loop (background, no window); starting it
 with the refusals reported in one line; and the operator class generated from option entries."""
 
+import warnings
+
 import bpy
 
 from ..common import options
@@ -24,7 +26,7 @@ class SteppedOperator:
     """Mixin: an operator on the selected meshes whose dialog shows its options (``entries``,
     declared once) and whose Run starts the steps ``make_steps(values, meshes)`` returns;
     subclasses say what a step shows (``_show``) and what Esc reports (``_cancelled_message``),
-    and may wrap ``_next_step`` and ``_finish``."""
+    and may wrap ``_finish``."""
 
     _steps = None
     _timer = None
@@ -113,7 +115,19 @@ class SteppedOperator:
             self.report({"ERROR"}, f"{type(error).__name__}: {error} (a bug: please report it)")
 
     def _next_step(self):
-        return next(self._steps)
+        """The next Step; the warnings its work gave meanwhile (a scan set up wrongly, a material
+        with no weathering mode, ...) are reported as warnings of the operator."""
+        given = []
+        try:
+            with warnings.catch_warnings(record=True) as given:
+                warnings.simplefilter("always", UserWarning)
+                return next(self._steps)
+        finally:
+            for warning in given:
+                if issubclass(warning.category, UserWarning):
+                    self.report({"WARNING"}, str(warning.message))
+                else:  # not meant for the user: shown where it would have been
+                    warnings.showwarning(warning.message, warning.category, warning.filename, warning.lineno)
 
     def _finish(self, context, result):
         if self._timer is not None:
