@@ -92,10 +92,8 @@ def test_a_new_lightmap_passes_the_check_at_every_unit_with_the_same_quality(bus
         assert report.covered == pytest.approx(reports["mm"].covered, rel=0.05), unit
 
 
-def test_a_fold_of_the_projection_is_found_and_cut_apart(monkeypatch):
-    """A ramp winding one and a half times round the Z axis: every face looks up, so projected
-    along Z it lies over itself; the lightmap cuts it apart."""
-    turns, rings, steps = 1.5, 8, 240
+def ramp(turns=1.5, rings=8, steps=240):
+    """A ramp winding ``turns`` times round the Z axis (every face looks up): its mesh."""
     angle = np.linspace(0.0, 2 * math.pi * turns, steps + 1)
     radius = np.linspace(1.0, 2.0, rings + 1)
     a, r = np.meshgrid(angle, radius, indexing="ij")
@@ -104,18 +102,54 @@ def test_a_fold_of_the_projection_is_found_and_cut_apart(monkeypatch):
     corner = index[:-1, :-1].ravel()
     quads = np.stack([corner, corner + rings + 1, corner + rings + 2, corner + 1], axis=1)
     faces = np.concatenate([quads[:, :3], quads[:, [0, 2, 3]]]).astype(np.int32)
-    mesh = SCAN.add_to_scene("Ramp", vertices, faces).data
+    return SCAN.add_to_scene("Ramp", vertices, faces).data
+
+
+def test_a_fold_of_the_projection_is_found_and_cut_apart(monkeypatch):
+    """A ramp winding one and a half times round the Z axis: every face looks up, so projected
+    along Z it lies over itself; the lightmap cuts it apart."""
+    mesh = ramp()
     monkeypatch.setattr(lightmap_child, "XATLAS_CHARTS", 0)  # the scans' projection on the axes, whatever the size
     geometry = lightmap.Geometry.of(mesh)
     points = lightmap.normalised(geometry.positions, geometry.vertices)
     normals = lightmap.polygon_normals(points, geometry.vertices, geometry.polygons)
     keys, projected = lightmap.cube_charts(points, geometry.vertices, geometry.polygons, normals)
-    assert len(np.unique(keys)) == len(vertices)  # one chart along +Z ...
+    assert len(np.unique(keys)) == len(mesh.vertices)  # one chart along +Z ...
     chart_uvs, triangles = lightmap_child._chart_points(keys, projected)
     folded = lightmap_child._folds(chart_uvs, triangles, lightmap_child._charts_of(chart_uvs, triangles), 4.0)
     assert folded.mean() > 0.2  # ... that lies over itself for half a turn
     unwrapped = lightmap.lightmap_uvs(mesh, 512)
     assert lightmap.check_uvs(unwrapped[geometry.corners], geometry.areas(), 512).ok
+
+
+def test_where_the_charts_made_again_fold_too_each_face_goes_alone(monkeypatch):
+    """xatlas' own charts can fold on a scan's busy relief (the Nefertiti bust's scan, 100k
+    triangles, did at every resolution): here the re-charting folds as the projection did, and
+    the lightmap still passes, its folded faces each a chart of its own."""
+    mesh = ramp()
+
+    def folding_charts(points, vertices, polygons, normals):
+        """One chart per connected piece, each wound three times round: it lies over itself."""
+        turned = (points[:, 0] + 1j * points[:, 1]) ** 3 / np.abs(points[:, 0] + 1j * points[:, 1]) ** 2
+        return vertices.astype(np.int64), np.stack([turned.real, turned.imag], axis=-1)[vertices]
+
+    monkeypatch.setattr(lightmap_child, "XATLAS_CHARTS", 0)
+    monkeypatch.setattr(lightmap_child, "xatlas_charts", folding_charts)
+    geometry = lightmap.Geometry.of(mesh)
+    unwrapped = lightmap.lightmap_uvs(mesh, 512)
+    report = lightmap.check_uvs(unwrapped[geometry.corners], geometry.areas(), 512)
+    assert report.ok and report.islands > 20  # the fold's faces went alone
+
+
+@pytest.mark.parametrize("resolution", [128, 256, 512])
+def test_faces_smaller_than_a_texel_get_a_lightmap(resolution):
+    """The corpus's draped figure (72k triangles, deep folds) at resolutions where its faces are
+    smaller than a texel: the folds are looked for at 16 samples a face, not a texel's one (at 256²
+    it was refused before: two texels on two triangles)."""
+    vertices, faces = load_script("sample_blends/corpus_generator.py").shape_mesh("draped_figure", "mm")
+    padding = lightmap.padding_for(resolution)
+    uvs, report = lightmap_child.make_lightmap(vertices, faces, np.arange(len(faces)), resolution, padding)
+    assert report.ok and report.overlapping == 0 and np.isfinite(uvs).all()
 
 
 # --- the bake: reused, unchanged, refused ----------------------------------------------------------

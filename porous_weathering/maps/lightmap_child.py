@@ -62,14 +62,22 @@ SMOOTHING_ROUNDS = 3
 #: A face is projected along its smoothed direction only if its own normal is this close to it
 #: (cosine), else along the axis closest to its own normal (never folded, never starved).
 MIN_COSINE = 0.3
-#: Rounds of "faces that break the map are charted again" before a map is refused, and the
-#: rings of neighbours that go with them (a fold is found where a texel centre falls on it:
-#: its neighbours are likely in it too, and the next packing would find them).
-REPAIR_ROUNDS = 3
+#: Rounds of "faces that break the map go alone" before a map is refused; the rings of
+#: neighbours charted again by xatlas with the faces where the projection folds (a fold is found
+#: where a sample falls twice: its neighbours are likely in it too).
+REPAIR_ROUNDS = 6
 CULPRIT_RINGS = 4
+#: The rings of neighbours that go alone with a face where xatlas' charts fold or the check finds
+#: an overlap: the fold around it, which the next packing's texel centres would find.
+LONE_RINGS = 1
 #: Folds are looked for before packing with this many samples per texel (along each side) of
 #: the bake, so that the texel centres of the bake are unlikely to find one the search missed.
 FOLD_SAMPLING = 1.0
+#: ... and at least this many samples a face where faces are smaller than the bake's texels (a
+#: scan at a low resolution: a fold smaller than a texel is hit by one of the packed map's texel
+#: centres as likely as not), up to FOLD_SAMPLES_MOST samples in all (memory: about 100 bytes each).
+FOLD_SAMPLES_PER_FACE = 16
+FOLD_SAMPLES_MOST = 2**24
 
 #: UVs (in the units of ``normalised``: a mean triangle has an area of 1) farther out than this
 #: lose their detail to xatlas' float32 (steps of 1/128 there, a step of 8 at 10^6).
@@ -290,9 +298,11 @@ def make_lightmap(
     ``resolution``² with ``padding`` texels between islands. Meshes of up to XATLAS_CHARTS
     triangles get xatlas' charts, larger ones ``cube_charts`` (benchmarks/bench_unwrap.py).
     Where the charts fold over themselves (``_folds``, before packing) those faces and
-    CULPRIT_RINGS rings of neighbours are charted again by xatlas; faces the check then finds
-    overlapping or starved likewise, and everything is packed again, up to REPAIR_ROUNDS times;
-    then LightmapError says what is still wrong. ``progress(fraction, stage)``."""
+    CULPRIT_RINGS rings of neighbours are charted again by xatlas; where xatlas' charts fold in
+    turn, those faces and LONE_RINGS rings of neighbours each become a chart of its own (a lone
+    face never folds), and so do the faces the check then finds overlapping or starved, packed
+    again up to REPAIR_ROUNDS times; then LightmapError says what is still wrong.
+    ``progress(fraction, stage)``."""
     progress = progress or (lambda fraction, stage: None)
     progress(0.0, "charts")
     used, vertices = np.unique(vertices, return_inverse=True)  # loose vertices play no part
@@ -304,25 +314,33 @@ def make_lightmap(
     keys, uvs = charts(points, vertices, polygons, normals)
     chart_uvs, triangles = _chart_points(keys, uvs)
     progress(0.1, "folds")
-    # where the projection folds, at a little finer than the bake's texels will be (about 60% used)
-    texels_per_unit = FOLD_SAMPLING * np.sqrt(
-        0.6 * resolution**2 / max(triangle_areas(chart_uvs[triangles]).sum(), 1e-300)
-    )
+    # where the projection folds, at a little finer than the bake's texels will be (about 60% used),
+    # and where the faces are smaller than those texels, at FOLD_SAMPLES_PER_FACE samples a face
+    samples = min(max(0.6 * resolution**2 * FOLD_SAMPLING**2, FOLD_SAMPLES_PER_FACE * len(vertices)), FOLD_SAMPLES_MOST)
+    texels_per_unit = np.sqrt(samples / max(triangle_areas(chart_uvs[triangles]).sum(), 1e-300))
     folded = _folds(chart_uvs, triangles, _charts_of(chart_uvs, triangles), texels_per_unit)
     again = _grown(polygons[folded], vertices, polygons, len(normals), CULPRIT_RINGS)
+    keys, uvs = _rechart(keys, uvs, points, vertices, polygons, normals, again)
+    # xatlas' own charts can fold too (a scan's busy relief): there each face goes alone
+    recharted = again[polygons]
+    chart_uvs, triangles = _chart_points(keys[recharted], uvs[recharted])
+    lone = np.zeros(len(normals), dtype=bool)
+    if len(triangles):
+        folded = _folds(chart_uvs, triangles, _charts_of(chart_uvs, triangles), texels_per_unit)
+        lone = _grown(polygons[recharted][folded], vertices, polygons, len(normals), LONE_RINGS)
     spacing = padding // 2 + 1  # xatlas keeps about twice this between charts, less once shrunk to fit
     for attempt in range(REPAIR_ROUNDS + 1):
         # the first round takes most of the time (packing and checking about 40% each, at 2M
         # triangles), a repair round as long again, but it is rarely needed: the bar never goes back
         low, high = (0.2, 0.9) if not attempt else (1 - 0.1 / attempt, 1 - 0.1 / (attempt + 1))
-        progress(low, f"packing, {again.sum()} faces charted again" if again.any() else "packing")
-        chart_uvs, triangles = _chart_points(*_rechart(keys, uvs, points, vertices, polygons, normals, again))
+        progress(low, f"packing, {again.sum() + lone.sum()} faces charted again" if again.any() else "packing")
+        chart_uvs, triangles = _chart_points(*_alone(keys, uvs, points, vertices, polygons, normals, lone))
         triangle_uvs = pack(chart_uvs, triangles, _charts_of(chart_uvs, triangles), resolution, spacing)
         progress(low + 0.5 * (high - low), "checking")
         report, culprits = inspect_uvs(triangle_uvs, areas, resolution, padding)
         if report.ok:
             return triangle_uvs, report
-        again |= _grown(polygons[culprits], vertices, polygons, len(again), CULPRIT_RINGS)
+        lone |= _grown(polygons[culprits], vertices, polygons, len(lone), LONE_RINGS)
         spacing += report.crowded > 0  # xatlas' shrunk atlas came too close
     raise LightmapError(f"no lightmap at {resolution}² passes: {'; '.join(report.problems())}")
 
