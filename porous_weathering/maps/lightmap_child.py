@@ -333,7 +333,8 @@ def make_lightmap(
         # the first round takes most of the time (packing and checking about 40% each, at 2M
         # triangles), a repair round as long again, but it is rarely needed: the bar never goes back
         low, high = (0.2, 0.9) if not attempt else (1 - 0.1 / attempt, 1 - 0.1 / (attempt + 1))
-        progress(low, f"packing, {again.sum() + lone.sum()} faces charted again" if again.any() else "packing")
+        changed = again | lone
+        progress(low, f"packing, {changed.sum()} faces charted again" if changed.any() else "packing")
         chart_uvs, triangles = _chart_points(*_alone(keys, uvs, points, vertices, polygons, normals, lone))
         triangle_uvs = pack(chart_uvs, triangles, _charts_of(chart_uvs, triangles), resolution, spacing)
         progress(low + 0.5 * (high - low), "checking")
