@@ -229,6 +229,24 @@ def test_an_interrupt_waits_for_an_uncut_block(tmp_path):
     assert marker.read_text() == "whole"
 
 
+def test_a_refusal_takes_back_the_folders_made_for_it_alone(tmp_path):
+    from porous_weathering.common import atomic
+
+    (tmp_path / "empty").mkdir()  # the user's own, empty: kept
+    (tmp_path / "full").mkdir()
+    for parent in ("empty", "full"):
+        with pytest.raises(ValueError), atomic.folders_undone_on_error(tmp_path / parent / "new" / "maps"):
+            os.makedirs(tmp_path / parent / "new" / "maps")
+            if parent == "full":
+                (tmp_path / parent / "new" / "note.txt").write_text("made meanwhile")  # not empty: kept
+            raise ValueError("refused")
+    assert sorted(os.listdir(tmp_path)) == ["empty", "full"] and os.listdir(tmp_path / "empty") == []
+    assert sorted(os.listdir(tmp_path / "full" / "new")) == ["note.txt"]
+    with atomic.folders_undone_on_error(tmp_path / "kept"):
+        os.makedirs(tmp_path / "kept")
+    assert (tmp_path / "kept").is_dir()  # no error: kept
+
+
 def test_signals_are_given_back_after_the_run():
     before = [signal.getsignal(number) for number in interrupts.SIGNALS]
     with interrupts.exit_on_signals(str):

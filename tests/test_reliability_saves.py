@@ -212,6 +212,20 @@ def test_the_command_skips_an_unnamed_faceless_mesh_and_refuses_a_named_one(fres
     assert not written(named)
 
 
+def test_the_command_refuses_a_point_cloud_in_one_line(fresh_scene, tmp_path):
+    """A raw scan comes as a point cloud (vertices, no faces): one line says it must be meshed."""
+    mesh = bpy.data.meshes.new("Scan")
+    mesh.from_pydata([(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0)], [], [])
+    fresh_scene.collection.objects.link(bpy.data.objects.new("Scan", mesh))
+    blend = tmp_path / "cloud.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    refused = run_cli("bake", blend, "--out", tmp_path / "maps")
+    assert refused.returncode == 2
+    [line] = error_lines(refused)
+    assert line.endswith("no mesh object with faces: 'Scan' has none (a scan's point cloud must be meshed first)")
+    assert not (tmp_path / "maps").exists()
+
+
 @pytest.mark.parametrize(
     "words, message",
     [

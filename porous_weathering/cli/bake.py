@@ -97,9 +97,11 @@ def run(args):
         if bake_options.target == "attribute" and not (args.save or args.dry_run):
             raise ValueError("--target attribute stores the maps in the .blend: add --save")
         batch.check_paths(args.files)
-        if bake_options.target == "image" and not args.dry_run:
-            check_writable_folder(bake_options.out_dir)
-        _check_files(args, bake_options)
+        written_to = bake_options.out_dir if bake_options.target == "image" and not args.dry_run else None
+        with atomic.folders_undone_on_error(written_to):  # a refusal leaves no folder made for it
+            if written_to is not None:
+                check_writable_folder(written_to)
+            _check_files(args, bake_options)
     except ForeignInput as error:
         print(f"error: {error}", file=sys.stderr)
         return EXIT_REFUSED

@@ -65,7 +65,11 @@ def without_faceless(objects: list["bpy.types.Object"]) -> list["bpy.types.Objec
         else:
             kept.append(obj)
     if not kept:
-        raise ValueError(f"no mesh object with faces: {', '.join(repr(obj.name) for obj in objects)} have none")
+        names = ", ".join(repr(obj.name) for obj in objects)
+        raise ValueError(
+            f"no mesh object with faces: {names} {'has' if len(objects) == 1 else 'have'} none "
+            "(a scan's point cloud must be meshed first)"
+        )
     return kept
 
 

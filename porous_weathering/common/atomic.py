@@ -52,6 +52,25 @@ def temporary_file(folder: str, suffix: str) -> Iterator[str]:
                     os.remove(path)
 
 
+@contextlib.contextmanager
+def folders_undone_on_error(folder: str | None) -> Iterator[None]:
+    """For a block that may create ``folder`` (None: none) and its missing parents: those it
+    created are removed again, if still empty, when the block raises, so that a refusal leaves
+    no folder behind."""
+    missing = []
+    path = None if folder is None else os.path.abspath(folder)
+    while path is not None and not os.path.exists(path) and path not in missing:
+        missing.append(path)  # deepest first
+        path = os.path.dirname(path)
+    try:
+        yield
+    except BaseException:
+        for made in missing:
+            with contextlib.suppress(OSError):
+                os.rmdir(made)
+        raise
+
+
 def move_into_place(temporary: str, path: str) -> None:
     """Rename the ``temporary_file`` over ``path`` (atomic), uncut by an interrupt."""
     with _uncut:
