@@ -18,13 +18,14 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import panel_calls, position_texels, rivulets_of, run_cli, stone_texels
+from helpers import SCAN, panel_calls, position_texels, rivulets_of, run_cli, stone_texels
 from porous_weathering.contracts import GROUP_NODE
 from porous_weathering.core import model, stones
 from porous_weathering.maps import lightmap
-from porous_weathering.publish import export, mapping
+from porous_weathering.publish import export, mapping, textures
 from porous_weathering.samples.studio import add_sun
 from porous_weathering.shading import material, nodes, weathering
+from scripts import load_script
 
 SIZE = 32  #: texels: the wall's UV map is the whole square, so every texel is one point of the model
 STONE = dict(base_color=(0.6, 0.55, 0.45), ks=0.1, roughness=0.4, porosity=0.3, pore_depth_ratio=0.5)
@@ -636,6 +637,22 @@ def test_a_mesh_without_uvs_gets_a_lightmap(tmp_path):
     with open(result.paradata, encoding="utf-8") as stream:
         assert json.load(stream)["objects"][0]["uv_map"] == {"name": lightmap.LIGHTMAP_UV, "made_by_export": True}
     assert not wall.data.uv_layers
+
+
+def test_a_lightmap_made_for_a_smaller_bake_keeps_its_maps_and_the_textures_get_their_own():
+    """The corpus's draped figure unwrapped for 256² maps: its faces, apart at 256², lie on one
+    2048² texel centre (its sub-texel folds): the export's copy bakes its textures on a lightmap
+    of its own, and its maps are still read through the one they were baked on (before, the
+    export was refused: remove the lightmap, which its maps need)."""
+    vertices, faces = load_script("sample_blends/corpus_generator.py").shape_mesh("draped_figure", "mm")
+    mesh = SCAN.add_to_scene("Draped", vertices, faces).data
+    lightmap.add_uv_map(mesh, lightmap.LIGHTMAP_UV, lightmap.lightmap_uvs(mesh, 256))
+    baked_on = lightmap.corner_uvs(mesh, lightmap.LIGHTMAP_UV).copy()
+    assert lightmap.find_bakeable_uv_map(mesh, 256) == lightmap.LIGHTMAP_UV
+    assert lightmap.find_bakeable_uv_map(mesh, 2048) is None
+    assert textures.bake_uv_map(mesh, 2048) == (textures.EXPORT_UV, True)
+    assert lightmap.find_bakeable_uv_map(mesh, 2048) == textures.EXPORT_UV
+    assert np.array_equal(lightmap.corner_uvs(mesh, lightmap.LIGHTMAP_UV), baked_on)
 
 
 def test_a_broken_lightmap_is_refused_in_one_line(tmp_path):

@@ -52,19 +52,31 @@ def water_levels() -> tuple[Input, ...]:
     )
 
 
+#: The UV map the export makes on its copy of an object for its textures where the object's own
+#: lightmap, which its baked maps are read through, was made for a smaller bake.
+EXPORT_UV = "PW Export"
+
+
 def bake_uv_map(mesh: "bpy.types.Mesh", size: int) -> tuple[str, bool]:
-    """(the UV map of ``mesh`` to bake on, whether it was made now): one that can hold a bake
-    at ``size``², else a new lightmap (as the map bake makes it)."""
+    """(the UV map of ``mesh``, the export's copy, to bake on, whether it was made now): one that
+    can hold a bake at ``size``², else a new lightmap (as the map bake makes it). Where the
+    object's own lightmap was made for a smaller bake (its faces, fine at that size, come too
+    close at this one) its baked maps are still read through it, and the textures get a lightmap
+    of their own, EXPORT_UV; one that holds a bake at no size (distorted since) is refused."""
     existing = lightmap.find_bakeable_uv_map(mesh, size)
     if existing is not None:
         return existing, False
-    if lightmap.LIGHTMAP_UV in mesh.uv_layers:
-        raise ValueError(
-            f"its UV map '{lightmap.LIGHTMAP_UV}' cannot hold textures of {size}²; remove or rename it to let the "
-            "export make a new one"
-        )
-    lightmap.add_uv_map(mesh, lightmap.LIGHTMAP_UV, lightmap.lightmap_uvs(mesh, size))
-    return lightmap.LIGHTMAP_UV, True
+    name = lightmap.LIGHTMAP_UV
+    if name in mesh.uv_layers:
+        sizes = [2**power for power in range(3, size.bit_length() - 1)]  # 8² up to half the size
+        if not any(lightmap.find_bakeable_uv_map(mesh, smaller) == name for smaller in sizes):
+            raise ValueError(
+                f"its UV map '{name}' holds a bake at no size (distorted since its maps were baked?): bake its "
+                "maps again, or remove it to let the export make a new one"
+            )
+        name = EXPORT_UV
+    lightmap.add_uv_map(mesh, name, lightmap.lightmap_uvs(mesh, size))
+    return name, True
 
 
 # --- the bake materials ---------------------------------------------------------------------
