@@ -59,7 +59,7 @@ def folders_undone_on_error(folder: str | None) -> Iterator[None]:
     no folder behind."""
     missing = []
     path = None if folder is None else os.path.abspath(folder)
-    while path is not None and not os.path.exists(path) and path not in missing:
+    while path is not None and not os.path.exists(path):  # the root exists: the walk ends
         missing.append(path)  # deepest first
         path = os.path.dirname(path)
     try:

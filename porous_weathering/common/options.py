@@ -66,10 +66,20 @@ def is_several(opt: Option, default: Any) -> bool:
     return bool(opt.choices) and isinstance(default, tuple)
 
 
+def is_some_of(chosen: tuple, choices: tuple) -> bool:
+    """Whether ``chosen`` is one or more of ``choices``, each once."""
+    return bool(chosen) and len(set(chosen)) == len(chosen) and not set(chosen) - set(choices)
+
+
+def comma_words(text: str) -> tuple[str, ...]:
+    """The words of a comma-separated text, as the command line gives a list ("a, b,c")."""
+    return tuple(word.strip() for word in text.split(",") if word.strip())
+
+
 def check_value(name: str, opt: Option, value: Any) -> None:
     """ValueError naming the option when ``value`` is outside its declared range."""
     if is_several(opt, value):
-        if not value or len(set(value)) != len(value) or set(value) - set(opt.choices):
+        if not is_some_of(value, opt.choices):
             raise ValueError(f"{name} must be some of {', '.join(map(str, opt.choices))}, each once, not {value!r}")
         return
     if opt.choices and value not in opt.choices:
@@ -97,8 +107,8 @@ def several_of(choices: tuple) -> Callable[[str], tuple]:
     """The command line's parser of a comma-separated list of some of ``choices``, each once."""
 
     def parse(text: str) -> tuple:
-        chosen = tuple(word.strip() for word in text.split(",") if word.strip())
-        if not chosen or len(set(chosen)) != len(chosen) or set(chosen) - set(choices):
+        chosen = comma_words(text)
+        if not is_some_of(chosen, choices):
             raise argparse.ArgumentTypeError(f"expected some of {', '.join(choices)}, comma-separated, got {text!r}")
         return chosen
 
@@ -215,11 +225,10 @@ def operator_properties(props: Any, items: list[Entry]) -> dict:
             continue
         default = next((value for value in (opt.ui_default, entry.default, opt.auto) if value is not None), None)
         common = dict(name=opt.label, description=opt.tooltip + (f" ({opt.unit})" if opt.unit else ""))
+        items_ = [(str(choice), str(choice).title(), f"{opt.label}: {choice}") for choice in opt.choices]
         if is_several(opt, default):
-            items_ = [(str(choice), str(choice).title(), f"{opt.label}: {choice}") for choice in opt.choices]
             prop = props.EnumProperty(items=items_, options={"ENUM_FLAG"}, default=set(default), **common)
         elif opt.choices:
-            items_ = [(str(choice), str(choice).title(), f"{opt.label}: {choice}") for choice in opt.choices]
             prop = props.EnumProperty(items=items_, default=str(default), **common)
         elif isinstance(default, bool):
             prop = props.BoolProperty(default=default, **common)

@@ -44,7 +44,7 @@ from ..common.imageio import (  # noqa: F401  (public: docs/api.md)
     UV_MAP_KEY,
     image_path,
 )
-from ..common.options import Entry, check, check_value, declared, entries, folder_path, option, to_argv
+from ..common.options import Entry, check, check_value, comma_words, declared, entries, folder_path, option, to_argv
 from ..contracts import map_image_property
 from . import edges, lightmap, rain, scan_checks
 from . import registry as maps
@@ -82,7 +82,7 @@ class BakeCancelled(Exception):
 def _map_list(text):
     import argparse
 
-    chosen = tuple(name.strip() for name in text.split(",") if name.strip())
+    chosen = comma_words(text)
     if not chosen or set(chosen) - set(maps.names()):
         raise argparse.ArgumentTypeError(f"expected a comma-separated list of {', '.join(maps.names())}, got {text!r}")
     return chosen

@@ -224,6 +224,13 @@ def _charts_of(uvs, triangles):
     return np.unique(connected_components(len(uvs), first, second), return_inverse=True)[1]
 
 
+def _folded(keys, uvs, texels_per_unit):
+    """The triangles (T,) bool of the charts of ``keys`` and ``uvs`` (``_chart_points``) on which a
+    sample falls twice at ``texels_per_unit`` (``_folds``)."""
+    chart_uvs, triangles = _chart_points(keys, uvs)
+    return _folds(chart_uvs, triangles, _charts_of(chart_uvs, triangles), texels_per_unit)
+
+
 def _folds(uvs, triangles, chart, texels_per_unit):
     """The triangles (T,) bool on which a texel centre falls twice when every chart is
     sampled apart, at ``texels_per_unit``: where a chart folds over itself."""
@@ -312,21 +319,19 @@ def make_lightmap(
     normals = polygon_normals(points, vertices, polygons)
     charts = xatlas_charts if len(vertices) <= XATLAS_CHARTS else cube_charts
     keys, uvs = charts(points, vertices, polygons, normals)
-    chart_uvs, triangles = _chart_points(keys, uvs)
     progress(0.1, "folds")
     # where the projection folds, at a little finer than the bake's texels will be (about 60% used),
     # and where the faces are smaller than those texels, at FOLD_SAMPLES_PER_FACE samples a face
     samples = min(max(0.6 * resolution**2 * FOLD_SAMPLING**2, FOLD_SAMPLES_PER_FACE * len(vertices)), FOLD_SAMPLES_MOST)
-    texels_per_unit = np.sqrt(samples / max(triangle_areas(chart_uvs[triangles]).sum(), 1e-300))
-    folded = _folds(chart_uvs, triangles, _charts_of(chart_uvs, triangles), texels_per_unit)
+    texels_per_unit = np.sqrt(samples / max(triangle_areas(uvs).sum(), 1e-300))
+    folded = _folded(keys, uvs, texels_per_unit)
     again = _grown(polygons[folded], vertices, polygons, len(normals), CULPRIT_RINGS)
     keys, uvs = _rechart(keys, uvs, points, vertices, polygons, normals, again)
     # xatlas' own charts can fold too (a scan's busy relief): there each face goes alone
     recharted = again[polygons]
-    chart_uvs, triangles = _chart_points(keys[recharted], uvs[recharted])
     lone = np.zeros(len(normals), dtype=bool)
-    if len(triangles):
-        folded = _folds(chart_uvs, triangles, _charts_of(chart_uvs, triangles), texels_per_unit)
+    if recharted.any():
+        folded = _folded(keys[recharted], uvs[recharted], texels_per_unit)
         lone = _grown(polygons[recharted][folded], vertices, polygons, len(normals), LONE_RINGS)
     spacing = padding // 2 + 1  # xatlas keeps about twice this between charts, less once shrunk to fit
     for attempt in range(REPAIR_ROUNDS + 1):

@@ -68,8 +68,10 @@ def bake_uv_map(mesh: "bpy.types.Mesh", size: int) -> tuple[str, bool]:
         return existing, False
     name = lightmap.LIGHTMAP_UV
     if name in mesh.uv_layers:
+        geometry = lightmap.Geometry.of(mesh)
+        uvs, areas = lightmap.corner_uvs(mesh, name)[geometry.corners], geometry.areas()
         sizes = [2**power for power in range(3, size.bit_length() - 1)]  # 8² up to half the size
-        if not any(lightmap.find_bakeable_uv_map(mesh, smaller) == name for smaller in sizes):
+        if not any(lightmap.check_uvs(uvs, areas, smaller).ok for smaller in sizes):
             raise ValueError(
                 f"its UV map '{name}' holds a bake at no size (distorted since its maps were baked?): bake its "
                 "maps again, or remove it to let the export make a new one"

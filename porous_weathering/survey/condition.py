@@ -20,7 +20,7 @@ import bpy
 
 import numpy as np
 
-from ..common.options import check, entries, option, to_argv
+from ..common.options import check, comma_words, entries, option, to_argv
 from ..common.progress import run_steps
 from ..contracts import safe_file_name
 from ..core import aging, condition, environments, solar
@@ -161,7 +161,7 @@ class SurveyOptions:
         if self.name == "":
             object.__setattr__(self, "name", None)
         if isinstance(self.views, str):  # a comma-separated text, as the years may be
-            object.__setattr__(self, "views", tuple(view.strip() for view in self.views.split(",") if view.strip()))
+            object.__setattr__(self, "views", comma_words(self.views))
         elif isinstance(self.views, list):
             object.__setattr__(self, "views", tuple(self.views))
         if self.name is not None and (not isinstance(self.name, str) or "/" in self.name or self.name.startswith(".")):
