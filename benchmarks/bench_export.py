@@ -394,8 +394,7 @@ def plain_bake(sample, size):
                 passes = ["DIFFUSE", "GLOSSY"] + (["GLOSSY"] if state.wet else [])
                 for kind in passes:
                     started = time.perf_counter()
-                    with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
-                        bpy.ops.object.bake(type=kind, pass_filter={"COLOR"}, target="IMAGE_TEXTURES", margin=4)
+                    scratch_scene.bake_alone(copy, type=kind, pass_filter={"COLOR"}, target="IMAGE_TEXTURES", margin=4)
                     seconds += time.perf_counter() - started
             tree.nodes.remove(target)
             bpy.data.images.remove(image)

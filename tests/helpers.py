@@ -499,10 +499,9 @@ def cycles_corner_bake(obj, sky, occluders=()):
     with sky_bake._bake_scene(obj, occluders, sky, sky_bake.unit_placing(obj)) as copy:
         attribute = copy.data.color_attributes.new("PW Corner Reference", "FLOAT_COLOR", "CORNER")
         copy.data.color_attributes.active_color = attribute
-        with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
-            bpy.ops.object.bake(
-                type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS", margin=0, use_clear=True
-            )
+        scratch_scene.bake_alone(
+            copy, type="DIFFUSE", pass_filter={"DIRECT"}, target="VERTEX_COLORS", margin=0, use_clear=True
+        )
         colours = np.empty(len(attribute.data) * 4, dtype=np.float32)
         attribute.data.foreach_get("color", colours)
     return colours[0::4].copy()

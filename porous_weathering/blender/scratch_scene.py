@@ -18,6 +18,7 @@ import bpy
 import numpy as np
 from mathutils import Matrix, Vector
 
+from ..common import held_output
 from ..core.shader_math import Graph
 from . import compat, mesh_arrays
 
@@ -199,9 +200,21 @@ def check_corners_kept(obj: bpy.types.Object, seen: Rendered) -> None:
         )
 
 
-def only_selected(obj):
-    """Make ``obj`` the selected, active object of its (temporary) scene; returns the context
-    override under which ``bpy.ops.object.bake`` works on it alone."""
+#: Blender's report after each bake into an image, which a command line prints in the middle of
+#: its progress bar: the bakes here read their images back themselves.
+BAKE_NOTE = b"Info: Baking map saved to internal image"
+
+
+def bake_alone(obj: bpy.types.Object, **settings) -> None:
+    """``bpy.ops.object.bake(**settings)`` on ``obj`` alone, made the selected, active object of
+    its (temporary) scene; Blender's output less its note that the image was saved internally."""
+    with bpy.context.temp_override(**_only_selected(obj)), held_output.held((BAKE_NOTE,)):
+        bpy.ops.object.bake(**settings)
+
+
+def _only_selected(obj):
+    """Make ``obj`` the selected, active object of its scene; the context override in which it
+    is the only selected one."""
     scene = obj.users_scene[0]
     view_layer = scene.view_layers[0]
     obj.select_set(True, view_layer=view_layer)
@@ -318,8 +331,7 @@ def emit_bake(
     )
     if uv_map is not None:
         settings["uv_layer"] = uv_map
-    with bpy.context.temp_override(**only_selected(obj)):
-        bpy.ops.object.bake(**settings)
+    bake_alone(obj, **settings)
     pixels = np.empty(width * height * 4, dtype=np.float32)
     image.pixels.foreach_get(pixels)
     return pixels.reshape(height, width, 4)[::-1]  # Blender stores the bottom row first

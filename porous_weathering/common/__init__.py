@@ -1,7 +1,7 @@
 """Plumbing the layers share, without bpy: options declared once for every front end
 (``options``), files written whole or not at all (``atomic``), a command line that stops at
-once on SIGINT/SIGTERM (``interrupts``), map images on disk through OpenImageIO (``imageio``) and the
-text progress bar (``progress``).
+once on SIGINT/SIGTERM (``interrupts``), map images on disk through OpenImageIO (``imageio``), the
+text progress bar (``progress``) and the process's own output held for a block (``held_output``).
 
 May import: the standard library, numpy, OpenImageIO and ``core``; never bpy.
 """

@@ -246,8 +246,7 @@ def _bake_probes(copy, points, normals, step):
         texture = copy.active_material.node_tree.nodes.new("ShaderNodeTexImage")
         texture.image = image
         copy.active_material.node_tree.nodes.active = texture
-        with bpy.context.temp_override(**scratch_scene.only_selected(probe)):
-            bpy.ops.object.bake(type="DIFFUSE", pass_filter={"DIRECT"}, margin=0, use_clear=True)
+        scratch_scene.bake_alone(probe, type="DIFFUSE", pass_filter={"DIRECT"}, margin=0, use_clear=True)
         pixels = np.empty(side * side * 4, dtype=np.float32)
         image.pixels.foreach_get(pixels)
         return pixels[0::4][:count].copy()  # texel (column i % side, row i // side from the bottom)
@@ -260,16 +259,16 @@ def _bake(copy, margin):
     inside_out = mesh_arrays.is_inside_out(copy.data)
     if inside_out:
         copy.data.flip_normals()
-    with bpy.context.temp_override(**scratch_scene.only_selected(copy)):
-        bpy.ops.object.bake(
-            type="DIFFUSE",
-            pass_filter={"DIRECT"},
-            target="IMAGE_TEXTURES",
-            margin=margin,
-            margin_type="EXTEND",
-            use_clear=True,
-            use_selected_to_active=False,
-        )
+    scratch_scene.bake_alone(
+        copy,
+        type="DIFFUSE",
+        pass_filter={"DIRECT"},
+        target="IMAGE_TEXTURES",
+        margin=margin,
+        margin_type="EXTEND",
+        use_clear=True,
+        use_selected_to_active=False,
+    )
     if inside_out:
         copy.data.flip_normals()
 

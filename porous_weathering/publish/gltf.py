@@ -2,20 +2,19 @@
 variants declared to Blender's glTF add-on (``variants_declared``), the user's names lent to the
 copies (``borrowed_names``), and the add-on's exporter itself (``export_gltf``)."""
 
-import contextlib
 import os
-import shutil
-import sys
-import tempfile
 from contextlib import contextmanager
 
 import bpy
 
 import numpy as np
 
-from ..common import atomic
+from ..common import atomic, held_output
 
 GLTF_ADDON = "io_scene_gltf2"
+#: The add-on's lines on the PyPI bpy wheel, which lacks the Draco and meshoptimizer libraries
+#: a Blender install has: "ERROR", though the export asks for neither compression.
+WHEEL_NOTES = (b"ERROR Draco is not available", b"ERROR MeshOptimizer is not available")
 #: WebP quality (Blender's exporter re-encodes every texture; 100 would be lossless and large).
 WEBP_QUALITY = 90
 
@@ -130,7 +129,9 @@ def export_gltf(scene: "bpy.types.Scene", path: str, image_format: str) -> None:
     if image_format == "webp":
         settings["export_image_quality"] = WEBP_QUALITY
     # uncut: an interrupt waits for the exporter (seconds), so that the output is given back first
-    with atomic.uncut(), _output_held() as held:
+    # its output held: a failure is one line, not the add-on's traceback (Blender prints a
+    # failed operator's traceback to stdout itself)
+    with atomic.uncut(), held_output.held(WHEEL_NOTES, shown_on_error=False):
         try:
             with bpy.context.temp_override(scene=scene, view_layer=scene.view_layers[0]):
                 result = bpy.ops.export_scene.gltf(**settings)
@@ -139,7 +140,6 @@ def export_gltf(scene: "bpy.types.Scene", path: str, image_format: str) -> None:
         finally:
             if window is not None:  # the exporter leaves the window showing the scene it exported
                 window.scene = shown
-        held.keep()
     if result != {"FINISHED"} or not os.path.getsize(path):
         raise RuntimeError(f"Blender's glTF exporter did not write {path}")
 
@@ -151,40 +151,3 @@ def _reason(error):
     last = lines[-1] if lines else "no reason given"
     kind, colon, text = last.partition(": ")
     return text if colon and kind.replace(".", "").isidentifier() and kind[:1].isupper() else last
-
-
-class _Held:
-    def __init__(self):
-        self.kept = False
-
-    def keep(self):
-        self.kept = True
-
-
-@contextmanager
-def _output_held():
-    """The process's stdout and stderr (file descriptors 1 and 2: Blender prints a failed
-    operator's traceback to stdout itself) held in temporary files for the block, and written out
-    after it unless the block failed without ``keep()``: a failure is then one line, not the
-    add-on's traceback."""
-    held = _Held()
-    with contextlib.ExitStack() as stack:
-        for stream in (sys.stdout, sys.stderr):
-            with contextlib.suppress(Exception):
-                stream.flush()
-        kept = {fd: (os.dup(fd), stack.enter_context(tempfile.TemporaryFile())) for fd in (1, 2)}
-        for fd, (_, store) in kept.items():
-            os.dup2(store.fileno(), fd)
-        try:
-            yield held
-        finally:
-            for stream in (sys.stdout, sys.stderr):
-                with contextlib.suppress(Exception):
-                    stream.flush()
-            for fd, (saved, store) in kept.items():
-                os.dup2(saved, fd)
-                os.close(saved)
-                if held.kept:
-                    store.seek(0)
-                    with open(fd, "wb", closefd=False) as output:
-                        shutil.copyfileobj(store, output)
