@@ -457,6 +457,23 @@ def test_photo_map_is_denoised_normalised_luminance(tmp_path):
         efflorescence_map.photo_map(tmp_path / "gone.png")
 
 
+def test_photo_map_is_upright_as_a_viewer_shows_the_photograph(tmp_path):
+    """A camera held upright stores its sensor's rows turned and says so in the Exif
+    orientation (6: turn 90° clockwise to view): the map is the photograph as seen."""
+    import OpenImageIO as oiio
+
+    stored = np.zeros((40, 60, 3), dtype=np.float32)
+    stored[:, :10] = 1.0  # the stored image's left edge: the viewed image's top
+    spec = oiio.ImageSpec(60, 40, 3, oiio.UINT8)
+    spec.attribute("Orientation", 6)
+    path = str(tmp_path / "upright.jpg")
+    output = oiio.ImageOutput.create(path)
+    assert output.open(path, spec) and output.write_image(stored) and output.close()
+    height = efflorescence_map.photo_map(path, denoise_width=1)
+    assert height.shape == (60, 40)
+    assert height[:8].min() > 0.9 and height[12:].max() < 0.1
+
+
 def test_map_is_saved_beside_the_blend(tmp_path):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     with pytest.raises(ValueError, match="save the .blend"):

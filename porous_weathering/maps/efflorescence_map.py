@@ -70,10 +70,11 @@ def smooth_noise(size: int, seed: int, cells: int = 12) -> np.ndarray:
 
 
 def photo_map(photo_path: str | os.PathLike, *, denoise_width: int = 5, size: int | None = None) -> np.ndarray:
-    """A location map from a photograph of efflorescence: its luminance (Rec. 709 weights of
-    the stored values), median-filtered over ``denoise_width`` pixels to remove grain and
-    small specks, resized to ``size``² if given, and normalised to [0, 1] between its 1st and
-    99th percentiles.  Raises OSError naming the file if it cannot be read.
+    """A location map from a photograph of efflorescence, turned upright as a viewer shows it
+    (a camera's Exif orientation), its luminance (Rec. 709 weights of the stored values),
+    median-filtered over ``denoise_width`` pixels to remove grain and small specks, resized to
+    ``size``² if given, and normalised to [0, 1] between its 1st and 99th percentiles.  Raises
+    OSError naming the file if it cannot be read.
     """
     import OpenImageIO as oiio
 
@@ -83,6 +84,8 @@ def photo_map(photo_path: str | os.PathLike, *, denoise_width: int = 5, size: in
     pixels = None if photo.has_error else photo.get_pixels(oiio.FLOAT)
     if photo.has_error or pixels is None:
         raise OSError(f"cannot read photograph {photo_path}: {photo.geterror() or oiio.geterror()}")
+    if photo.orientation != 1:  # a camera stores its sensor's rows, and the Exif tag how to turn them
+        pixels = oiio.ImageBufAlgo.reorient(photo).get_pixels(oiio.FLOAT)
     channels = pixels.shape[-1]
     colour = pixels[..., :3] if channels >= 3 else pixels[..., :1]
     luminance = (colour @ np.asarray(LUMA, dtype=np.float32))[..., None] if channels >= 3 else colour
