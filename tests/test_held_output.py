@@ -2,6 +2,7 @@
 after it less the dropped lines, or not at all for a failed block that asks so."""
 
 import os
+from unittest import mock
 
 import pytest
 
@@ -24,3 +25,19 @@ def test_a_failed_block_shows_its_output_only_if_asked(capfd, shown):
         os.write(1, b"traceback\n")
         raise RuntimeError("failed")
     assert capfd.readouterr().out == ("traceback\n" if shown else "")
+
+
+def test_a_descriptor_that_cannot_be_held_is_left_as_it_is(capfd):
+    """A program started without a console may have no descriptor 2 to duplicate: the block runs."""
+    duplicate = os.dup
+
+    def no_stderr(fd):
+        if fd == 2:
+            raise OSError(9, "Bad file descriptor")
+        return duplicate(fd)
+
+    # patched for the block alone: pytest's own capture duplicates descriptors too
+    with mock.patch.object(os, "dup", no_stderr), held_output.held((b"Info",)):
+        os.write(1, b"Info: dropped\nkept\n")
+        os.write(2, b"as it comes\n")
+    assert capfd.readouterr() == ("kept\n", "as it comes\n")

@@ -24,8 +24,13 @@ def held(dropped: Sequence[bytes] = (), *, shown_on_error: bool = True) -> Itera
     block raised."""
     _flush()
     with contextlib.ExitStack() as stack:
-        kept = {fd: (os.dup(fd), stack.enter_context(tempfile.TemporaryFile())) for fd in (1, 2)}
-        for fd, (_, store) in kept.items():
+        kept = {}
+        for fd in (1, 2):
+            store = stack.enter_context(tempfile.TemporaryFile())
+            try:
+                kept[fd] = (os.dup(fd), store)
+            except OSError:  # no such descriptor (a program started without a console): nothing to hold
+                continue
             os.dup2(store.fileno(), fd)
         failed = True
         try:
