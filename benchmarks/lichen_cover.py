@@ -6,7 +6,9 @@ neighbours.  This script draws the same seeds in numpy (independently of Blender
 share of points within r of their nearest seed, and compares it with the Boolean model of Poisson
 seeds of the same density, 1 - exp(-lambda pi r^2): every thallus of radius r seen from the nearest
 seed alone, and the mode's own ``lichen_cover`` (each thallus its own size, of mean square r^2, seen
-from the two nearest seeds).  Plain numpy, no bpy:  python benchmarks/lichen_cover.py
+from the two nearest seeds), and on the limestone: each point's reach by the stone's uptake s, drawn
+as the limestone's field gives it (z_p of standard deviation 0.20, s = clamp(G z_p, -1, 1), §8.7).
+Plain numpy, no bpy:  python benchmarks/lichen_cover.py
 """
 
 import pathlib
@@ -17,7 +19,7 @@ import numpy as np
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1]))
 
 from porous_weathering.core.backends import NumpyOps
-from porous_weathering.core.modes import biological
+from porous_weathering.core.modes import base, biological
 
 
 def voronoi_seeds(cells: int = 400, points: int = 200_000, seed: int = 1):
@@ -38,9 +40,20 @@ def voronoi_seeds(cells: int = 400, points: int = 200_000, seed: int = 1):
     return nearest[0], *own[0], nearest[1], *own[1]
 
 
-def cover(seeds, u, suitability=1.0):
+#: The limestone's porosity field's standard deviation on a bed face (docs/model.md §8.7).
+LIMESTONE_FIELD_DEVIATION = 0.20
+
+
+def limestone_spread(points, seed=2):
+    """The stone's uptake s at ``points`` points of the limestone at variation 1 (docs/model.md §8.7)."""
+    field = np.random.default_rng(seed).normal(0.0, LIMESTONE_FIELD_DEVIATION, points)
+    return base.uptake_spread(NumpyOps(colour=False), field, 1.0)
+
+
+def cover(seeds, u, suitability=1.0, spread=None):
     """The mean lichen cover of the mode at lambda pi r^2 = ``u`` (lambda = 1 per m², level 1, a
-    surface as damp and lit as lichens need, scaled to ``suitability``)."""
+    surface as damp and lit as lichens need, scaled to ``suitability``), each point's thalli reaching
+    by its uptake ``spread`` if given (a stone)."""
     density = 1.0
     radius = np.sqrt(u / (np.pi * density))
     years = biological.LICHEN_LAG_YEARS + radius / 0.0005  # growth 1 mm a year across
@@ -55,18 +68,24 @@ def cover(seeds, u, suitability=1.0):
         runoff=0.0,
         damp_map=0.0,
     )
-    return float(np.mean(biological.lichen_cover(NumpyOps(colour=False), state, seeds)))
+    xp = NumpyOps(colour=False)
+    return float(np.mean(biological.in_either(xp, *biological.thalli_covers(xp, state, seeds, None, spread))))
 
 
 def main():
     seeds = voronoi_seeds()
     distance = seeds[0]
-    print("u = lambda pi r^2 | Boolean | one seed per cell, r as is, F1 | the mode | L = 0.5: Boolean, mode")
+    spread = limestone_spread(len(distance))
+    print(
+        "u = lambda pi r^2 | Boolean | one seed per cell, r as is, F1 | the mode | the mode on the limestone"
+        " | L = 0.5: Boolean, mode"
+    )
     for u in (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 3.0, 4.0):
         plain = float(np.mean(distance < np.sqrt(u / np.pi)))
         boolean, half = 1.0 - np.exp(-u), 1.0 - np.exp(-0.5 * u)
         print(
-            f"{u:5.2f} | {boolean:.3f} | {plain:.3f} | {cover(seeds, u):.3f} | {half:.3f}, {cover(seeds, u, 0.5):.3f}"
+            f"{u:5.2f} | {boolean:.3f} | {plain:.3f} | {cover(seeds, u):.3f} | {cover(seeds, u, spread=spread):.3f}"
+            f" | {half:.3f}, {cover(seeds, u, 0.5):.3f}"
         )
 
 

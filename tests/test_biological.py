@@ -237,6 +237,32 @@ def test_the_lichens_establish_at_the_stones_share():
     assert np.ptp(point.notes["biomass"]) == 0.0
 
 
+def test_a_thallus_reaches_further_over_receptive_stone():
+    """On a stone a thallus reaches r sqrt(1 + REACH_SPREAD s) at a point of uptake s (docs/model.md
+    §9.3): further where receptive (+1), less far where resistant (-1), r at s = 0, so that its
+    margin follows the stone; the area it reaches over a symmetric field is that of r."""
+    state = dict(biological_years=21.5, lichen_growth=10.0, lichen_density=1.0, rain_map=1.0, runoff_map=0.0)
+    full = model.weathering_state("biological", dict(state, sun_map=0.5))
+    radius = float(biological.lichen_radius(XP, full))
+    reach = radius / math.sqrt(1.0 + biological.CROWDING * math.pi * radius**2) * biological.size_factor(0.5)
+    z_p = np.array([0.2, 0.0, -0.2])  # uptake +1, 0 and -1 at the gain G = 8
+
+    def covered(distance):
+        """Whether a point at ``distance`` (metres = cells here) of an established seed is covered."""
+        seed = (np.full((1, 3), distance), np.zeros((1, 3)), np.full((1, 3), 0.5))
+        point = model.weathered_point(
+            *STONE, None, 1.0, ("biological",), field=z_p, variation=1.0,
+            fields={biological.LICHEN_SEEDS: seed + biological.NO_SEEDS[3:]}, sun_map=0.5, **state,
+        )  # fmt: skip
+        return point.notes["lichen"][0] > 0.5
+
+    factors = np.sqrt(1.0 + biological.REACH_SPREAD * np.array([1.0, 0.0, -1.0]))  # 1.14, 1, 0.84
+    for factor, expected in zip(factors, ([True, False, False], [True, True, False], [True, True, True])):
+        assert list(covered(reach * factor - 1e-3)) == expected, factor
+    assert list(covered(reach * factors[0] + 1e-3)) == [False] * 3
+    assert np.mean(factors[[0, 2]] ** 2) == pytest.approx(1.0)  # the area of r over s = +-1
+
+
 def test_receptive_stone_holds_more_film():
     """The film's biomass is r times the plain stone's once grown (docs/model.md §9.3: receptive
     stone holds more, as it holds more water), and never above 1; r = 1 is the plain stone's."""

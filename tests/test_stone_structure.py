@@ -485,6 +485,11 @@ def test_life_follows_the_stone(fresh_scene):
     suitability = biological.lichen_suitability(SCALAR, full, light)  # 0.72 here
     established = base.local_share(SCALAR, suitability, spread)
     assert established.min() < suitability - 0.2 < suitability + 0.2 < established.max()
+    # the thalli's margins follow the stone (their reach, §9.3): pixels in or out by it alone
+    near = tuple(seed[covered] for seed in seeds)
+    reaching = biological.in_either(SCALAR, *biological.thalli_covers(SCALAR, full, near, established, spread))
+    round_thalli = biological.lichen_cover(SCALAR, full, near, established)
+    assert 0.0 < np.mean((reaching > 0.5) != (round_thalli > 0.5)) < 0.2
 
 
 @pytest.mark.parametrize("weathered", [False, True], ids=["porous", "weathered"])

@@ -36,8 +36,9 @@ from ..core.shader_math import Graph, dot, normalize
 #: build 17 the rivulets' forms in fewer nodes, §8.8; build 18 the point's own data, and so its
 #: place, one node per group; build 19 the lichens orange as far as the sun reaches them, §9.3;
 #: build 20 the lichens establishing at the stone's share and the film holding as much as r, §9.3;
-#: build 21 the lichens' thalli each of its own size, seen from the two nearest seeds, §9.3.)
-BUILD_VERSION = 21
+#: build 21 the lichens' thalli each of its own size, seen from the two nearest seeds, §9.3; build
+#: 22 on a stone a thallus reaching further over its receptive spots, §9.3.)
+BUILD_VERSION = 22
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"

@@ -77,6 +77,11 @@ SIZE_SPREAD = 0.5
 #: nearest seeds' thalli is the Boolean law's within 0.03 for lambda pi r^2 up to 4 (docs/model.md
 #: §9.3, measured by benchmarks/lichen_cover.py).
 CROWDING = 0.16
+#: On a stone a thallus grows further over its receptive spots and less far over its resistant
+#: ones (bioreceptivity, docs/model.md §9.3): it reaches r sqrt(1 + REACH_SPREAD s) at a point of
+#: the stone's uptake s in [-1, 1] (§8.7), radii 0.84 to 1.14 times r, its area's mean kept
+#: (s of mean 0), so that its margin follows the stone's texture (judgement).
+REACH_SPREAD = 0.3
 #: The least density taken (per m²), so that the seeds' cells stay finite (one per hectare: none seen).
 LEAST_DENSITY = 1e-4
 
@@ -248,16 +253,20 @@ def thallus_cover(xp, seed, suitability, spacing, radius):
     return inside * xp.smoothstep(value, value + SEED_RIM, suitability)
 
 
-def thalli_covers(xp, state, seeds, suitability=None):
+def thalli_covers(xp, state, seeds, suitability=None, spread=None):
     """(the nearest seed's thallus cover, the second nearest's) at a point whose seeds are ``seeds``
-    (LICHEN_SEEDS), each thallus_cover with r(years) over sqrt(1 + CROWDING lambda pi r^2).
+    (LICHEN_SEEDS), each thallus_cover with r(years) over sqrt(1 + CROWDING lambda pi r^2), and on a
+    stone times sqrt(1 + REACH_SPREAD s), s the point's uptake ``spread`` (None: no stone).
     ``suitability``: the point's L, if the caller has it."""
     if suitability is None:
         suitability = lichen_suitability(xp, state, lichen_light(xp, state))
     density = xp.maximum(state["lichen_density"], LEAST_DENSITY)
     spacing = 1.0 / xp.power(density, 0.5)  # metres per cell
     radius = lichen_radius(xp, state)
-    radius = radius / xp.power(1.0 + (CROWDING * math.pi) * (density * radius * radius), 0.5)
+    crowding = 1.0 + (CROWDING * math.pi) * (density * radius * radius)
+    if spread is not None:  # one power for both: r sqrt((1 + K s) / crowding)
+        crowding = crowding / xp.multiply_add(spread, REACH_SPREAD, 1.0)
+    radius = radius / xp.power(crowding, 0.5)
     return tuple(thallus_cover(xp, seed, suitability, spacing, radius) for seed in (seeds[:3], seeds[3:]))
 
 
@@ -304,7 +313,7 @@ def lay_lichens(xp, point):
     light = lichen_light(xp, point.state)
     # the share of seeds that establish, at the point's share of the stone (docs/model.md §8.7)
     suitability = local_share(xp, lichen_suitability(xp, point.state, light), point.spread)
-    first, second = thalli_covers(xp, point.state, seeds, suitability)
+    first, second = thalli_covers(xp, point.state, seeds, suitability, point.spread)
     others = lichen_colour(xp, point.state, seeds[4], suitability, light)
     nearest = lichen_colour(xp, point.state, seeds[1], suitability, light)
     coverage = in_either(xp, first, second)
