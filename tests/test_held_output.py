@@ -1,5 +1,5 @@
 """``common.held_output``: what C code prints past ``sys.stdout`` held for a block, written out
-after it less the dropped lines, or not at all for a failed block that asks so."""
+after it less the lines holding a dropped note, or not at all for a failed block that asks so."""
 
 import os
 from unittest import mock
@@ -11,7 +11,7 @@ from porous_weathering.common import held_output
 
 def test_lines_are_written_after_the_block_less_the_dropped(capfd):
     with held_output.held((b"Info: noise",)):
-        os.write(1, b"kept 1\nInfo: noise of a bake\nkept 2\n")
+        os.write(1, b"kept 1\nInfo: noise of a bake\nkept 2\n00:00.499  log  | Info: noise after a time\n")
         os.write(2, b"Info: noise on stderr\nan error\n")
         assert capfd.readouterr() == ("", "")  # held until the block ends
     assert capfd.readouterr() == ("kept 1\nkept 2\n", "an error\n")
@@ -41,3 +41,15 @@ def test_a_descriptor_that_cannot_be_held_is_left_as_it_is(capfd):
         os.write(1, b"Info: dropped\nkept\n")
         os.write(2, b"as it comes\n")
     assert capfd.readouterr() == ("kept\n", "as it comes\n")
+
+
+def test_given_back_in_the_middle_of_a_block(capfd):
+    """A command ended by a signal during a block (``interrupts``) gives the descriptors back
+    first: what was held is written, its last line goes straight out, and the block's end adds
+    nothing twice."""
+    with held_output.held((b"Info",)):
+        os.write(1, b"before\nInfo: dropped\n")
+        held_output.give_back()
+        os.write(2, b"interrupted\n")
+        assert capfd.readouterr() == ("before\n", "interrupted\n")
+    assert capfd.readouterr() == ("", "")

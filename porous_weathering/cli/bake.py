@@ -136,7 +136,7 @@ def _check_files(args, bake_options):
     fails later, as the bake's."""
     for path in args.files:
         try:
-            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False, use_scripts=False)
+            selection.open_blend(os.path.abspath(path))
         except RuntimeError:
             continue
         newer = compat.newer_file_version()
@@ -192,7 +192,7 @@ def _bake_serially(args, bake_options):
 def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
     """Bake one file; its outcome lines go to stdout as its maps finish (attribute maps once the
     .blend is saved, as they exist only in it)."""
-    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
+    selection.open_blend(path)
     objects = _objects_to_bake(args)  # objects nobody named: one without faces to bake on is left out
     if bake_options.target == "image" and not args.force:
         _refuse_claimed(objects, bake_options, claimed)

@@ -74,7 +74,7 @@ def run(args):
     except (ValueError, OSError) as error:
         return _error(error, EXIT_USAGE)
     try:
-        bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
+        selection.open_blend(path)
     except RuntimeError as error:
         return _error(f"{path}: {one_line(error)}", EXIT_FAILED)
     try:

@@ -92,7 +92,7 @@ def _check_files(args, chosen):
     later, as its survey, and one refused (``--out`` holds another's survey) is refused then."""
     for path in args.files:
         try:
-            bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path), load_ui=False, use_scripts=False)
+            selection.open_blend(os.path.abspath(path))
         except RuntimeError:
             continue
         try:
@@ -124,7 +124,7 @@ def _survey_serially(args, chosen):
 
 def _survey_file(path, args, chosen, bar):
     """Survey one file; its outcome lines go to stdout once its files are in place."""
-    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
+    selection.open_blend(path)
     result = None
     for step in condition.iter_survey(_chosen_objects(args), chosen):
         bar(step.fraction, step.message)

@@ -5,7 +5,8 @@ raised in Cycles' Python callback once the bake returns, is printed and swallowe
 bpy 4.5 and 5.2; the bake then carries on). The bake releases the GIL, though, so
 ``exit_on_signals`` takes SIGINT and SIGTERM in a thread woken through
 ``signal.set_wakeup_fd``, which ends the process while the bake runs: it removes the temporary
-files of the writes in progress (``atomic.temporary_file``), prints one line and calls ``os._exit``,
+files of the writes in progress (``atomic.temporary_file``), gives back the output a block holds
+(``held_output``), prints one line and calls ``os._exit``,
 so nothing is written or saved after it. What must not be cut in two (renaming a finished file
 into place, saving a .blend) runs under ``atomic.uncut()``, which the thread waits for.
 """
@@ -18,7 +19,7 @@ import sys
 import threading
 from collections.abc import Callable, Iterator
 
-from . import atomic
+from . import atomic, held_output
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -58,6 +59,7 @@ def _watch(woken, last_words):
 def _exit(number, last_words):
     try:
         atomic.stop_writes()  # waits for a write or save in progress; nothing starts after
+        held_output.give_back()  # a bake holding the output: the last line must be seen
         with contextlib.suppress(Exception):
             sys.stdout.flush()
         sys.stderr.write(f"\n{last_words(number.name)}\n")
