@@ -11,6 +11,7 @@ import sys
 import tempfile
 import threading
 from collections.abc import Iterator, Sequence
+from typing import BinaryIO
 
 _lock = threading.Lock()
 
@@ -20,7 +21,7 @@ class _Hold:
 
     def __init__(self, dropped: Sequence[bytes]):
         self.dropped = tuple(dropped)
-        self.kept: dict[int, tuple[int, object]] = {}
+        self.kept: dict[int, tuple[int, BinaryIO]] = {}
 
     def give_back(self, shown: bool) -> None:
         """Each descriptor back as it was, then what it held, less the dropped lines, if ``shown``."""
