@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks.lichen_cover import cover, voronoi_seeds
+from benchmarks.lichen_cover import cover, limestone_spread, voronoi_seeds
 from porous_weathering.core import aging, colorimetry, environments, model
 from porous_weathering.core.backends import NumpyOps
 from porous_weathering.core.modes import biological
@@ -136,6 +136,17 @@ def test_lichen_cover_follows_the_boolean_model():
     assert cover(seeds, 4.0, 0.5) < 1.0 - math.exp(-2.0) - 0.1
     # without the crowded radius the one-seed-per-cell cover is far above the law at u = 1
     assert np.mean(seeds[0] < math.sqrt(1.0 / math.pi)) > (1.0 - math.exp(-1.0)) + 0.08
+
+
+def test_lichen_cover_on_a_stone_stays_near_the_boolean_model():
+    """On the limestone each point's thalli reach by its uptake (docs/model.md §9.3, REACH_SPREAD):
+    the mean cover stays within 0.03 of the Boolean law up to lambda pi r^2 = 2 (0.035 with this
+    smaller draw's scatter), a little below it as the thalli crowd (Jensen's inequality)."""
+    seeds = voronoi_seeds(cells=200, points=50_000)
+    spread = limestone_spread(len(seeds[0]))
+    for u in (0.2, 0.5, 1.0, 2.0):
+        assert cover(seeds, u, spread=spread) == pytest.approx(1.0 - math.exp(-u), abs=0.035), u
+    assert cover(seeds, 2.0, spread=spread) < cover(seeds, 2.0) - 0.01
 
 
 def test_each_thallus_grows_to_its_own_size():
