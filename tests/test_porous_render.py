@@ -53,3 +53,17 @@ def test_rotating_the_key_light_changes_the_shading(fresh_scene):
     expected, mask = sphere.expected(**DIFFUSE)
     assert not np.allclose(before, after, atol=1e-3)
     assert_matches(after, expected, mask)
+
+
+def test_a_picture_is_written_without_blenders_note(fresh_scene, tmp_path, capfd):
+    """The main job's progress bar carries its steps only: Blender's "Saved: '...'" note on each
+    picture it writes is left out (render.SAVED_NOTE), the picture written all the same."""
+    from porous_weathering.blender import render
+
+    sphere = LitSphere(fresh_scene)
+    sphere.render(porous_material(DIFFUSE, key_light=sphere.sun))  # its set-up: lights, camera, size
+    capfd.readouterr()
+    render.render_picture(fresh_scene, tmp_path / "sphere.png")
+    assert (tmp_path / "sphere.png").stat().st_size > 0
+    printed = capfd.readouterr()
+    assert "Saved:" not in printed.out + printed.err

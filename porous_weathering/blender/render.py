@@ -5,7 +5,7 @@ import tempfile
 
 import bpy
 
-from ..common import imageio
+from ..common import held_output, imageio
 from . import compat, scratch_scene
 
 
@@ -72,15 +72,21 @@ def render_picture(scene, path, view_transform="AgX"):
     )
 
 
+#: Blender's note on each picture it writes, which the main job's progress bar would carry.
+SAVED_NOTE = b"Saved: '"
+
+
 def write_still(scene, path, overrides=None):
     """Render ``scene`` into the file ``path`` with ``{(owner, attribute): value}`` set for the
-    render only; the scene's own settings are restored afterwards."""
+    render only; the scene's own settings are restored afterwards. Blender's note that it saved
+    the file is left out of the output."""
     overrides = {(scene.render, "filepath"): os.fspath(path), **(overrides or {})}
     previous = {key: getattr(*key) for key in overrides}
     try:
         for (owner, attribute), value in overrides.items():
             setattr(owner, attribute, value)
-        bpy.ops.render.render(write_still=True, scene=scene.name)
+        with held_output.held((SAVED_NOTE,)):
+            bpy.ops.render.render(write_still=True, scene=scene.name)
     finally:
         for (owner, attribute), value in previous.items():
             setattr(owner, attribute, value)
