@@ -235,7 +235,9 @@ def _run_command(name, *words):
 def _print_mesh_objects(path):
     import bpy
 
-    bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
+    from . import selection
+
+    selection.open_blend(path)
     print(json.dumps(sorted(o.name for o in bpy.data.objects if o.type == "MESH")))
     return EXIT_OK
 

@@ -472,7 +472,7 @@ def run(args):
         _, aging = render_aging(args.out, args.size, args.samples, args.bake_samples)
         labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in AGES]
         written += aging + [side_by_side(aging, len(AGES), os.path.join(args.out, "comparison.png"), labels)]
-    folder = os.path.commonpath([os.path.dirname(os.path.abspath(path)) for path in written]) if written else args.out
+    folder = DOCS_IMAGES if args.docs else args.out
     print(f"wrote {len(written)} pictures to {folder} in {time.time() - started:.0f} s", file=sys.stderr)
     return 0
 
