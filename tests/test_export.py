@@ -727,6 +727,7 @@ def test_an_interrupted_export_leaves_nothing(tmp_path):
 
 def test_command_line(tmp_path):
     make_wall()
+    bpy.context.scene.collection.children.link(bpy.data.collections.new("Lights"))
     blend = save(tmp_path)
     out = tmp_path / "out"
     done = run_cli(
@@ -755,11 +756,18 @@ def test_command_line(tmp_path):
         (["--objects", "Nope"], "no object named Nope"),
         (["--size", "3000"], "power of two"),
         (["--ages", "0,x"], "not 'x'"),
+        (["--collection", "Lights"], "no mesh objects to export"),
     ):
         done = run_cli("export", blend, *words, "--out", str(tmp_path / "bad"), timeout=300)
         errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
         assert done.returncode == 2 and len(errors) == 1 and message in errors[0], done.stderr
         assert not os.path.exists(tmp_path / "bad") or not os.listdir(tmp_path / "bad")
+    bpy.data.objects["Wall"].data.materials.clear()  # a scan as imported: nothing made for it yet
+    unmade = save(tmp_path, "unmade.blend")
+    done = run_cli("export", unmade, "--out", str(tmp_path / "bad"), timeout=300)
+    errors = [line for line in done.stderr.splitlines() if line.startswith("error:")]
+    assert done.returncode == 2 and len(errors) == 1, done.stderr
+    assert "only Porous Weathering materials to export: give them one first (the panel's Make" in errors[0]
     done = run_cli("export", str(tmp_path / "missing.blend"), timeout=300)
     assert done.returncode == 2 and "no such .blend file" in done.stderr
     (tmp_path / "broken.blend").write_bytes(b"not a blend file")

@@ -307,6 +307,26 @@ def test_the_command_exits_2_for_bad_ages_with_nothing_written(saved_box, tmp_pa
     assert not out.exists()
 
 
+def test_a_file_nobody_made_a_material_in_is_refused_with_what_to_do(tmp_path):
+    """A scan as imported (no material) or a collection without meshes: exit 2, one line that
+    says what the survey needs, nothing written."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bpy.ops.mesh.primitive_cube_add()
+    bpy.data.collections.new("Lights")
+    bpy.context.scene.collection.children.link(bpy.data.collections["Lights"])
+    path = tmp_path / "scan.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path), copy=True)
+    out = tmp_path / "out"
+    for words, message in (
+        ([], "no mesh object of the scene has only Porous Weathering materials to survey: give them one first"),
+        (["--collection", "Lights"], "no mesh objects to survey"),
+    ):
+        done = run_cli("survey", path, "--years", "10", "--out", out, *words)
+        errors = [line for line in done.stderr.splitlines() if line.strip()]
+        assert done.returncode == 2 and len(errors) == 1 and message in errors[0], done.stderr
+        assert not out.exists()
+
+
 def outcomes(done):
     return [line.split()[0] for line in done.stdout.splitlines() if line.startswith(("written", "unchanged"))]
 

@@ -12,8 +12,6 @@ holds a pair of that name made from another .blend or other objects, or not by t
 import os
 import sys
 
-import bpy
-
 from ..common import interrupts, options
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
@@ -125,27 +123,17 @@ def _notes(words):
 
 
 def _chosen_objects(args):
-    """--objects or --collection as the bake command takes them, else every mesh object of the
-    scene whose materials are all Porous Weathering ones, but for those without faces (after
-    their modifiers), skipped with a warning."""
+    """The objects ``args`` choose (``selection.weathered_objects``), but for the meshes nobody
+    named that have no faces (after their modifiers), skipped with a warning."""
+    objects = selection.weathered_objects(args, "export")
     if selection.chosen(args):
-        return selection.chosen_objects(args)
-    eligible = sorted(
-        (
-            obj
-            for obj in bpy.context.scene.objects
-            if obj.type == "MESH"
-            and obj.material_slots
-            and all(export.porous_node(slot.material) for slot in obj.material_slots)
-        ),
-        key=lambda obj: obj.name,
-    )
-    objects = []
-    for obj, surface in export.surfaces_after_modifiers(eligible).items():
+        return objects
+    kept = []
+    for obj, surface in export.surfaces_after_modifiers(objects).items():
         if surface.faces:
-            objects.append(obj)
+            kept.append(obj)
         else:
             print(f"warning: object '{obj.name}' has no faces (after its modifiers): skipped", file=sys.stderr)
-    if not objects:
-        raise ValueError("no mesh objects with Porous Weathering materials to export (give --objects)")
-    return objects
+    if not kept:
+        raise ValueError("no mesh objects with faces and Porous Weathering materials to export")
+    return kept

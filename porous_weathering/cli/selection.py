@@ -11,6 +11,7 @@ import bpy
 from ..common import held_output
 from ..maps.bake import has_faces
 from ..maps.edges import surface_box
+from ..publish.textures import porous_node
 
 #: Blender's note on opening a file, which a command that opens each file twice (its check before
 #: any work, then its run) would print twice among its own lines.
@@ -43,10 +44,10 @@ def to_argv(args: argparse.Namespace) -> list[str]:
     return ["--objects", *args.objects] if args.objects else []
 
 
-def chosen_objects(args: argparse.Namespace) -> list["bpy.types.Object"]:
+def chosen_objects(args: argparse.Namespace, verb: str = "bake") -> list["bpy.types.Object"]:
     """The objects ``--objects`` names, in its order; else the mesh objects of ``--collection``
     (children included), else of the scene, sorted by name. ValueError naming what is missing,
-    or when there is no mesh object."""
+    or when there is no mesh object to ``verb``."""
     if args.objects:
         missing = [name for name in args.objects if name not in bpy.data.objects]
         if missing:
@@ -60,7 +61,31 @@ def chosen_objects(args: argparse.Namespace) -> list["bpy.types.Object"]:
         candidates = bpy.context.scene.objects
     objects = sorted((o for o in candidates if o.type == "MESH"), key=lambda o: o.name)
     if not objects:
-        raise ValueError("no mesh objects to bake")
+        raise ValueError(f"no mesh objects to {verb}")
+    return objects
+
+
+def weathered_objects(args: argparse.Namespace, verb: str) -> list["bpy.types.Object"]:
+    """The objects ``args`` choose (``chosen_objects``), else every mesh object of the scene whose
+    materials are all Porous Weathering ones, sorted by name: what ``survey`` and ``export``
+    ``verb``. ValueError when the scene has none."""
+    if chosen(args):
+        return chosen_objects(args, verb)
+    objects = sorted(
+        (
+            obj
+            for obj in bpy.context.scene.objects
+            if obj.type == "MESH"
+            and obj.material_slots
+            and all(porous_node(slot.material) for slot in obj.material_slots)
+        ),
+        key=lambda obj: obj.name,
+    )
+    if not objects:
+        raise ValueError(
+            f"no mesh object of the scene has only Porous Weathering materials to {verb}: give them one first "
+            "(the panel's Make, or make_weathered_material), or name them with --objects"
+        )
     return objects
 
 

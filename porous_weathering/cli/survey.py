@@ -13,13 +13,10 @@ import os
 import sys
 import warnings
 
-import bpy
-
 from ..common import interrupts, options
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_USAGE, batch_exit_code
 from ..maps.provenance import OverwriteRefused
-from ..publish.textures import porous_node
 from ..survey import condition
 from . import batch, distributed, selection
 from .selection import one_line
@@ -98,7 +95,9 @@ def _check_files(args, chosen):
         try:
             with warnings.catch_warnings():  # said again as the file is surveyed
                 warnings.simplefilter("ignore")
-                condition.iter_survey(_chosen_objects(args), chosen)  # its checks; its steps are not run
+                condition.iter_survey(
+                    selection.weathered_objects(args, "survey"), chosen
+                )  # its checks; its steps are not run
         except OverwriteRefused:
             continue
         except ValueError as error:
@@ -126,28 +125,8 @@ def _survey_file(path, args, chosen, bar):
     """Survey one file; its outcome lines go to stdout once its files are in place."""
     selection.open_blend(path)
     result = None
-    for step in condition.iter_survey(_chosen_objects(args), chosen):
+    for step in condition.iter_survey(selection.weathered_objects(args, "survey"), chosen):
         bar(step.fraction, step.message)
         result = step.result or result
     for where in (result.csv, result.forecast, result.paradata, *result.drawings):
         bar.print(f"{result.status:9} {where}")
-
-
-def _chosen_objects(args):
-    """--objects or --collection as the bake command takes them, else every mesh object of the
-    scene whose materials are all Porous Weathering ones."""
-    if selection.chosen(args):
-        return selection.chosen_objects(args)
-    objects = sorted(
-        (
-            obj
-            for obj in bpy.context.scene.objects
-            if obj.type == "MESH"
-            and obj.material_slots
-            and all(porous_node(slot.material) for slot in obj.material_slots)
-        ),
-        key=lambda obj: obj.name,
-    )
-    if not objects:
-        raise ValueError("no mesh objects with Porous Weathering materials to survey (give --objects)")
-    return objects
