@@ -95,9 +95,8 @@ def _check_files(args, chosen):
         try:
             with warnings.catch_warnings():  # said again as the file is surveyed
                 warnings.simplefilter("ignore")
-                condition.iter_survey(
-                    selection.weathered_objects(args, "survey"), chosen
-                )  # its checks; its steps are not run
+                objects = selection.weathered_objects(args, "survey")
+                condition.iter_survey(objects, chosen)  # its checks; its steps are not run
         except OverwriteRefused:
             continue
         except ValueError as error:
