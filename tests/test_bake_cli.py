@@ -2,13 +2,14 @@
 
 import hashlib
 import os
+import tomllib
 
 import bpy
 
 import numpy as np
 import pytest
 
-from helpers import run_cli
+from helpers import ROOT, run_cli
 from porous_weathering.common import imageio
 from porous_weathering.maps import bake, edges, lightmap
 from porous_weathering.maps import registry as maps
@@ -154,6 +155,17 @@ def test_help_documents_every_option():
         "--scheduler",
     ):
         assert option in result.stdout
+
+
+def test_version_names_the_extension_and_the_blender_it_runs_in():
+    """``--version`` prints the manifest's version and bpy's as the last line of standard output
+    (exit 0; Blender's own log may come before it), with or without a command after it."""
+    with open(ROOT / "blender_manifest.toml", "rb") as stream:
+        version = tomllib.load(stream)["version"]
+    for words in (["--version"], ["--version", "bake"]):
+        result = run_cli(*words)
+        assert result.returncode == 0, result.stderr
+        assert result.stdout.splitlines()[-1] == f"Porous Weathering {version} (Blender {bpy.app.version_string})"
 
 
 def test_occluders_option_chooses_what_shelters(blend, tmp_path):

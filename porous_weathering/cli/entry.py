@@ -30,11 +30,28 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"error: {message} (see {self.prog} --help)\n")
 
 
+class _Version(argparse.Action):
+    """``--version``: the extension's version and the Blender it runs in, then exit 0 (a batch
+    log records what made its maps). bpy is imported only when it is asked for."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        import bpy
+
+        from ..publish.paradata import extension_version
+
+        print(f"Porous Weathering {extension_version()} (Blender {bpy.app.version_string})")
+        parser.exit(0)
+
+
 def build_parser():
     parser = _Parser(
         prog="python -m porous_weathering",
         description="Porous Weathering: porous materials and their weathering in Blender.",
     )
+    parser.add_argument("--version", action=_Version, help="print the extension's and Blender's versions and exit")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, (module_name, help_text) in COMMANDS.items():
         sub = commands.add_parser(name, help=help_text, description=help_text)
