@@ -321,7 +321,12 @@ def test_without_masonry_the_material_is_todays(fresh_scene):
 
 
 #: The texture node each kind of a stone's layer is built as (docs/model.md §8.1).
-TEXTURE_NODES = {stones.CELLS: "TEX_VORONOI", stones.WAVE: "TEX_WAVE", stones.NOISE: "TEX_NOISE"}
+TEXTURE_NODES = {
+    stones.CELLS: "TEX_VORONOI",
+    stones.BEDS: "TEX_VORONOI",
+    stones.WAVE: "TEX_WAVE",
+    stones.NOISE: "TEX_NOISE",
+}
 
 
 def texture_nodes(group):

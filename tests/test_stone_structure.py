@@ -149,7 +149,7 @@ def test_a_layer_clipped_before_its_gain_is_clipped_after():
     clip(gain (v - 1/2), -1, 1) (docs/model.md §8.1), for every kind."""
     values = np.linspace(-0.5, 1.5, 2001)
     layers = {(t.kind, t.gain): t for preset in PRESETS.values() for t in preset.structure.textures}
-    assert {kind for kind, _ in layers} == {stones.NOISE, stones.WAVE, stones.CELLS}
+    assert {kind for kind, _ in layers} == {stones.NOISE, stones.WAVE, stones.CELLS, stones.BEDS}
     for texture in layers.values():
         gain = texture.gain
         expected = gain * (values - 0.5) if stones.unclipped(texture) else np.clip(gain * (values - 0.5), -1.0, 1.0)
@@ -634,7 +634,7 @@ def test_stone_names_are_checked():
     assert "Bad" not in bpy.data.materials
 
 
-LAYER_WORDS = {stones.CELLS: "cells", stones.WAVE: "bands", stones.NOISE: "patches"}
+LAYER_WORDS = {stones.CELLS: "cells", stones.BEDS: "beds", stones.WAVE: "bands", stones.NOISE: "patches"}
 
 
 def layer_text(texture):

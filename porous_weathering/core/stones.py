@@ -23,23 +23,29 @@ from dataclasses import dataclass
 
 from ..contracts import BLOCK_ATTRIBUTE
 
-#: Texture kinds: Blender's Noise (patches, mottling), Wave bands (bedding, veins) and Voronoi
-#: cells, each cell its own random value (grains, crystals, aggregate).
-NOISE, WAVE, CELLS = "NOISE", "WAVE", "CELLS"
+#: Texture kinds: Blender's Noise (patches, mottling), Wave bands (laminae, veins), Voronoi cells,
+#: each cell its own random value (grains, crystals, aggregate), and beds: a 1D Voronoi along the
+#: world's Z, each bed its own random value and thickness (bedding, docs/model.md §8.1).
+NOISE, WAVE, CELLS, BEDS = "NOISE", "WAVE", "CELLS", "BEDS"
 
 #: Per kind, the factor that spreads a texture's value v (mean 1/2) into z = clip(gain (v - 1/2),
-#: -1, 1) (``texture_value``).  A Voronoi cell's random value and a sine band are uniform-like over
-#: [0, 1] (gain 2); Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is
+#: -1, 1) (``texture_value``).  A Voronoi cell's (or bed's) random value and a sine band are
+#: uniform-like over [0, 1] (gain 2); Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is
 #: larger: 2.5 for two octaves of halving amplitude, and for other octaves that times the ratio of
 #: their spreads (``Texture.gain``, docs/model.md §8.1).  Each distribution is symmetric about 1/2,
 #: and the clip is symmetric, so z has mean 0.
-GAIN = {NOISE: 2.5, WAVE: 2.0, CELLS: 2.0}
+GAIN = {NOISE: 2.5, WAVE: 2.0, CELLS: 2.0, BEDS: 2.0}
 #: The octaves (detail, roughness) at which GAIN[NOISE] spreads a noise as wide as the others.
 NOISE_GAIN_OCTAVES = (1.0, 0.5)
 
 #: Blender's Wave texture (bands) has the phase 20 x (scale x coordinate): its period along the
 #: bands' direction is 2 pi / 20 / scale.  So a period P metres needs the scale 2 pi / (20 P).
 WAVE_PHASE_PER_UNIT = 20.0
+
+#: How many beds a block's own draw b in [-1, 1] moves the bedding along Z in masonry (docs/model.md
+#: §8.5): blocks cut from other places in the quarry, so that the beds of two blocks of one course
+#: do not run on across their joint; two draws 1/64 apart already see unrelated beds.
+BED_SHIFT = 64.0
 
 #: The object sizes (largest bounding-box side, metres) a stone object plausibly has: a pebble to
 #: a cathedral.  Outside, the scene's unit is probably wrong (docs/model.md §8.4).
@@ -59,8 +65,8 @@ class Texture:
     """One layer of a stone's structure: a procedural texture at a physical size, and how much
     of it goes into the porosity field and the colour field (each may be negative)."""
 
-    kind: str  #: NOISE, WAVE or CELLS
-    size: float  #: metres: a noise's feature size, a wave's period, a cell's diameter
+    kind: str  #: NOISE, WAVE, CELLS or BEDS
+    size: float  #: metres: a noise's feature size, a wave's period, a cell's diameter, a bed's mean thickness
     porosity: float  #: weight in z_p
     colour: float  #: weight in z_c
     detail: float = 2.0  #: octaves of noise (NOISE), of the bands' distortion (WAVE)

@@ -37,8 +37,9 @@ from ..core.shader_math import Graph, dot, normalize
 #: place, one node per group; build 19 the lichens orange as far as the sun reaches them, §9.3;
 #: build 20 the lichens establishing at the stone's share and the film holding as much as r, §9.3;
 #: build 21 the lichens' thalli each of its own size, seen from the two nearest seeds, §9.3; build
-#: 22 on a stone a thallus reaching further over its receptive spots, §9.3.)
-BUILD_VERSION = 22
+#: 22 on a stone a thallus reaching further over its receptive spots, §9.3; build 23 the
+#: limestone's beds each of its own thickness and value, and in masonry each block's own, §8.1.)
+BUILD_VERSION = 23
 
 #: Light modes (docs/model.md §3): a sun's direction, a point-like light's position, or none.
 SUN, POINT, AMBIENT = "SUN", "POINT", "AMBIENT"
@@ -501,8 +502,8 @@ def stone_body(graph, inputs, stone, block_draw_at=None):
     # the textures take the place in the scene's unit and their scales per unit: the unit's metres
     # fold into each scale, where scaling the place would cost a node per point
     place, metres_per_unit = point_from_origin(graph), inputs[METRES_PER_UNIT]
-    values = [texture_value(graph, place, texture, metres_per_unit) for texture in stone.textures]
     draw = block_draw_at(graph, place * metres_per_unit) if block_draw_at else None
+    values = [texture_value(graph, place, texture, metres_per_unit, draw) for texture in stone.textures]
     z_p, z_c = stones.fields(NODE_OPS, stone, values)
     if draw is not None:
         z_p, z_c = stones.block_fields(NODE_OPS, stone, z_p, z_c, draw)
@@ -622,10 +623,19 @@ def block_draw(graph, course, block):
     return graph.wrap(noise.outputs["Value"]) * 2.0 - 1.0
 
 
-def texture_value(graph, place, texture, metres_per_unit):
+def texture_value(graph, place, texture, metres_per_unit, block_draw=None):
     """The value (mean 1/2, in [0, 1]) of one layer's Blender texture at ``place``, in a unit of
-    ``metres_per_unit`` metres."""
+    ``metres_per_unit`` metres; beds in masonry are moved along Z by the block's own draw."""
     common = {"Vector": place, "Scale": texture.scale * metres_per_unit}
+    if texture.kind == stones.BEDS:
+        # each bed its own random value, between the midpoints of seeds jittered one per bed
+        height = graph.wrap(graph.node("ShaderNodeSeparateXYZ", {"Vector": place}).outputs["Z"])
+        beds = height * (texture.scale * metres_per_unit)
+        if block_draw is not None:
+            beds = NODE_OPS.multiply_add(block_draw, stones.BED_SHIFT, beds)
+        node = graph.node("ShaderNodeTexVoronoi", {"W": beds, "Scale": 1.0}, voronoi_dimensions="1D", feature="F1")
+        red = graph.node("ShaderNodeSeparateColor", {"Color": node.outputs["Color"]})
+        return graph.wrap(red.outputs["Red"])
     if texture.kind == stones.NOISE:
         node = graph.node(
             "ShaderNodeTexNoise",

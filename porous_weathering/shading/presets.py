@@ -18,6 +18,7 @@ from ..core import modes as weathering_modes
 from ..core.arguments import choice
 from ..core.environments import DEFAULT_ENVIRONMENT, ENVIRONMENTS, Environment  # noqa: F401  (public: docs/api.md)
 from ..core.stones import (  # noqa: F401  (Ashlar, MeshBlocks: docs/api.md)
+    BEDS,
     CELLS,
     DEFAULT_VARIATION,
     NOISE,
@@ -115,8 +116,9 @@ PRESETS = {
         structure=Stone(
             (
                 Texture(CELLS, 0.001, 0.3, 0.15),  # ooids, ~1 mm
-                # bedding, dm: seen more than it weathers (a freestone, docs/model.md §8.1)
-                Texture(WAVE, 0.12, 0.1, 0.45, detail=0.0, distortion=1.0, direction="Z"),
+                # beds a decimetre thick on average, each its own: seen more than they weather
+                # (a freestone, docs/model.md §8.1)
+                Texture(BEDS, 0.12, 0.1, 0.45),
                 Texture(NOISE, 0.08, 0.6, 0.4, **PATCH_OCTAVES),  # patches, cm-dm
             ),
             porosity=0.3,
