@@ -352,6 +352,31 @@ def test_each_group_builds_only_the_textures_it_uses():
         assert not any(name.startswith("Mortar") for name in stone.interface.items_tree.keys()), key
 
 
+def upstream_types(socket):
+    """The types of every node whose output reaches ``socket`` through the group's links."""
+    seen, sockets = set(), [socket]
+    while sockets:
+        for link in sockets.pop().links:
+            if link.from_node.name not in seen:
+                seen.add(link.from_node.name)
+                sockets.extend(link.from_node.inputs)
+    return {socket.id_data.nodes[name].type for name in seen}
+
+
+def test_each_block_has_beds_of_its_own():
+    """The limestone's beds (docs/model.md §8.1, §8.5): a 1D Voronoi of the height, moved along Z by
+    the block's own draw (its White Noise) in the ashlar and in the mesh's blocks, so the beds of
+    two blocks of a course do not run on across their joint; without masonry there is no draw."""
+    assert [texture.size for texture in LIMESTONE.textures if texture.kind == stones.BEDS] == [0.12]
+    for group, drawn in (
+        (nodes.stone_group("LIMESTONE", LIMESTONE), False),
+        (nodes.masonry_group("LIMESTONE", LIMESTONE), True),
+        (nodes.mesh_blocks_group("LIMESTONE", LIMESTONE, stones.BLOCK_ATTRIBUTE), True),
+    ):
+        [beds] = [node for node in group.nodes if node.type == "TEX_VORONOI" and node.voronoi_dimensions == "1D"]
+        assert ("TEX_WHITE_NOISE" in upstream_types(beds.inputs["W"])) == drawn, group.name
+
+
 # --- blocks the mesh knows (MeshBlocks, mark_blocks) -------------------------------------------
 
 

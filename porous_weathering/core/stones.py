@@ -30,9 +30,9 @@ NOISE, WAVE, CELLS, BEDS = "NOISE", "WAVE", "CELLS", "BEDS"
 
 #: Per kind, the factor that spreads a texture's value v (mean 1/2) into z = clip(gain (v - 1/2),
 #: -1, 1) (``texture_value``).  A Voronoi cell's (or bed's) random value and a sine band are
-#: uniform-like over [0, 1] (gain 2); Blender's normalised fBm noise stays mostly within 0.5 +- 0.2, so its gain is
-#: larger: 2.5 for two octaves of halving amplitude, and for other octaves that times the ratio of
-#: their spreads (``Texture.gain``, docs/model.md §8.1).  Each distribution is symmetric about 1/2,
+#: uniform-like over [0, 1] (gain 2); Blender's normalised fBm noise stays mostly within 0.5 +- 0.2,
+#: so its gain is larger: 2.5 for two octaves of halving amplitude, and for other octaves that times
+#: the ratio of their spreads (``Texture.gain``, docs/model.md §8.1).  Each distribution is symmetric about 1/2,
 #: and the clip is symmetric, so z has mean 0.
 GAIN = {NOISE: 2.5, WAVE: 2.0, CELLS: 2.0, BEDS: 2.0}
 #: The octaves (detail, roughness) at which GAIN[NOISE] spreads a noise as wide as the others.

@@ -626,16 +626,17 @@ def block_draw(graph, course, block):
 def texture_value(graph, place, texture, metres_per_unit, block_draw=None):
     """The value (mean 1/2, in [0, 1]) of one layer's Blender texture at ``place``, in a unit of
     ``metres_per_unit`` metres; beds in masonry are moved along Z by the block's own draw."""
-    common = {"Vector": place, "Scale": texture.scale * metres_per_unit}
+    scale = texture.scale * metres_per_unit
     if texture.kind == stones.BEDS:
-        # each bed its own random value, between the midpoints of seeds jittered one per bed
+        # each bed between the midpoints of seeds jittered one per bed along the height
         height = graph.wrap(graph.node("ShaderNodeSeparateXYZ", {"Vector": place}).outputs["Z"])
-        beds = height * (texture.scale * metres_per_unit)
+        beds = height * scale
         if block_draw is not None:
             beds = NODE_OPS.multiply_add(block_draw, stones.BED_SHIFT, beds)
-        node = graph.node("ShaderNodeTexVoronoi", {"W": beds, "Scale": 1.0}, voronoi_dimensions="1D", feature="F1")
-        red = graph.node("ShaderNodeSeparateColor", {"Color": node.outputs["Color"]})
-        return graph.wrap(red.outputs["Red"])
+        return cell_value(graph, {"W": beds, "Scale": 1.0}, "1D")
+    if texture.kind == stones.CELLS:
+        return cell_value(graph, {"Vector": place_across_the_face(graph, place), "Scale": scale}, "2D")
+    common = {"Vector": place, "Scale": scale}
     if texture.kind == stones.NOISE:
         node = graph.node(
             "ShaderNodeTexNoise",
@@ -649,19 +650,22 @@ def texture_value(graph, place, texture, metres_per_unit, block_draw=None):
             noise_dimensions="3D",
         )
         return graph.wrap(node.outputs[0])  # "Fac" (4.5) / "Factor" (5.x)
-    if texture.kind == stones.WAVE:
-        node = graph.node(
-            "ShaderNodeTexWave",
-            # the phase puts the object's origin mid-way between a light and a dark band (value 1/2)
-            {**common, "Distortion": texture.distortion, "Detail": texture.detail, "Phase Offset": math.pi / 2},
-            wave_type="BANDS",
-            bands_direction=texture.direction,
-            wave_profile="SIN",
-        )
-        return graph.wrap(node.outputs[1])  # "Fac" (4.5) / "Factor" (5.x)
-    cells = {**common, "Vector": place_across_the_face(graph, place)}
-    node = graph.node("ShaderNodeTexVoronoi", cells, voronoi_dimensions="2D", feature="F1", distance="EUCLIDEAN")
-    red = graph.node("ShaderNodeSeparateColor", {"Color": node.outputs["Color"]})  # each cell's own random value
+    node = graph.node(
+        "ShaderNodeTexWave",
+        # the phase puts the object's origin mid-way between a light and a dark band (value 1/2)
+        {**common, "Distortion": texture.distortion, "Detail": texture.detail, "Phase Offset": math.pi / 2},
+        wave_type="BANDS",
+        bands_direction=texture.direction,
+        wave_profile="SIN",
+    )
+    return graph.wrap(node.outputs[1])  # "Fac" (4.5) / "Factor" (5.x)
+
+
+def cell_value(graph, inputs, dimensions):
+    """The random value of the Voronoi cell (a grain, a bed) a point lies in: its F1 cell's own
+    Color, red, uniform in [0, 1]."""
+    node = graph.node("ShaderNodeTexVoronoi", inputs, voronoi_dimensions=dimensions, feature="F1", distance="EUCLIDEAN")
+    red = graph.node("ShaderNodeSeparateColor", {"Color": node.outputs["Color"]})
     return graph.wrap(red.outputs["Red"])
 
 
