@@ -35,7 +35,6 @@ rest grey), and DIR/results.json.
 
 import argparse
 import json
-import os
 import pathlib
 import subprocess
 import sys
@@ -430,7 +429,7 @@ def main(argv=None):
     (out / "results.json").write_text(json.dumps(rows, indent=1))
     contact_sheet(tiles, out / "corpus.png")
     print(f"wrote {out / 'corpus.png'} and {out / 'results.json'}")
-    os._exit(0)  # bpy 4.5 can hang at interpreter exit
+    compat.end_process(0)  # bpy 4.5 can hang at interpreter exit
 
 
 if __name__ == "__main__":

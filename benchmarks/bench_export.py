@@ -478,8 +478,7 @@ def main():
     args = parser.parse_args()
     args.size = args.size or (2048 if args.what == "speed" else 1024)
     {"speed": speed, "accuracy": accuracy, "picture": picture, "lobes": lobes, "water": water}[args.what](args)
-    sys.stdout.flush()
-    os._exit(0)  # bpy 4.5 can hang at interpreter exit (cli.exit_with)
+    compat.end_process(0)  # bpy 4.5 can hang at interpreter exit
 
 
 if __name__ == "__main__":

@@ -456,7 +456,7 @@ def main(argv=None):
         f"{machine.describe(bpy.app.version_string)}; {time.time() - started:.0f} s"
     )
     (out / "results.json").write_text(json.dumps(result, indent=1, default=float))
-    os._exit(0)  # bpy 4.5 can hang at interpreter exit
+    compat.end_process(0)  # bpy 4.5 can hang at interpreter exit
 
 
 if __name__ == "__main__":

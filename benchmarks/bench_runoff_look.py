@@ -41,7 +41,7 @@ import corpus_regions  # noqa: E402  (benchmarks/: the streaks' regions)
 import numpy as np  # noqa: E402
 
 from benchmarks import probes  # noqa: E402
-from porous_weathering.blender import render  # noqa: E402
+from porous_weathering.blender import compat, render  # noqa: E402
 from porous_weathering.core import model  # noqa: E402
 from porous_weathering.core import modes as weathering_modes  # noqa: E402
 from porous_weathering.samples import demo, studio  # noqa: E402
@@ -144,7 +144,7 @@ def main(argv=None):
     print()
     print(table(rows))
     print(bench_visible.closing_line(args, started))
-    os._exit(0)  # bpy 4.5 can hang at interpreter exit
+    compat.end_process(0)  # bpy 4.5 can hang at interpreter exit
 
 
 if __name__ == "__main__":

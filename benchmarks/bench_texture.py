@@ -63,7 +63,7 @@ import numpy as np  # noqa: E402
 import texture_spectrum  # noqa: E402
 
 from benchmarks import probes  # noqa: E402
-from porous_weathering.blender import render  # noqa: E402
+from porous_weathering.blender import compat, render  # noqa: E402
 from porous_weathering.contracts import GROUP_NODE  # noqa: E402
 from porous_weathering.core import model  # noqa: E402
 from porous_weathering.samples import demo, studio  # noqa: E402
@@ -382,7 +382,7 @@ def main(argv=None):
         + f"; {machine.describe(bpy.app.version_string)}; "
         f"{time.time() - started:.0f} s"
     )
-    os._exit(0)  # bpy 4.5 can hang at interpreter exit
+    compat.end_process(0)  # bpy 4.5 can hang at interpreter exit
 
 
 if __name__ == "__main__":

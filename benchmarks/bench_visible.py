@@ -45,7 +45,7 @@ import numpy as np  # noqa: E402
 from mathutils import Vector  # noqa: E402
 
 from benchmarks import probes
-from porous_weathering.blender import render  # noqa: E402
+from porous_weathering.blender import compat, render  # noqa: E402
 from porous_weathering.core import model
 from porous_weathering.samples import demo, studio
 from porous_weathering.shading import weathering
@@ -514,7 +514,7 @@ def main(argv=None):
     print()
     print(table(rows))
     print(closing_line(args, started))
-    os._exit(0)  # bpy 4.5 can hang at interpreter exit
+    compat.end_process(0)  # bpy 4.5 can hang at interpreter exit
 
 
 if __name__ == "__main__":

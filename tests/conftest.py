@@ -4,9 +4,7 @@ Shared fixtures: ``registered`` (the extension registered for the test), ``bust`
 scan-like bust to the scene: ``helpers.add_bust``) and ``toys`` (the toy mode and toy map of
 tests/helpers.py registered for the test)."""
 
-import os
 import pathlib
-import sys
 
 import bpy
 
@@ -14,6 +12,7 @@ import pytest
 
 import helpers
 import porous_weathering
+from porous_weathering.blender import compat
 
 FAILED = pathlib.Path(__file__).resolve().parent / "failed"
 
@@ -63,12 +62,11 @@ def pytest_runtest_makereport(item, call):
 @pytest.hookimpl(trylast=True)
 def pytest_unconfigure(config):
     """Leave without bpy's exit-time cleanup, once pytest has reported: bpy 4.5 can hang for
-    ever in a static destructor at interpreter exit (seen at the end of the full suite)."""
+    ever in a static destructor at interpreter exit (seen at the end of the full suite);
+    Blender's folder for the session removed all the same."""
     status = getattr(config, "_pw_exit_status", None)
     if status is not None:  # a session ran (not --help or --version)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(status)
+        compat.end_process(status)
 
 
 def pytest_sessionfinish(session, exitstatus):

@@ -30,6 +30,7 @@ import contextlib
 import dataclasses
 import functools
 import itertools
+import os
 import pathlib
 import subprocess
 import sys
@@ -425,9 +426,13 @@ def cli_command(command, *args):
     return [sys.executable, "-m", "porous_weathering", command, *map(str, args)]
 
 
-def run_cli(command, *args, timeout=120):
-    """Runs ``python -m porous_weathering COMMAND ARGS`` from the repository root, its output captured."""
-    return subprocess.run(cli_command(command, *args), cwd=ROOT, capture_output=True, text=True, timeout=timeout)
+def run_cli(command, *args, timeout=120, temporary=None):
+    """Runs ``python -m porous_weathering COMMAND ARGS`` from the repository root, its output
+    captured; with ``temporary``, that folder as its system temporary folder (TMPDIR)."""
+    env = None if temporary is None else {**os.environ, "TMPDIR": str(temporary)}
+    return subprocess.run(
+        cli_command(command, *args), cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=env
+    )
 
 
 # --- the scan-like bust -----------------------------------------------------------------------

@@ -137,6 +137,8 @@ def slow_blend(fresh_scene, tmp_path):
 @pytest.mark.parametrize("sent, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
 def test_a_signal_stops_the_bake_at_once(slow_blend, tmp_path, sent, code):
     out = tmp_path / "maps"
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
     before = digest(slow_blend)
     argv = [slow_blend, "--objects", "Plane", "--maps", "edges,rain", "--out", out, "--resolution", "64"]
     child = subprocess.Popen(
@@ -145,6 +147,7 @@ def test_a_signal_stops_the_bake_at_once(slow_blend, tmp_path, sent, code):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env={**os.environ, "TMPDIR": str(temporary)},
     )
     try:
         lines = iter(child.stdout.readline, "")
@@ -161,7 +164,56 @@ def test_a_signal_stops_the_bake_at_once(slow_blend, tmp_path, sent, code):
     assert sorted(os.listdir(out)) == ["Plane.edges.exr"]  # no rain map, no temporary file
     pixels, header = imageio.read_image(out / "Plane.edges.exr")
     assert pixels.shape == (64, 64, 1) and header[bake.MAP_KEY] == "edges"
-    assert digest(slow_blend) == before and sorted(os.listdir(tmp_path)) == ["maps", "scene.blend"]
+    assert digest(slow_blend) == before and sorted(os.listdir(tmp_path)) == ["maps", "scene.blend", "tmp"]
+    assert not os.listdir(temporary)  # Blender's folder for the session too (common.process_end)
+
+
+def test_the_end_removes_only_a_blender_session_folder(tmp_path):
+    """``process_end.end`` removes the folders given to it that Blender made for a session, and
+    never another (a Blender that could not make one works in the temporary folder itself)."""
+    session, other = tmp_path / "blender_a1B2c3", tmp_path / "blender_data"
+    for folder in (session, other):
+        (folder / "inside").mkdir(parents=True)
+    words = (
+        "import sys; from porous_weathering.common import process_end\n"
+        "for folder in sys.argv[1:]: process_end.remove_at_end(lambda folder=folder: folder)\n"
+        "process_end.end(5)"
+    )
+    done = subprocess.run([sys.executable, "-c", words, f"{session}/", other, tmp_path], cwd=ROOT, timeout=60)
+    assert done.returncode == 5
+    assert sorted(os.listdir(tmp_path)) == ["blender_data"] and os.listdir(other) == ["inside"]
+
+
+def test_a_script_ended_by_compat_leaves_no_session_folder(tmp_path):
+    """``compat.end_process`` (the benchmarks', the test session's) removes Blender's folder for
+    the session, the one of the end: reading the factory settings makes a new one."""
+    words = (
+        "import bpy; from porous_weathering.blender import compat\n"
+        "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
+        "compat.end_process(4)"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", words], cwd=ROOT, timeout=60, env={**os.environ, "TMPDIR": str(tmp_path)}
+    )
+    assert done.returncode == 4 and not os.listdir(tmp_path)
+
+
+def test_a_run_leaves_nothing_in_the_temporary_folder(slow_blend, tmp_path):
+    """Blender makes a folder for its session (blender_XXXXXX) and removes it only on its own exit
+    path, which the command line skips: removed all the same, whether a run writes or ends with a
+    usage error (from the parser, or once the file is open)."""
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    runs = [
+        (0, ["bake", slow_blend, "--objects", "Plane", "--maps", "edges", "--out", tmp_path / "maps", *FAST]),
+        (2, ["bake", slow_blend, "--objects", "Nothing", "--out", tmp_path / "maps"]),
+        (2, ["bake", slow_blend, "--resolution", "-1"]),
+        (0, ["--version"]),
+    ]
+    for code, words in runs:
+        done = run_cli(*words, temporary=temporary)
+        assert done.returncode == code, (words, done.stderr)
+        assert not os.listdir(temporary), (words, os.listdir(temporary))
 
 
 CHILD_STOPPED_WRITING = r"""

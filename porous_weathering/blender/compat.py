@@ -1,7 +1,11 @@
 """Every difference between the Blender lines we support (4.2-4.5 and 5.x) lives here."""
 
+import sys
+from typing import NoReturn
+
 import bpy
 
+from ..common import process_end
 from ..core import voronoi
 
 BLENDER_5 = bpy.app.version >= (5, 0, 0)
@@ -33,6 +37,22 @@ def use_world_nodes(world):
 #: properties or CLI commands are still registered: whatever registers them must unregister
 #: before the interpreter exits (``porous_weathering.register`` does it with atexit).
 UNREGISTER_BEFORE_EXIT = bpy.app.module and not BLENDER_5
+
+
+def session_folder() -> str:
+    """Blender's folder for this session (``bpy.app.tempdir``): a new one each time Blender reads
+    its factory settings."""
+    return bpy.app.tempdir
+
+
+def end_process(code: int) -> NoReturn:
+    """End a script using bpy with ``code`` now: bpy 4.5 can hang for ever in a static destructor
+    at a normal interpreter exit. Blender's folder for the session, which only its own exit path
+    removes, is removed first (``common.process_end``)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    process_end.remove_at_end(session_folder)
+    process_end.end(code)
 
 
 def newer_file_version() -> str | None:

@@ -13,7 +13,7 @@ does not save).
 
 This module imports no bpy: the workers run its tasks without bpy, and only the bake processes
 (``serve``, started as ``python -c "from porous_weathering.cli.dask_worker import serve; ..."``)
-import it, through the bake command.
+import it.
 """
 
 import contextlib
@@ -198,6 +198,10 @@ def serve(reply_fd: int) -> None:
     opens FILE and prints the names of its mesh objects (a JSON list). What it prints goes out
     on ``reply_fd`` as it comes, then its exit code, one JSON message a line: {"out": line},
     {"err": line}, {"frame": progress bar frame}, {"code": int}."""
+    from ..blender import compat
+
+    # stopped between requests (the worker closes): the bake command takes the signals while it runs
+    signal.signal(signal.SIGTERM, lambda number, frame: compat.end_process(128 + number))
     requests = {"meshes": _print_mesh_objects}
     requests.update({name: functools.partial(_run_command, name) for name in COMMANDS})
     replies = os.fdopen(reply_fd, "w", buffering=1)
@@ -206,7 +210,7 @@ def serve(reply_fd: int) -> None:
         try:
             replies.write(json.dumps(message) + "\n")
         except BrokenPipeError:  # the worker is gone (killed): no one wants this bake any more
-            os._exit(EXIT_FAILED)
+            compat.end_process(EXIT_FAILED)
 
     for line in sys.stdin:
         command, *words = json.loads(line)
@@ -223,7 +227,7 @@ def serve(reply_fd: int) -> None:
                 code = EXIT_FAILED
         send(code=code)
     replies.close()
-    os._exit(EXIT_OK)  # skip bpy's exit-time cleanup, as entry.exit_with does
+    compat.end_process(EXIT_OK)
 
 
 def _run_command(name, *words):

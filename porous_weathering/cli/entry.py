@@ -9,9 +9,9 @@ is done reach a log even when the run is killed.
 
 import argparse
 import importlib
-import os
 import sys
 
+from ..common import process_end
 from ..contracts import EXIT_OK, EXIT_SIGINT, EXIT_USAGE
 
 #: command -> (module, relative to this package, so it works installed as bl_ext.*; help)
@@ -62,6 +62,10 @@ def build_parser():
 
 def main(argv=None):
     """Parse ``argv`` (default: sys.argv[1:]) and run the command; returns its exit code."""
+    from ..blender import compat  # bpy: every command's module imports it anyway
+
+    # a signal ends the process at once (common.interrupts): Blender's session folder goes too
+    process_end.remove_at_end(compat.session_folder)
     if hasattr(sys.stdout, "reconfigure"):
         sys.stdout.reconfigure(line_buffering=True)
     args = build_parser().parse_args(sys.argv[1:] if argv is None else argv)
@@ -70,8 +74,10 @@ def main(argv=None):
 
 def exit_with(argv=None):
     """Run ``main(argv)`` and end the process with its exit code, skipping bpy's exit-time
-    cleanup: bpy 4.5 can hang for ever in a static destructor at interpreter exit (seen after
-    opening a .blend whose text block is registered as a module), after the work is done."""
+    cleanup (``compat.end_process``: bpy 4.5 can hang for ever in a static destructor at
+    interpreter exit, seen after opening a .blend whose text block is registered as a module)."""
+    from ..blender import compat
+
     try:
         code = main(argv)
     except SystemExit as error:  # argparse's --help and usage errors
@@ -79,9 +85,7 @@ def exit_with(argv=None):
     except KeyboardInterrupt:  # before a command took the signals over (bake: interrupts.py)
         print("interrupted by SIGINT", file=sys.stderr)
         code = EXIT_SIGINT
-    sys.stdout.flush()
-    sys.stderr.flush()
-    os._exit(code)
+    compat.end_process(code)
 
 
 _command_handle = None

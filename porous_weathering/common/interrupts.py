@@ -6,20 +6,19 @@ bpy 4.5 and 5.2; the bake then carries on). The bake releases the GIL, though, s
 ``exit_on_signals`` takes SIGINT and SIGTERM in a thread woken through
 ``signal.set_wakeup_fd``, which ends the process while the bake runs: it removes the temporary
 files of the writes in progress (``atomic.temporary_file``), gives back the output a block holds
-(``held_output``), prints one line and calls ``os._exit``,
+(``held_output``), prints one line and ends the process (``process_end``),
 so nothing is written or saved after it. What must not be cut in two (renaming a finished file
 into place, saving a .blend) runs under ``atomic.uncut()``, which the thread waits for.
 """
 
 import contextlib
-import os
 import signal
 import socket
 import sys
 import threading
 from collections.abc import Callable, Iterator
 
-from . import atomic, held_output
+from . import atomic, held_output, process_end
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -65,4 +64,4 @@ def _exit(number, last_words):
         sys.stderr.write(f"\n{last_words(number.name)}\n")
         sys.stderr.flush()
     finally:
-        os._exit(128 + number)
+        process_end.end(128 + number)
