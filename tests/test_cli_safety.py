@@ -168,18 +168,19 @@ def test_a_signal_stops_the_bake_at_once(slow_blend, tmp_path, sent, code):
     assert not os.listdir(temporary)  # Blender's folder for the session too (common.process_end)
 
 
-def test_the_end_removes_only_a_blender_session_folder(tmp_path):
-    """``process_end.end`` removes the folders given to it that Blender made for a session, and
-    never another (a Blender that could not make one works in the temporary folder itself)."""
-    session, other = tmp_path / "blender_a1B2c3", tmp_path / "blender_data"
-    for folder in (session, other):
+def test_the_end_removes_only_a_folder_made_for_the_process(tmp_path):
+    """``process_end.end`` removes the folders given to it that Blender or multiprocessing made
+    for the process, and never another (a Blender that could not make one works in the
+    temporary folder itself)."""
+    session, pool, other = tmp_path / "blender_a1B2c3", tmp_path / "pymp-x_9kd2lq", tmp_path / "blender_data"
+    for folder in (session, pool, other):
         (folder / "inside").mkdir(parents=True)
     words = (
         "import sys; from porous_weathering.common import process_end\n"
         "for folder in sys.argv[1:]: process_end.remove_at_end(lambda folder=folder: folder)\n"
         "process_end.end(5)"
     )
-    done = subprocess.run([sys.executable, "-c", words, f"{session}/", other, tmp_path], cwd=ROOT, timeout=60)
+    done = subprocess.run([sys.executable, "-c", words, f"{session}/", pool, other, tmp_path], cwd=ROOT, timeout=60)
     assert done.returncode == 5
     assert sorted(os.listdir(tmp_path)) == ["blender_data"] and os.listdir(other) == ["inside"]
 

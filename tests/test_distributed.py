@@ -100,11 +100,12 @@ def test_a_name_clash_is_refused_as_in_the_serial_run_and_a_rerun_skips_what_is_
     first = run_cli("bake", *files, "--out", serial, *SMALL, timeout=TIMEOUT)
     code, lines = outcomes(first, serial)
     assert code == 3 and any("scene1.blend" in line and "Ground" in line for line in lines if "error:" in line)
-    assert outcomes(run_cli("bake", *files, "--out", dask, "--workers", "2", *SMALL, timeout=TIMEOUT), dask) == (
-        code,
-        lines,
-    )
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    on_cluster = run_cli("bake", *files, "--out", dask, "--workers", "2", *SMALL, timeout=TIMEOUT, temporary=temporary)
+    assert outcomes(on_cluster, dask) == (code, lines)
     assert_same_maps(dask, maps_of(serial))
+    assert not os.listdir(temporary)  # no folder of Blender's, multiprocessing's or Dask's left
 
     stamps = {name: os.stat(dask / name).st_mtime_ns for name in os.listdir(dask)}
     with running_scheduler() as address:
@@ -140,13 +141,15 @@ def progress_shows(cli, text, deadline):
 def test_a_task_whose_worker_or_bake_process_is_killed_is_retried_and_no_map_is_lost(tmp_path, victim):
     serial = tmp_path / "serial"
     assert run_cli("bake", FACADE, "--out", serial, "--maps", "rain", *SMALL, timeout=TIMEOUT).returncode == 0
-    out = tmp_path / "dask"
+    out, temporary = tmp_path / "dask", tmp_path / "tmp"
+    temporary.mkdir()
     cli = subprocess.Popen(
         cli_command("bake", FACADE, "--out", out, "--maps", "rain", "--workers", "2", *SMALL),
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env={**os.environ, "TMPDIR": str(temporary)},
     )
     try:
         seen = progress_shows(cli, "Capitals: rain", time.monotonic() + TIMEOUT)  # the first map of 12
@@ -160,11 +163,15 @@ def test_a_task_whose_worker_or_bake_process_is_killed_is_retried_and_no_map_is_
     assert not re.search("Traceback|Compute Failed|KilledWorker|error", seen + stderr), stderr
     assert_same_maps(out, maps_of(serial))
     assert gone(baking)  # a killed worker's bake process goes with it
+    # what is left: the Blender session folder of a bake process killed (SIGKILL) itself, no other
+    left = os.listdir(temporary)
+    assert (len(left), all(name.startswith("blender_") for name in left)) == (victim == "bake process", True)
 
 
 def test_an_interrupt_cancels_the_bake_and_saves_nothing(tmp_path):
-    scene, out = tmp_path / "facade.blend", tmp_path / "maps"
+    scene, out, temporary = tmp_path / "facade.blend", tmp_path / "maps", tmp_path / "tmp"
     shutil.copyfile(FACADE, scene)
+    temporary.mkdir()
     cli = subprocess.Popen(
         cli_command("bake", scene, "--out", out, "--maps", "rain", "--save", "--workers", "1", *SMALL),
         cwd=ROOT,
@@ -172,6 +179,7 @@ def test_an_interrupt_cancels_the_bake_and_saves_nothing(tmp_path):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
+        env={**os.environ, "TMPDIR": str(temporary)},
     )
     try:
         progress_shows(cli, "Capitals: rain", time.monotonic() + TIMEOUT)
@@ -185,6 +193,7 @@ def test_an_interrupt_cancels_the_bake_and_saves_nothing(tmp_path):
     assert scene.read_bytes() == FACADE.read_bytes()
     assert len(os.listdir(out)) < 12 and not [name for name in os.listdir(out) if not name.endswith(".rain.exr")]
     assert gone(baking)
+    assert not os.listdir(temporary)
 
 
 @pytest.mark.parametrize(

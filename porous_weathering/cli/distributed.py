@@ -25,14 +25,17 @@ import argparse
 import contextlib
 import json
 import logging
+import multiprocessing
 import os
 import signal
 import sys
+import tempfile
 import threading
 import uuid
 import warnings
 from collections.abc import Callable
 
+from ..common import process_end
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_USAGE, batch_exit_code
 from .dask_worker import Result, in_bake_process
@@ -136,23 +139,37 @@ def _connect(args):
     # One thread per worker: a worker runs one bake at a time, which already uses every core.
     # Workers forked from a fresh forkserver start in half the time of spawned ones, and inherit
     # its ignored SIGINT: a Ctrl-C on the terminal reaches them too, but is the client's to handle.
-    client_handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}), warnings.catch_warnings():
-            # the scheduler's HTTP server (no dashboard) moves off a port in use, no matter
-            warnings.filterwarnings("ignore", "Port .* is already in use")
-            cluster = LocalCluster(
-                n_workers=args.workers,
-                threads_per_worker=1,
-                processes=True,
-                host="127.0.0.1",
-                dashboard_address=None,
-                silence_logs=logging.ERROR,
-            )
-    finally:
-        signal.signal(signal.SIGINT, client_handler)
-    with cluster, Client(cluster) as client:
-        yield client
+    # Their scratch space in a folder of this run's, removed with it (else Dask leaves its own).
+    with tempfile.TemporaryDirectory(prefix="pw_dask_", ignore_cleanup_errors=True) as scratch:
+        client_handler = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            with (
+                dask.config.set(
+                    {"distributed.worker.multiprocessing-method": "forkserver", "temporary-directory": scratch}
+                ),
+                warnings.catch_warnings(),
+            ):
+                # the scheduler's HTTP server (no dashboard) moves off a port in use, no matter
+                warnings.filterwarnings("ignore", "Port .* is already in use")
+                cluster = LocalCluster(
+                    n_workers=args.workers,
+                    threads_per_worker=1,
+                    processes=True,
+                    host="127.0.0.1",
+                    dashboard_address=None,
+                    silence_logs=logging.ERROR,
+                )
+        finally:
+            signal.signal(signal.SIGINT, client_handler)
+        process_end.remove_at_end(_multiprocessing_folder)
+        with cluster, Client(cluster) as client:
+            yield client
+
+
+def _multiprocessing_folder():
+    """multiprocessing's folder for this process (where the forkserver's socket is), which only
+    its exit-time finalizer removes, or None."""
+    return multiprocessing.process.current_process()._config.get("tempdir")
 
 
 class _Run:
