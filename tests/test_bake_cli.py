@@ -128,6 +128,28 @@ def test_bad_input_fails_with_one_clear_line(blend, args, code, message):
     assert line.startswith("error: ") and message in line
 
 
+@pytest.mark.parametrize("command", ["bake", "survey", "export"])
+def test_a_file_blender_cannot_open_is_one_line(blend, tmp_path, command):
+    """A file that is not a .blend fails as its own work does (exit 1), in one line of ours and
+    none of Blender's reports; in a batch, the good file of the same run is baked all the same."""
+    broken = tmp_path / "broken.blend"
+    broken.write_text("not a blend file")
+    out = tmp_path / "out"
+    words = {
+        "bake": [blend, "--resolution", "16", "--samples", "4", "--sun-samples", "4", "--maps", "edges"],
+        "survey": ["--years", "10"],
+        "export": ["--ages", "1", "--size", "16"],
+    }
+    result = run_cli(command, broken, *words[command], "--out", out, timeout=300)
+    assert result.returncode == 1, result.stderr
+    [line] = [line for line in result.stderr.replace("\r", "\n").splitlines() if line.strip() and "[" not in line]
+    assert line == f'error: {broken}: File format is not supported in file "{broken}"'
+    assert "File format" not in result.stdout, result.stdout  # Blender's reports, on its stdout
+    assert sorted(os.listdir(out) if out.exists() else []) == (
+        ["Cube.edges.exr", "Plane.edges.exr"] if command == "bake" else []
+    )
+
+
 def test_bad_maps_option_is_refused(blend):
     result = run_cli("bake", blend, "--maps", "rain,snow")
     assert result.returncode == 2 and "rain, edges" in result.stderr and len(result.stderr.splitlines()) == 1

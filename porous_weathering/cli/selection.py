@@ -20,8 +20,9 @@ READ_NOTE = b"Read blend: "
 
 def open_blend(path: str) -> None:
     """Open the .blend at ``path`` as the commands do: never running its code, without its UI, and
-    without Blender's note that it was read (RuntimeError as ``wm.open_mainfile``)."""
-    with held_output.held((READ_NOTE,)):
+    without Blender's note that it was read (RuntimeError as ``wm.open_mainfile``, whose message
+    the command's one error line gives: Blender's own report lines are not printed then)."""
+    with held_output.held((READ_NOTE,), shown_on_error=False):
         bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
 
 
