@@ -174,6 +174,18 @@ def test_the_demo_refuses_bad_numbers_before_any_work(words, named, tmp_path, ca
     assert not out.exists()
 
 
+def test_the_demo_refuses_an_out_a_file_stands_in_before_any_work(tmp_path, capsys):
+    # a traceback after the sample scene was opened (os.makedirs)
+    from porous_weathering.cli import entry
+
+    out = tmp_path / "pictures"
+    out.write_bytes(b"mine")
+    assert entry.main(["demo", "--out", str(out)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    assert line == f"error: cannot create the output folder {out}: File exists"
+    assert out.read_bytes() == b"mine"
+
+
 @pytest.mark.parametrize("target", ["image", "attribute"])
 def test_runoff_with_an_absorption_length_near_the_largest_float_is_the_runoff_without_absorption(
     fresh_scene, tmp_path, target

@@ -307,6 +307,20 @@ def test_the_command_exits_2_for_bad_ages_with_nothing_written(saved_box, tmp_pa
     assert not out.exists()
 
 
+@pytest.mark.parametrize("below", ["", "survey"])
+def test_an_out_a_file_stands_in_the_way_of_is_refused_before_any_work(saved_box, tmp_path, below):
+    """--out a file, or a folder in a file: exit 2 at once (it surveyed everything, then failed
+    to write), one line naming the file, the file untouched."""
+    blocker = tmp_path / "plan.pdf"
+    blocker.write_bytes(b"%PDF")
+    out = blocker / below if below else blocker
+    done = run_cli("survey", saved_box, "--years", "10", "--out", out, timeout=60)
+    assert done.returncode == 2, done.stderr
+    [line] = [line for line in done.stderr.splitlines() if line.strip()]
+    assert line.startswith(f"error: the output folder {out} (--out) cannot be made: a file") and "[" not in done.stderr
+    assert blocker.read_bytes() == b"%PDF" and sorted(os.listdir(tmp_path)) == ["box.blend", "plan.pdf"]
+
+
 def test_a_file_nobody_made_a_material_in_is_refused_with_what_to_do(tmp_path):
     """A scan as imported (no material) or a collection without meshes: exit 2, one line that
     says what the survey needs, nothing written."""

@@ -464,10 +464,14 @@ def run(args):
             file=sys.stderr,
         )
         return EXIT_USAGE
+    try:
+        bake.check_writable_folder(DOCS_IMAGES if args.docs else args.out)
+    except OSError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return EXIT_USAGE
     if args.docs:
         written = docs_pictures(args)
     else:
-        os.makedirs(args.out, exist_ok=True)
         written = [render_porous_vs_base(os.path.join(args.out, "porous_vs_base.png"), args.size, args.samples * 2)]
         _, aging = render_aging(args.out, args.size, args.samples, args.bake_samples)
         labels = [f"{mode}, t = {age:g}" for mode in RECIPES[FACADE].masks for age in AGES]
@@ -479,7 +483,6 @@ def run(args):
 
 def docs_pictures(args):
     """Every picture of docs/images/; the façade's single ages go to a temporary folder."""
-    os.makedirs(DOCS_IMAGES, exist_ok=True)
     written = [render_porous_vs_base(os.path.join(DOCS_IMAGES, "porous_vs_base.png"), args.size, args.samples * 2)]
     with tempfile.TemporaryDirectory(prefix="pw_docs_") as work:
         # The README's sheet: new and fully weathered, a row per mode (the main job's has four ages).

@@ -234,7 +234,8 @@ def condition_survey(
     +Y, clockwise seen from above, in degrees (None: each object's sun map's, else the scene's);
     the drawings show ``views`` (of sheet.VIEWS) at 1:``scale`` on A3, or the next standard scale
     at which they fit. ValueError before any work for bad input (negative years, ages outside [0, 1], an object
-    without a Porous Weathering material); OverwriteRefused (a ValueError) when ``out_dir`` holds
+    without a Porous Weathering material), OSError before any work when ``out_dir`` could not take
+    the files (``files.check_out_dir``); OverwriteRefused (a ValueError) when ``out_dir`` holds
     a survey of that name made from another .blend or other objects, unless ``force``."""
     options = SurveyOptions(
         years=years,
@@ -267,6 +268,7 @@ def iter_survey(objects: Sequence["bpy.types.Object"], options: SurveyOptions) -
     out_dir = os.path.abspath(bpy.path.abspath(options.out_dir))
     name = options.name or os.path.splitext(os.path.basename(bpy.data.filepath))[0] or "untitled"
     paths = files.output_paths(out_dir, name)
+    files.check_out_dir(out_dir)
     if not options.force:
         files.refuse_overwrite(paths, [obj.name for obj in objects])
     return _steps(list(objects), options, out_dir, name, paths)

@@ -27,6 +27,21 @@ def output_paths(out_dir: str, name: str) -> dict[str, str]:
     }
 
 
+def check_out_dir(out_dir: str) -> None:
+    """OSError, before any work, when the survey could not be written to ``out_dir``: a file in
+    its place or on its way, or its nearest existing folder not writable. Nothing is made here:
+    the folder is made as the survey is written (``write_survey``), not for a survey that fails
+    or finds its files unchanged."""
+    there = out_dir
+    while not os.path.lexists(there) and os.path.dirname(there) != there:
+        there = os.path.dirname(there)
+    if not os.path.isdir(there):
+        on_its_way = "" if there == out_dir else f" on its way, {there},"
+        raise OSError(f"the output folder {out_dir} (--out) cannot be made: a file{on_its_way} is in its place")
+    if not os.access(there, os.W_OK | os.X_OK):
+        raise OSError(f"the output folder {out_dir} (--out) cannot take the files: {there} is not writable")
+
+
 def csv_text(columns: Sequence[str], rows: Sequence[dict]) -> str:
     stream = io.StringIO()
     writer = csv.DictWriter(stream, fieldnames=columns, lineterminator="\n")
