@@ -207,12 +207,17 @@ def baked(fresh_scene, tmp_path):
 
 
 def start_child(blend, out, mode):
+    """The bake child, its temporary folder beside ``blend``: a child killed outright leaves its
+    Blender session folder there, not in the system's."""
+    temporary = blend.parent / "tmp"
+    temporary.mkdir(exist_ok=True)
     return subprocess.Popen(
         [sys.executable, "-c", CHILD, str(blend), str(out), mode],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env={**os.environ, "TMPDIR": str(temporary)},
     )
 
 
