@@ -230,6 +230,7 @@ def workspace(tmp_path):
     env = dict(os.environ)
     env["PATH"] = os.pathsep.join([str(shim), os.path.dirname(sys.executable), env.get("PATH", "")])
     env.update(PW_BLENDER=interpreter_line(), PYTHONDONTWRITEBYTECODE="1", PYTHONUNBUFFERED="1")
+    env["TMPDIR"] = str(tmp_path / "tmp")  # what a block's background jobs leave (Dask's scratch space)
     env.pop("PYTHONPATH", None)
     return work, env
 
