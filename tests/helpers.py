@@ -426,10 +426,17 @@ def cli_command(command, *args):
     return [sys.executable, "-m", "porous_weathering", command, *map(str, args)]
 
 
+def temporary_env(folder):
+    """This process's environment with ``folder`` (made if need be) as the system's temporary
+    folder (TMPDIR): what a child process leaves there, and not in the system's, can be checked."""
+    pathlib.Path(folder).mkdir(parents=True, exist_ok=True)
+    return {**os.environ, "TMPDIR": str(folder)}
+
+
 def run_cli(command, *args, timeout=120, temporary=None):
     """Runs ``python -m porous_weathering COMMAND ARGS`` from the repository root, its output
-    captured; with ``temporary``, that folder as its system temporary folder (TMPDIR)."""
-    env = None if temporary is None else {**os.environ, "TMPDIR": str(temporary)}
+    captured; with ``temporary``, that folder as its system temporary folder (``temporary_env``)."""
+    env = None if temporary is None else temporary_env(temporary)
     return subprocess.run(
         cli_command(command, *args), cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=env
     )

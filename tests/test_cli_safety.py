@@ -14,7 +14,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import run_cli
+from helpers import run_cli, temporary_env
 from porous_weathering.common import imageio, interrupts
 from porous_weathering.maps import bake, rain
 from porous_weathering.samples import studio
@@ -138,7 +138,6 @@ def slow_blend(fresh_scene, tmp_path):
 def test_a_signal_stops_the_bake_at_once(slow_blend, tmp_path, sent, code):
     out = tmp_path / "maps"
     temporary = tmp_path / "tmp"
-    temporary.mkdir()
     before = digest(slow_blend)
     argv = [slow_blend, "--objects", "Plane", "--maps", "edges,rain", "--out", out, "--resolution", "64"]
     child = subprocess.Popen(
@@ -147,7 +146,7 @@ def test_a_signal_stops_the_bake_at_once(slow_blend, tmp_path, sent, code):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env={**os.environ, "TMPDIR": str(temporary)},
+        env=temporary_env(temporary),
     )
     try:
         lines = iter(child.stdout.readline, "")
@@ -193,9 +192,7 @@ def test_a_script_ended_by_compat_leaves_no_session_folder(tmp_path):
         "bpy.ops.wm.read_factory_settings(use_empty=True)\n"
         "compat.end_process(4)"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", words], cwd=ROOT, timeout=60, env={**os.environ, "TMPDIR": str(tmp_path)}
-    )
+    done = subprocess.run([sys.executable, "-c", words], cwd=ROOT, timeout=60, env=temporary_env(tmp_path))
     assert done.returncode == 4 and not os.listdir(tmp_path)
 
 
@@ -204,7 +201,6 @@ def test_a_run_leaves_nothing_in_the_temporary_folder(slow_blend, tmp_path):
     path, which the command line skips: removed all the same, whether a run writes or ends with a
     usage error (from the parser, or once the file is open)."""
     temporary = tmp_path / "tmp"
-    temporary.mkdir()
     runs = [
         (0, ["bake", slow_blend, "--objects", "Plane", "--maps", "edges", "--out", tmp_path / "maps", *FAST]),
         (2, ["bake", slow_blend, "--objects", "Nothing", "--out", tmp_path / "maps"]),

@@ -13,12 +13,13 @@ import time
 
 import bpy
 
+import dask
 import numpy as np
 import psutil
 import pytest
 from distributed import LocalCluster
 
-from helpers import cli_command, run_cli
+from helpers import cli_command, run_cli, temporary_env
 from porous_weathering.cli import distributed
 from porous_weathering.common import imageio
 from porous_weathering.maps import registry as maps
@@ -81,16 +82,20 @@ def scenes(tmp_path_factory):
 
 
 @contextlib.contextmanager
-def running_scheduler():
-    """The address of a scheduler with one worker process, on loopback."""
-    with LocalCluster(
-        n_workers=1,
-        threads_per_worker=1,
-        processes=True,
-        host="127.0.0.1",
-        dashboard_address=None,
-        silence_logs=logging.ERROR,
-    ) as cluster:
+def running_scheduler(temporary):
+    """The address of a scheduler with one worker process, on loopback, their scratch space in
+    ``temporary`` (not Dask's own in the system's temporary folder)."""
+    with (
+        dask.config.set({"temporary-directory": str(temporary)}),
+        LocalCluster(
+            n_workers=1,
+            threads_per_worker=1,
+            processes=True,
+            host="127.0.0.1",
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+        ) as cluster,
+    ):
         yield cluster.scheduler_address
 
 
@@ -101,14 +106,13 @@ def test_a_name_clash_is_refused_as_in_the_serial_run_and_a_rerun_skips_what_is_
     code, lines = outcomes(first, serial)
     assert code == 3 and any("scene1.blend" in line and "Ground" in line for line in lines if "error:" in line)
     temporary = tmp_path / "tmp"
-    temporary.mkdir()
     on_cluster = run_cli("bake", *files, "--out", dask, "--workers", "2", *SMALL, timeout=TIMEOUT, temporary=temporary)
     assert outcomes(on_cluster, dask) == (code, lines)
     assert_same_maps(dask, maps_of(serial))
     assert not os.listdir(temporary)  # no folder of Blender's, multiprocessing's or Dask's left
 
     stamps = {name: os.stat(dask / name).st_mtime_ns for name in os.listdir(dask)}
-    with running_scheduler() as address:
+    with running_scheduler(tmp_path / "scheduler") as address:
         again = outcomes(run_cli("bake", *files, "--out", dask, "--scheduler", address, *SMALL, timeout=TIMEOUT), dask)
     assert again == outcomes(run_cli("bake", *files, "--out", serial, *SMALL, timeout=TIMEOUT), serial)
     assert again[0] == 3 and "unchanged Block0.rain -> OUT/Block0.rain.exr" in again[1]
@@ -142,14 +146,13 @@ def test_a_task_whose_worker_or_bake_process_is_killed_is_retried_and_no_map_is_
     serial = tmp_path / "serial"
     assert run_cli("bake", FACADE, "--out", serial, "--maps", "rain", *SMALL, timeout=TIMEOUT).returncode == 0
     out, temporary = tmp_path / "dask", tmp_path / "tmp"
-    temporary.mkdir()
     cli = subprocess.Popen(
         cli_command("bake", FACADE, "--out", out, "--maps", "rain", "--workers", "2", *SMALL),
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env={**os.environ, "TMPDIR": str(temporary)},
+        env=temporary_env(temporary),
     )
     try:
         seen = progress_shows(cli, "Capitals: rain", time.monotonic() + TIMEOUT)  # the first map of 12
@@ -171,7 +174,6 @@ def test_a_task_whose_worker_or_bake_process_is_killed_is_retried_and_no_map_is_
 def test_an_interrupt_cancels_the_bake_and_saves_nothing(tmp_path):
     scene, out, temporary = tmp_path / "facade.blend", tmp_path / "maps", tmp_path / "tmp"
     shutil.copyfile(FACADE, scene)
-    temporary.mkdir()
     cli = subprocess.Popen(
         cli_command("bake", scene, "--out", out, "--maps", "rain", "--save", "--workers", "1", *SMALL),
         cwd=ROOT,
@@ -179,7 +181,7 @@ def test_an_interrupt_cancels_the_bake_and_saves_nothing(tmp_path):
         stderr=subprocess.PIPE,
         text=True,
         start_new_session=True,
-        env={**os.environ, "TMPDIR": str(temporary)},
+        env=temporary_env(temporary),
     )
     try:
         progress_shows(cli, "Capitals: rain", time.monotonic() + TIMEOUT)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from test_export import make_wall, read_glb, save, variant_materials
 
-from helpers import ROOT, cli_command, run_cli
+from helpers import ROOT, cli_command, run_cli, temporary_env
 from porous_weathering.common import atomic
 from porous_weathering.publish import export
 
@@ -110,7 +110,6 @@ def exported_once(tmp_path):
     out = tmp_path / "out"
     export.export_variants([wall], (1.0,), size=SIZE, out_dir=out)
     temporary = tmp_path / "tmp"
-    temporary.mkdir()
     return blend, out, temporary
 
 
@@ -122,7 +121,7 @@ def start_at(stage, blend, out, temporary, *words):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env={**os.environ, "TMPDIR": str(temporary)},
+        env=temporary_env(temporary),
     )
 
 
@@ -174,7 +173,7 @@ def test_a_killed_runs_texture_folder_is_removed_by_the_next_run(exported_once):
         capture_output=True,
         text=True,
         timeout=300,
-        env={**os.environ, "TMPDIR": str(temporary)},
+        env=temporary_env(temporary),
     )
     assert done.returncode == 0, done.stderr
     assert litter(temporary) == [alive.name]

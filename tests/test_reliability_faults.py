@@ -24,7 +24,7 @@ import pytest
 
 import porous_weathering
 from bad_meshes import cube, noisy_grid, snapshot
-from helpers import corner_values
+from helpers import corner_values, temporary_env
 from porous_weathering import ui
 from porous_weathering.common import imageio
 from porous_weathering.maps import bake, edges, lightmap, rain, runoff
@@ -209,15 +209,13 @@ def baked(fresh_scene, tmp_path):
 def start_child(blend, out, mode):
     """The bake child, its temporary folder beside ``blend``: a child killed outright leaves its
     Blender session folder there, not in the system's."""
-    temporary = blend.parent / "tmp"
-    temporary.mkdir(exist_ok=True)
     return subprocess.Popen(
         [sys.executable, "-c", CHILD, str(blend), str(out), mode],
         cwd=ROOT,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-        env={**os.environ, "TMPDIR": str(temporary)},
+        env=temporary_env(blend.parent / "tmp"),
     )
 
 

@@ -18,7 +18,7 @@ from typing import NoReturn
 _MADE_FOR_THE_PROCESS = re.compile(r"blender_\w{6}|pymp-\w{8}")
 
 _lock = threading.Lock()
-_folders: list[Callable[[], str]] = []
+_folders: list[Callable[[], str | None]] = []
 
 
 def remove_at_end(folder: Callable[[], str | None]) -> None:
