@@ -42,6 +42,8 @@ def test_maps_are_written_and_a_rerun_skips_them(blend, tmp_path):
     assert "100%" in first.stderr  # the progress bar
     # Blender's notes on each image bake, and on opening the file (its check, then its run)
     assert "Baking map saved" not in first.stdout + first.stderr and "Read blend" not in first.stdout
+    # nor Blender 4's lines on each bake's progress ("Fra:1 Mem:..."), among the status lines
+    assert [line for line in first.stdout.splitlines() if "Fra:" in line or not line.strip()] == []
     plane, metadata = imageio.read_image(out / "Plane.rain.exr")
     assert plane.shape == (16, 16, 1) and metadata["pw:uv_map"] == "UVMap"
     assert plane[0, 0, 0] == pytest.approx(1.0, abs=0.02)  # open corner

@@ -19,6 +19,14 @@ def test_lines_are_written_after_the_block_less_the_dropped(capfd):
     assert capfd.readouterr().out == "after\n"
 
 
+def test_empty_lines_are_dropped_too(capfd):
+    """Blender spaces its notes with empty lines (Blender 4 after each picture's "Time:"): alone,
+    they would still break a progress bar's line."""
+    with held_output.held((b"Time:",)):
+        os.write(1, b"Time: 00:09.76 (Saving: 00:00.05)\n\n \nkept\n\n")
+    assert capfd.readouterr().out == "kept\n"
+
+
 @pytest.mark.parametrize("shown", [True, False])
 def test_a_failed_block_shows_its_output_only_if_asked(capfd, shown):
     with pytest.raises(RuntimeError), held_output.held(shown_on_error=shown):

@@ -18,6 +18,12 @@ VORONOI_HASH = voronoi.PCG if BLENDER_5 else voronoi.LOOKUP3
 #: The EEVEE engine id: renamed back to BLENDER_EEVEE in 5.0.
 EEVEE_ENGINE = "BLENDER_EEVEE" if BLENDER_5 else "BLENDER_EEVEE_NEXT"
 
+#: Blender 4's report of a render's or a bake's progress, printed line by line on standard output
+#: in background mode ("Fra:1 Mem:... | Synchronizing object | ...", and "Time: 00:09.76 (Saving:
+#: 00:00.05)" once a picture is written), where a command prints its own lines (the bake's status
+#: lines, the main job's progress bar); Blender 5 logs them without printing them.
+PROGRESS_NOTES = () if BLENDER_5 else (b"Fra:", b"(Saving: ")
+
 
 def new_material(name):
     """A new material with a node tree (use_nodes is implied, and deprecated, from 5.0)."""

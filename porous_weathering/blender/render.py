@@ -85,7 +85,7 @@ def write_still(scene, path, overrides=None):
     try:
         for (owner, attribute), value in overrides.items():
             setattr(owner, attribute, value)
-        with held_output.held((SAVED_NOTE,)):
+        with held_output.held((SAVED_NOTE, *compat.PROGRESS_NOTES)):
             bpy.ops.render.render(write_still=True, scene=scene.name)
     finally:
         for (owner, attribute), value in previous.items():

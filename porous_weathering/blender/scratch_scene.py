@@ -208,7 +208,7 @@ BAKE_NOTE = b"Info: Baking map saved to internal image"
 def bake_alone(obj: bpy.types.Object, **settings) -> None:
     """``bpy.ops.object.bake(**settings)`` on ``obj`` alone, made the selected, active object of
     its (temporary) scene; Blender's output less its note that the image was saved internally."""
-    with bpy.context.temp_override(**_only_selected(obj)), held_output.held((BAKE_NOTE,)):
+    with bpy.context.temp_override(**_only_selected(obj)), held_output.held((BAKE_NOTE, *compat.PROGRESS_NOTES)):
         bpy.ops.object.bake(**settings)
 
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import bpy
 
-from ..blender import compat
+from ..blender import blend_file, compat
 from ..common import atomic, interrupts, options
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_REFUSED, EXIT_USAGE, batch_exit_code
@@ -136,7 +136,7 @@ def _check_files(args, bake_options):
     fails later, as the bake's."""
     for path in args.files:
         try:
-            selection.open_blend(os.path.abspath(path))
+            blend_file.open_blend(os.path.abspath(path))
         except RuntimeError:
             continue
         newer = compat.newer_file_version()
@@ -192,7 +192,7 @@ def _bake_serially(args, bake_options):
 def _bake_file(path, args, bake_options: BakeOptions, claimed, run: _Run):
     """Bake one file; its outcome lines go to stdout as its maps finish (attribute maps once the
     .blend is saved, as they exist only in it)."""
-    selection.open_blend(path)
+    blend_file.open_blend(path)
     objects = _objects_to_bake(args)  # objects nobody named: one without faces to bake on is left out
     if bake_options.target == "image" and not args.force:
         _refuse_claimed(objects, bake_options, claimed)

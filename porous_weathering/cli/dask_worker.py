@@ -239,9 +239,9 @@ def _run_command(name, *words):
 def _print_mesh_objects(path):
     import bpy
 
-    from . import selection
+    from ..blender import blend_file
 
-    selection.open_blend(path)
+    blend_file.open_blend(path)
     print(json.dumps(sorted(o.name for o in bpy.data.objects if o.type == "MESH")))
     return EXIT_OK
 

@@ -12,6 +12,7 @@ holds a pair of that name made from another .blend or other objects, or not by t
 import os
 import sys
 
+from ..blender import blend_file
 from ..common import interrupts, options
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_FAILED, EXIT_OK, EXIT_REFUSED, EXIT_USAGE
@@ -72,7 +73,7 @@ def run(args):
     except (ValueError, OSError) as error:
         return _error(error, EXIT_USAGE)
     try:
-        selection.open_blend(path)
+        blend_file.open_blend(path)
     except RuntimeError as error:
         return _error(f"{path}: {one_line(error)}", EXIT_FAILED)
     try:

@@ -1,29 +1,16 @@
 """What the ``bake``, ``survey`` and ``export`` commands share: the ``--objects`` /
 ``--collection`` arguments (declared once, each command saying what its default is), the words
-that give them again to a Dask worker, the .blend opened (``open_blend``), the objects they choose
-in it, and an error's message on one line."""
+that give them again to a Dask worker, the objects they choose in a .blend (opened by
+``blender.blend_file.open_blend``), and an error's message on one line."""
 
 import argparse
 import warnings
 
 import bpy
 
-from ..common import held_output
 from ..maps.bake import has_faces
 from ..maps.edges import surface_box
 from ..publish.textures import porous_node
-
-#: Blender's note on opening a file, which a command that opens each file twice (its check before
-#: any work, then its run) would print twice among its own lines.
-READ_NOTE = b"Read blend: "
-
-
-def open_blend(path: str) -> None:
-    """Open the .blend at ``path`` as the commands do: never running its code, without its UI, and
-    without Blender's note that it was read (RuntimeError as ``wm.open_mainfile``, whose message
-    the command's one error line gives: Blender's own report lines are not printed then)."""
-    with held_output.held((READ_NOTE,), shown_on_error=False):
-        bpy.ops.wm.open_mainfile(filepath=path, load_ui=False, use_scripts=False)  # never run a file's code
 
 
 def add_arguments(parser: argparse.ArgumentParser, *, objects_help: str, collection_help: str) -> None:

@@ -13,6 +13,7 @@ import os
 import sys
 import warnings
 
+from ..blender import blend_file
 from ..common import interrupts, options
 from ..common.progress import ProgressBar
 from ..contracts import EXIT_USAGE, batch_exit_code
@@ -89,7 +90,7 @@ def _check_files(args, chosen):
     later, as its survey, and one refused (``--out`` holds another's survey) is refused then."""
     for path in args.files:
         try:
-            selection.open_blend(os.path.abspath(path))
+            blend_file.open_blend(os.path.abspath(path))
         except RuntimeError:
             continue
         try:
@@ -122,7 +123,7 @@ def _survey_serially(args, chosen):
 
 def _survey_file(path, args, chosen, bar):
     """Survey one file; its outcome lines go to stdout once its files are in place."""
-    selection.open_blend(path)
+    blend_file.open_blend(path)
     result = None
     for step in condition.iter_survey(selection.weathered_objects(args, "survey"), chosen):
         bar(step.fraction, step.message)

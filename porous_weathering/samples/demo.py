@@ -36,7 +36,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ..blender import render
+from ..blender import blend_file, render
 from ..common import options
 from ..common.options import option
 from ..common.progress import ProgressBar
@@ -211,7 +211,7 @@ class Sample:
     at any age."""
 
     def __init__(self, name, *, map_dir, bake_samples=32, progress=False, recipe=None):
-        bpy.ops.wm.open_mainfile(filepath=sample_path(name), load_ui=False)
+        blend_file.open_blend(sample_path(name))
         self.name, self.recipe = name, recipe or RECIPES[name]
         self.scene = bpy.context.scene
         self.sun = next(obj for obj in self.scene.objects if obj.type == "LIGHT")
