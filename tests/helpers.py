@@ -435,8 +435,11 @@ def temporary_env(folder):
 
 def run_cli(command, *args, timeout=120, temporary=None):
     """Runs ``python -m porous_weathering COMMAND ARGS`` from the repository root, its output
-    captured; with ``temporary``, that folder as its system temporary folder (``temporary_env``)."""
-    env = None if temporary is None else temporary_env(temporary)
+    captured; with ``temporary``, that folder as its system temporary folder (``temporary_env``).
+    Its environment is ``os.environ``, as a shell gives it: not what Blender set in this process's
+    own (OCIO, once its colour management has started: the command would log "Using OCIO=..."
+    among its output lines)."""
+    env = dict(os.environ) if temporary is None else temporary_env(temporary)
     return subprocess.run(
         cli_command(command, *args), cwd=ROOT, capture_output=True, text=True, timeout=timeout, env=env
     )

@@ -750,6 +750,8 @@ def test_command_line(tmp_path):
     assert sorted(os.listdir(out)) == ["wall.glb", "wall.paradata.json"]
     assert "variants clean, t=1, wet" in done.stdout
     assert "ERROR" not in done.stdout + done.stderr  # the bpy wheel's add-on lacks Draco: not asked for
+    # one line per file written: not the add-on's log of its steps ("01:45:46 | INFO: Starting ...")
+    assert [line.split()[0] for line in done.stdout.splitlines()] == ["wrote", "wrote"]
     with open(out / "wall.paradata.json", encoding="utf-8") as stream:
         assert json.load(stream)["notes"] == {"author": "me"}
     for words, message in (
