@@ -42,8 +42,10 @@ class _Hold:
         and the empty ones (Blender's spacing between its notes), if ``shown``, through the stream."""
         _flush()
         for fd, (saved, store, stream) in self.kept.items():
-            getattr(sys, _STREAMS[fd]).close()  # the block's, on the store: closefd=False
+            block_stream = getattr(sys, _STREAMS[fd])
             setattr(sys, _STREAMS[fd], stream)
+            with contextlib.suppress(OSError, ValueError):  # a store the disk refused (full): what it holds is lost
+                block_stream.close()  # on the store, closefd=False
             os.dup2(saved, fd)
             os.close(saved)
             if not shown:
