@@ -42,10 +42,9 @@ class _Hold:
         and the empty ones (Blender's spacing between its notes), if ``shown``, through the stream."""
         _flush()
         for fd, (saved, store, stream) in self.kept.items():
-            block_stream = getattr(sys, _STREAMS[fd])
+            # the block's stream is left open (closefd=False): a logger that took it during the
+            # block (the glTF add-on's, when its export fails) writes to the descriptor given back
             setattr(sys, _STREAMS[fd], stream)
-            with contextlib.suppress(OSError, ValueError):  # a store the disk refused (full): what it holds is lost
-                block_stream.close()  # on the store, closefd=False
             os.dup2(saved, fd)
             os.close(saved)
             if not shown:
